@@ -1,0 +1,1 @@
+"""Control laws for the two-link arm: computed torque, Mamdani fuzzy PD, FCM rule reduction."""

@@ -1,0 +1,1 @@
+"""twolink: a two-link arm in MuJoCo with CTC and FCM fuzzy controllers."""

@@ -1,0 +1,374 @@
+"""Performance measures of a run: step-response metrics, error integrals, torque effort.
+
+The step-response definitions follow the paper's tables (Tp, Td, Ts, Tr, Mp, ess) as pinned
+down in ``paper/NOTES.md`` section 4 and ``docs/metrics.md``; rise time, settling time,
+overshoot and peak time agree with python-control's ``step_info`` (and MATLAB's
+``stepinfo``) wherever those are defined the same way.
+
+Every result is a frozen dataclass of plain Python floats (or tuples of floats, one per
+joint), so ``dataclasses.asdict`` works on it; :func:`metrics_dict` turns any mix of them
+into something ``json.dump(..., allow_nan=False)`` accepts, for ``metrics.json``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, is_dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "ErrorMeasures",
+    "StepMetrics",
+    "TorqueMeasures",
+    "error_measures",
+    "metrics_dict",
+    "step_metrics",
+    "step_metrics_per_joint",
+    "torque_measures",
+    "to_jsonable",
+]
+
+
+@dataclass(frozen=True)
+class StepMetrics:
+    """Step-response metrics of one signal (see :func:`step_metrics` for the definitions).
+
+    Times are in the units of ``t`` (seconds), on the same clock as ``t`` (not relative to
+    ``t[0]``). A metric the data do not determine is NaN.
+
+    Attributes
+    ----------
+    peak_time : float
+        Tp, time of the largest excursion in the step direction.
+    delay_time : float
+        Td, first time the response reaches 50 % of the step.
+    rise_time : float
+        Tr, time from first reaching 10 % to first reaching 90 % of the step.
+    settling_time : float
+        Ts, first time after which the response stays within 2 % of the step of its final
+        value.
+    overshoot : float
+        Mp, the largest excursion past the target as a fraction of the step (0.10 = 10 %).
+    steady_state_error : float
+        ess, ``|target - y[-1]|``.
+    """
+
+    peak_time: float
+    delay_time: float
+    rise_time: float
+    settling_time: float
+    overshoot: float
+    steady_state_error: float
+
+
+@dataclass(frozen=True)
+class ErrorMeasures:
+    """Integral error measures; floats for one signal, tuples of floats (one per column) else.
+
+    Attributes
+    ----------
+    iae : float or tuple of float
+        Integral of ``|e|``.
+    ise : float or tuple of float
+        Integral of ``e**2``.
+    itae : float or tuple of float
+        Integral of ``t |e|``.
+    """
+
+    iae: float | tuple[float, ...]
+    ise: float | tuple[float, ...]
+    itae: float | tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class TorqueMeasures:
+    """Control effort; floats for one signal, tuples of floats (one per joint) else.
+
+    Attributes
+    ----------
+    rms : float or tuple of float
+        Root mean square over the samples, ``sqrt(mean(tau**2))``.
+    peak : float or tuple of float
+        Largest magnitude, ``max |tau|``.
+    """
+
+    rms: float | tuple[float, ...]
+    peak: float | tuple[float, ...]
+
+
+def _check_times(t: np.ndarray, n: int) -> np.ndarray:
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1:
+        raise ValueError(f"t must be one-dimensional, got shape {t.shape}")
+    if t.shape[0] != n:
+        raise ValueError(f"t has {t.shape[0]} samples but the signal has {n}")
+    if n == 0:
+        raise ValueError("t is empty: need at least one sample")
+    if not np.all(np.isfinite(t)):
+        raise ValueError("t must be finite")
+    if np.any(np.diff(t) <= 0.0):
+        raise ValueError("t must be strictly increasing")
+    return t
+
+
+def _check_scalar(name: str, value: float) -> float:
+    value = float(value)
+    if not math.isfinite(value):
+        raise ValueError(f"{name} must be finite, got {value!r}")
+    return value
+
+
+def _first_time(t: np.ndarray, reached: np.ndarray) -> float:
+    """Time of the first True in ``reached``, NaN if there is none."""
+    idx = np.flatnonzero(reached)
+    return float(t[idx[0]]) if idx.size else math.nan
+
+
+def step_metrics(
+    t: np.ndarray,
+    y: np.ndarray,
+    target: float,
+    y0: float = 0.0,
+    *,
+    final_value: float | None = None,
+    settling_threshold: float = 0.02,
+    rise_limits: tuple[float, float] = (0.1, 0.9),
+) -> StepMetrics:
+    """Step-response metrics of a sampled response ``y(t)`` to a step from ``y0`` to ``target``.
+
+    With the step ``S = target - y0`` (either sign) and the progress ``p = (y - y0) / S``
+    (0 at the start, 1 at the target):
+
+    - Td (delay time): the first sample time with ``p >= 0.5``.
+    - Tr (rise time): ``T90 - T10``, where ``Tk`` is the first sample time with ``p >= k``
+      (``rise_limits``); sample times, no interpolation, as in python-control and MATLAB.
+    - Ts (settling time): the first sample time after which ``|y - y_final| < 0.02 |S|``
+      (``settling_threshold``) holds to the end, where ``y_final = y[-1]`` (as in
+      python-control and MATLAB) unless ``final_value`` is given.
+    - Tp (peak time): the time of the largest ``p`` (the first such sample). With overshoot
+      this is the time of the largest excursion past the target; for a monotone response it
+      is where it comes closest to the target, often near the end of the run.
+    - Mp (overshoot): ``max(0, max((y - target) / S))``, a fraction of the step (0.10 = 10 %),
+      measured against the target (not the final value).
+    - ess (steady-state error): ``|target - y[-1]|``, the last sample (no averaging).
+
+    A metric the data do not determine is NaN, never an exception:
+
+    - Td, Tr: NaN if the 50 % (for Tr: the 90 %) level is never reached.
+    - Tp: NaN if the response never moves towards the target (``max p <= 0``).
+    - Ts: NaN unless at least the last two samples lie inside the band. With
+      ``y_final = y[-1]`` the last sample always does, so it alone proves nothing. A response
+      still moving at the end of a run whose last samples are closer together than the band
+      still gets a finite Ts: run long enough, and read ess alongside.
+    - Mp and ess are always defined for finite data.
+
+    Non-finite samples (NaN, inf, e.g. from a run that blew up): the first-passage times Td and
+    Tr are computed on the finite prefix (up to the first non-finite sample), since a level
+    reached before the blow-up was reached; Tp, Ts, Mp and ess depend on the whole record and
+    are NaN.
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        Sample times, finite and strictly increasing.
+    y : ndarray, shape (N,)
+        Response.
+    target : float
+        The value the step goes to (e.g. the reference's ``final``).
+    y0 : float, default 0.0
+        The value the step starts from.
+    final_value : float, optional
+        Value to settle to for Ts, instead of ``y[-1]``; e.g. ``target`` to ask "when does it
+        stay within 2 % of the target". With it Ts can be NaN for a response that never
+        settles.
+    settling_threshold : float, default 0.02
+        Width of the settling band as a fraction of ``|S|``.
+    rise_limits : tuple of float, default (0.1, 0.9)
+        Lower and upper levels of the rise time, as fractions of the step.
+
+    Returns
+    -------
+    StepMetrics
+
+    Raises
+    ------
+    ValueError
+        If ``target == y0`` (no step), ``target``/``y0``/``final_value`` is not finite, the
+        shapes disagree, or ``t`` is not finite and strictly increasing.
+    """
+    y = np.asarray(y, dtype=float)
+    if y.ndim != 1:
+        raise ValueError(f"y must be one-dimensional, got shape {y.shape}")
+    t = _check_times(t, y.shape[0])
+    target = _check_scalar("target", target)
+    y0 = _check_scalar("y0", y0)
+    step = target - y0
+    if step == 0.0:
+        raise ValueError(f"zero step: target == y0 == {target!r}, the metrics are undefined")
+    lo, hi = rise_limits
+    if not 0.0 < lo < hi <= 1.0:
+        raise ValueError(f"rise_limits must satisfy 0 < low < high <= 1, got {rise_limits!r}")
+    if not 0.0 < settling_threshold < 1.0:
+        raise ValueError(f"settling_threshold must be in (0, 1), got {settling_threshold!r}")
+
+    finite = np.isfinite(y)
+    n_ok = y.shape[0] if finite.all() else int(np.argmin(finite))
+    progress = (y[:n_ok] - y0) / step
+    t_ok = t[:n_ok]
+    delay = _first_time(t_ok, progress >= 0.5)
+    rise = _first_time(t_ok, progress >= hi) - _first_time(t_ok, progress >= lo)
+
+    if n_ok < y.shape[0]:
+        nan = math.nan
+        return StepMetrics(nan, delay, rise, nan, nan, nan)
+
+    peak_idx = int(np.argmax(progress))
+    peak_time = float(t[peak_idx]) if progress[peak_idx] > 0.0 else math.nan
+    overshoot = max(0.0, float(np.max((y - target) / step)))
+    ess = abs(target - float(y[-1]))
+
+    y_final = float(y[-1]) if final_value is None else _check_scalar("final_value", final_value)
+    # Strict "<" inside the band, as python-control; Ts = the sample after the last one outside.
+    outside = np.flatnonzero(~(np.abs(y - y_final) < settling_threshold * abs(step)))
+    settled = int(outside[-1]) + 1 if outside.size else 0
+    settling = float(t[settled]) if settled <= y.shape[0] - 2 else math.nan
+
+    return StepMetrics(
+        peak_time=peak_time,
+        delay_time=delay,
+        rise_time=float(rise),
+        settling_time=settling,
+        overshoot=overshoot,
+        steady_state_error=ess,
+    )
+
+
+def step_metrics_per_joint(
+    t: np.ndarray,
+    y: np.ndarray,
+    target: Sequence[float],
+    y0: Sequence[float],
+    **kwargs: Any,
+) -> tuple[StepMetrics, ...]:
+    """:func:`step_metrics` of each column of ``y`` (shape (N, k)) with its own target and y0.
+
+    Keyword arguments go to :func:`step_metrics` unchanged.
+    """
+    y = np.asarray(y, dtype=float)
+    if y.ndim != 2 or len(target) != y.shape[1] or len(y0) != y.shape[1]:
+        raise ValueError(
+            f"y must be (N, k) with k targets and k initial values; got y {y.shape}, "
+            f"{len(target)} targets, {len(y0)} initial values"
+        )
+    return tuple(step_metrics(t, y[:, j], target[j], y0[j], **kwargs) for j in range(y.shape[1]))
+
+
+def _per_column(values: np.ndarray) -> float | tuple[float, ...]:
+    return float(values) if values.ndim == 0 else tuple(float(v) for v in values)
+
+
+def _check_signal(name: str, x: np.ndarray) -> np.ndarray:
+    x = np.asarray(x, dtype=float)
+    if x.ndim not in (1, 2):
+        raise ValueError(f"{name} must have shape (N,) or (N, k), got {x.shape}")
+    if x.shape[0] == 0:
+        raise ValueError(f"{name} is empty: need at least one sample")
+    return x
+
+
+def _trapezoid(f: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Trapezoidal integral along axis 0 (np.trapezoid is numpy >= 2 only)."""
+    dt = np.diff(t) if f.ndim == 1 else np.diff(t)[:, None]
+    return np.sum(0.5 * dt * (f[1:] + f[:-1]), axis=0)
+
+
+def error_measures(t: np.ndarray, e: np.ndarray) -> ErrorMeasures:
+    """Integral error measures IAE, ISE and ITAE by the trapezoidal rule.
+
+    ``IAE = ∫ |e| dt``, ``ISE = ∫ e² dt``, ``ITAE = ∫ t |e| dt`` over ``[t[0], t[-1]]``, with
+    ``t`` as given (pass ``t - t_step`` to weight by the time since a step that comes later).
+    A single sample integrates to 0. Non-finite errors propagate (the result is NaN or inf).
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        Sample times, finite and strictly increasing.
+    e : ndarray, shape (N,) or (N, k)
+        Error; for (N, k) each column (joint) is integrated separately.
+
+    Returns
+    -------
+    ErrorMeasures
+        Fields are floats for ``e`` of shape (N,) and tuples of k floats for (N, k).
+    """
+    e = _check_signal("e", e)
+    t = _check_times(t, e.shape[0])
+    tt = t if e.ndim == 1 else t[:, None]
+    abs_e = np.abs(e)
+    return ErrorMeasures(
+        iae=_per_column(_trapezoid(abs_e, t)),
+        ise=_per_column(_trapezoid(e * e, t)),
+        itae=_per_column(_trapezoid(tt * abs_e, t)),
+    )
+
+
+def torque_measures(tau: np.ndarray) -> TorqueMeasures:
+    """RMS and peak of the joint torques.
+
+    The RMS is over samples, ``sqrt(mean(tau²))``, i.e. a time RMS for the uniformly sampled
+    torques of a fixed-step simulation. Non-finite torques propagate (NaN or inf).
+
+    Parameters
+    ----------
+    tau : ndarray, shape (N,) or (N, k)
+        Torques; for (N, k) each column (joint) is measured separately.
+
+    Returns
+    -------
+    TorqueMeasures
+        Fields are floats for ``tau`` of shape (N,) and tuples of k floats for (N, k).
+    """
+    tau = _check_signal("tau", tau)
+    return TorqueMeasures(
+        rms=_per_column(np.sqrt(np.mean(tau * tau, axis=0))),
+        peak=_per_column(np.max(np.abs(tau), axis=0)),
+    )
+
+
+def to_jsonable(value: Any) -> Any:
+    """Convert metrics (dataclasses, arrays, tuples, numpy scalars) to plain JSON types.
+
+    Dataclasses and mappings become dicts, sequences and arrays lists, numbers Python floats
+    or ints; NaN and ±inf become ``None`` (JSON has no NaN), so the result passes
+    ``json.dumps(..., allow_nan=False)``.
+    """
+    if is_dataclass(value) and not isinstance(value, type):
+        return to_jsonable(asdict(value))
+    if isinstance(value, Mapping):
+        return {str(k): to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, np.ndarray):
+        return to_jsonable(value.tolist())
+    if isinstance(value, list | tuple):
+        return [to_jsonable(v) for v in value]
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    if isinstance(value, int | np.integer):
+        return int(value)
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    if value is None or isinstance(value, str):
+        return value
+    raise TypeError(f"cannot convert {type(value).__name__} to JSON: {value!r}")
+
+
+def metrics_dict(**sections: Any) -> dict[str, Any]:
+    """Collect named metrics into one JSON-ready dict for ``metrics.json``.
+
+    Example: ``metrics_dict(theta1=step_metrics(...), errors=error_measures(t, e),
+    torque=torque_measures(tau))``. Each value goes through :func:`to_jsonable` (NaN becomes
+    ``null``).
+    """
+    return {name: to_jsonable(value) for name, value in sections.items()}

@@ -1,0 +1,269 @@
+"""The arm as MuJoCo sees it: model building (MjSpec) and a small stepping wrapper.
+
+This is the only module that imports :mod:`mujoco`.
+
+Frames: the paper's vertical plane (x, y) is MuJoCo's (x, z), so the arm stands up
+in the viewer; the paper's gravity along -y is MuJoCo's -z. Each hinge turns about
+MuJoCo's -y axis, which makes a positive angle lift the link, as in the paper.
+
+Rigid arm: ``qpos == [theta1, theta2]`` (theta1 from the horizontal, theta2 relative
+to link 1), ``ctrl == [tau1, tau2]`` in N m, RK4, no damping, friction, armature,
+limits or contacts.
+
+Flexible arm (Spong's model): two extra hinges carry motor rotors of inertia J. The
+rotors' masses sit on their axes and their kinetic energy comes from their own spin
+only (Spong's simplifying assumption), so each rotor is a body on the world at its
+joint. A fixed tendon ``phi_i - theta_i`` with stiffness K_i and damping D_i is the
+joint spring. ``qpos == [theta1, theta2, phi1, phi2]`` and ``ctrl`` drives the rotors.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from twolink.params import ArmParams, Flexibility
+
+ROD_RADIUS = 0.02  # visual and for the rod's (irrelevant) spin inertia about its axis [m]
+ROTOR_MASS = 1e-3  # rotors sit on their axes: mass has no effect, MuJoCo needs it > 0 [kg]
+HINGE_AXIS = (0.0, -1.0, 0.0)
+
+
+def build_spec(
+    p: ArmParams,
+    flexibility: Flexibility | None = None,
+    payload: float = 0.0,
+    timestep: float = 1e-3,
+) -> mujoco.MjSpec:
+    """Build the MJCF model of the arm as an editable :class:`mujoco.MjSpec`.
+
+    Parameters
+    ----------
+    p : ArmParams
+        The plant's parameters.
+    flexibility : Flexibility, optional
+        Joint compliance (Spong's model); ``None`` for the rigid arm.
+    payload : float
+        Point mass at the tip of link 2 [kg], >= 0; an uncertainty the controller's
+        rod model does not know about.
+    timestep : float
+        Integration step [s] (RK4).
+    """
+    if not (payload >= 0 and np.isfinite(payload)):
+        raise ValueError(f"payload must be a finite mass >= 0, got {payload!r}")
+    if not (timestep > 0 and np.isfinite(timestep)):
+        raise ValueError(f"timestep must be > 0, got {timestep!r}")
+    spec = mujoco.MjSpec()
+    spec.modelname = "twolink_flexible" if flexibility else "twolink"
+    spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
+    spec.compiler.autolimits = True
+    spec.option.timestep = timestep
+    spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
+    spec.option.gravity = [0.0, 0.0, -p.g]
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+
+    parent = spec.worldbody
+    for i, (m, length) in enumerate(((p.m1, p.l1), (p.m2, p.l2)), start=1):
+        body = parent.add_body(name=f"link{i}", pos=[0, 0, 0] if i == 1 else [p.l1, 0, 0])
+        # Uniform rod along x: centre of mass at L/2, inertia m L^2/12 about it.
+        body.explicitinertial = True
+        body.mass = m
+        body.ipos = [length / 2, 0, 0]
+        body.inertia = [m * ROD_RADIUS**2 / 2, m * length**2 / 12, m * length**2 / 12]
+        body.add_joint(name=f"theta{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS)
+        body.add_geom(
+            name=f"rod{i}",
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            fromto=[0, 0, 0, length, 0, 0],
+            size=[ROD_RADIUS, 0, 0],
+            rgba=[0.2, 0.45, 0.8, 1] if i == 1 else [0.85, 0.45, 0.2, 1],
+        )
+        parent = body
+    parent.add_site(name="tip", pos=[p.l2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
+    if payload > 0:
+        load = parent.add_body(name="payload", pos=[p.l2, 0, 0])
+        load.explicitinertial = True
+        load.mass = payload
+        load.ipos = [0, 0, 0]
+        load.inertia = [payload * 1e-6] * 3  # a point mass, up to MuJoCo's positivity check
+        load.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.05, 0, 0], rgba=[0.3, 0.3, 0.3, 1])
+
+    if flexibility is None:
+        targets = ("theta1", "theta2")
+    else:
+        for i in (1, 2):
+            rotor = spec.worldbody.add_body(name=f"rotor{i}")
+            rotor.explicitinertial = True
+            rotor.mass = ROTOR_MASS
+            rotor.ipos = [0, 0, 0]
+            j = flexibility.j[i - 1]
+            rotor.inertia = [j, j, j]  # only the spin about the hinge axis matters
+            rotor.add_joint(name=f"phi{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS)
+            # A disc behind the arm's plane to show the rotor; visual only.
+            rotor.add_geom(
+                name=f"rotor{i}",
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                fromto=[0, 0.03, 0, 0, 0.06, 0],
+                size=[0.06, 0, 0],
+                rgba=[0.4, 0.4, 0.4, 1],
+            )
+            spring = spec.add_tendon(
+                name=f"spring{i}",
+                stiffness=flexibility.k[i - 1],
+                damping=flexibility.d[i - 1],
+                springlength=[0.0, 0.0],
+            )
+            spring.wrap_joint(f"phi{i}", 1.0)
+            spring.wrap_joint(f"theta{i}", -1.0)
+        targets = ("phi1", "phi2")
+    for i, target in enumerate(targets, start=1):
+        act = spec.add_actuator(name=f"tau{i}", target=target)
+        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        act.set_to_motor()
+    return spec
+
+
+def build_model(
+    p: ArmParams,
+    flexibility: Flexibility | None = None,
+    payload: float = 0.0,
+    timestep: float = 1e-3,
+) -> mujoco.MjModel:
+    """Compile the arm into a :class:`mujoco.MjModel` (see :func:`build_spec`)."""
+    return build_spec(p, flexibility, payload, timestep).compile()
+
+
+def model_xml(p: ArmParams, flexibility: Flexibility | None = None, payload: float = 0.0) -> str:
+    """MJCF text of the model built from ``p`` (what ``models/*.xml`` hold)."""
+    return build_spec(p, flexibility, payload).to_xml()
+
+
+def scene_xml(robot_file: str = "twolink.xml") -> str:
+    """A viewing scene (floor, light, camera) that includes the robot's MJCF file."""
+    return f"""<mujoco model="twolink scene">
+  <include file="{robot_file}"/>
+  <statistic center="1 0 0.5" extent="2.5"/>
+  <visual>
+    <headlight diffuse="0.6 0.6 0.6" ambient="0.3 0.3 0.3" specular="0 0 0"/>
+    <global azimuth="90" elevation="-10"/>
+  </visual>
+  <asset>
+    <texture type="skybox" builtin="gradient" rgb1="0.3 0.5 0.7" rgb2="0 0 0" width="512"
+             height="3072"/>
+    <texture type="2d" name="groundplane" builtin="checker" mark="edge" rgb1="0.2 0.3 0.4"
+             rgb2="0.1 0.2 0.3" markrgb="0.8 0.8 0.8" width="300" height="300"/>
+    <material name="groundplane" texture="groundplane" texuniform="true" texrepeat="5 5"
+              reflectance="0.2"/>
+  </asset>
+  <worldbody>
+    <light pos="0 -3 4" dir="0 1 -1" directional="true"/>
+    <geom name="floor" pos="0 0 -2.2" size="0 0 0.05" type="plane" material="groundplane"/>
+  </worldbody>
+</mujoco>
+"""
+
+
+@dataclass
+class Plant:
+    """Owns a MuJoCo model and its data: reset, apply torques, step, read the state.
+
+    ``q`` and ``qd`` are the link angles and rates [theta1, theta2]; for the flexible
+    arm ``motor_q`` and ``motor_qd`` are the rotor angles and rates.
+    """
+
+    model: mujoco.MjModel
+    data: mujoco.MjData = None  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        if self.data is None:
+            self.data = mujoco.MjData(self.model)
+        self.flexible = self.model.nq == 4
+        self.dt = float(self.model.opt.timestep)
+
+    @classmethod
+    def build(
+        cls,
+        p: ArmParams,
+        flexibility: Flexibility | None = None,
+        payload: float = 0.0,
+        timestep: float = 1e-3,
+    ) -> Plant:
+        return cls(build_model(p, flexibility, payload, timestep))
+
+    def reset(self, q=(0.0, 0.0), qd=(0.0, 0.0), motor_q=None, motor_qd=None) -> None:
+        """Set the state and time 0. Rotors default to the link state (springs relaxed)."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[:2] = q
+        self.data.qvel[:2] = qd
+        if self.flexible:
+            self.data.qpos[2:] = q if motor_q is None else motor_q
+            self.data.qvel[2:] = qd if motor_qd is None else motor_qd
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, tau1: float, tau2: float) -> None:
+        """Hold the torques [N m] and advance one timestep."""
+        ctrl = self.data.ctrl
+        ctrl[0] = tau1
+        ctrl[1] = tau2
+        mujoco.mj_step(self.model, self.data)
+
+    @property
+    def time(self) -> float:
+        return float(self.data.time)
+
+    @property
+    def q(self) -> np.ndarray:
+        return self.data.qpos[:2].copy()
+
+    @property
+    def qd(self) -> np.ndarray:
+        return self.data.qvel[:2].copy()
+
+    @property
+    def motor_q(self) -> np.ndarray | None:
+        return self.data.qpos[2:].copy() if self.flexible else None
+
+    @property
+    def motor_qd(self) -> np.ndarray | None:
+        return self.data.qvel[2:].copy() if self.flexible else None
+
+    # MuJoCo's own dynamics at the current state, for cross-validation.
+    def set_state(self, qpos, qvel) -> None:
+        """Set the full state and run ``mj_forward`` (no stepping)."""
+        self.data.qpos[:] = qpos
+        self.data.qvel[:] = qvel
+        mujoco.mj_forward(self.model, self.data)
+
+    def mass_matrix(self) -> np.ndarray:
+        """Joint-space inertia matrix from ``mj_fullM``."""
+        full = np.zeros((self.model.nv, self.model.nv))
+        mujoco.mj_fullM(self.model, self.data, full)
+        return full
+
+    def bias(self) -> np.ndarray:
+        """Coriolis, centrifugal and gravity forces (``qfrc_bias``): H + G."""
+        return self.data.qfrc_bias.copy()
+
+    def passive(self) -> np.ndarray:
+        """Spring and damper forces (``qfrc_passive``); zero on the rigid arm."""
+        return self.data.qfrc_passive.copy()
+
+    def inverse(self, qacc) -> np.ndarray:
+        """Joint forces that produce ``qacc`` at the current state (``mj_inverse``)."""
+        self.data.qacc[:] = qacc
+        mujoco.mj_inverse(self.model, self.data)
+        return self.data.qfrc_inverse.copy()
+
+    def forward(self, tau) -> np.ndarray:
+        """Accelerations under actuator torques ``tau`` (``qacc`` after ``mj_forward``)."""
+        self.data.ctrl[:] = tau
+        mujoco.mj_forward(self.model, self.data)
+        return self.data.qacc.copy()
+
+    def energy(self) -> tuple[float, float]:
+        """MuJoCo's kinetic and potential energy (needs the energy flag, set here)."""
+        self.model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
+        mujoco.mj_forward(self.model, self.data)
+        return float(self.data.energy[1]), float(self.data.energy[0])

@@ -1,0 +1,382 @@
+"""Joint-space reference trajectories: position, velocity and acceleration of each joint.
+
+Each per-joint reference is a small frozen dataclass with
+
+- ``ref(t) -> (q, v, a)``: plain Python floats, for the 1 kHz control loop (``math`` only,
+  no numpy on this path);
+- ``ref.sample(t) -> ndarray (3, N)``: the same values for an array of times, vectorised,
+  equal to the scalar path sample for sample;
+- ``ref.final``: the value the reference settles at (the target used by the step metrics).
+
+Every piecewise reference is right-continuous: at a switching time (``t0`` of a step, the
+corners of a ramp) it takes the value of the segment that starts there. Times are assumed
+finite; the scalar path does not check them, to stay cheap.
+
+:class:`ArmReference` pairs two joint references, and :func:`make_reference` builds one from a
+kind name and keyword parameters (the form a TOML scenario file gives).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import MISSING, asdict, dataclass, fields
+from typing import Any, ClassVar, Protocol, runtime_checkable
+
+import numpy as np
+
+__all__ = [
+    "ArmReference",
+    "JointReference",
+    "Quintic",
+    "Ramp",
+    "Sine",
+    "Step",
+    "make_reference",
+    "reference_params",
+]
+
+
+@runtime_checkable
+class JointReference(Protocol):
+    """What the controllers and the simulation loop need from a one-joint reference."""
+
+    def __call__(self, t: float) -> tuple[float, float, float]: ...
+
+    def sample(self, t: np.ndarray) -> np.ndarray: ...
+
+    @property
+    def final(self) -> float: ...
+
+
+def _validate_fields(obj: object, positive: tuple[str, ...] = ()) -> None:
+    """Check every dataclass field is a finite real number and store it as a Python float.
+
+    Storing floats (not ints or numpy scalars) is what keeps ``__call__`` returning floats.
+    """
+    owner = type(obj).__name__
+    for f in fields(obj):  # type: ignore[arg-type]
+        value = getattr(obj, f.name)
+        if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
+            raise ValueError(f"{owner}.{f.name} must be a real number, got {value!r}")
+        value = float(value)
+        if not math.isfinite(value):
+            raise ValueError(f"{owner}.{f.name} must be finite, got {value!r}")
+        if f.name in positive and value <= 0.0:
+            raise ValueError(f"{owner}.{f.name} must be > 0, got {value!r}")
+        object.__setattr__(obj, f.name, value)
+
+
+def _as_times(t: np.ndarray | float) -> np.ndarray:
+    return np.asarray(t, dtype=float)
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    """A step from ``initial`` to ``final`` at time ``t0``.
+
+    Velocity and acceleration are 0 everywhere: the step's derivative is an impulse, which is
+    not fed forward (a controller sees only the position jump, through its error).
+
+    Parameters
+    ----------
+    initial : float
+        Value before ``t0``.
+    final : float
+        Value from ``t0`` on (the step is right-continuous: at ``t0`` it is already ``final``).
+    t0 : float, default 0.0
+        Time of the step [s].
+    """
+
+    kind: ClassVar[str] = "step"
+
+    initial: float
+    final: float
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        _validate_fields(self)
+
+    def __call__(self, t: float) -> tuple[float, float, float]:
+        """Return ``(position, velocity, acceleration)`` at time ``t``."""
+        if t < self.t0:
+            return (self.initial, 0.0, 0.0)
+        return (self.final, 0.0, 0.0)
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Vectorised ``__call__``: rows (position, velocity, acceleration), shape (3, *t.shape)."""
+        t = _as_times(t)
+        out = np.zeros((3, *t.shape))
+        out[0] = np.where(t < self.t0, self.initial, self.final)
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class Ramp:
+    """The paper's saturating ramp: linear from ``initial`` to ``final`` over ``duration``.
+
+    Holds ``initial`` before ``t0``, rises (or falls) linearly during
+    ``[t0, t0 + duration)``, then holds ``final``. Velocity is the slope during the ramp and 0
+    outside it; acceleration is 0 everywhere (the impulses at the two corners are not fed
+    forward).
+
+    Parameters
+    ----------
+    initial, final : float
+        Start and end values.
+    duration : float
+        Time taken to go from ``initial`` to ``final`` [s], > 0.
+    t0 : float, default 0.0
+        Time the ramp starts [s].
+    """
+
+    kind: ClassVar[str] = "ramp"
+
+    initial: float
+    final: float
+    duration: float
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        _validate_fields(self, positive=("duration",))
+
+    def __call__(self, t: float) -> tuple[float, float, float]:
+        """Return ``(position, velocity, acceleration)`` at time ``t``."""
+        s = t - self.t0
+        if s < 0.0:
+            return (self.initial, 0.0, 0.0)
+        if s < self.duration:
+            slope = (self.final - self.initial) / self.duration
+            return (self.initial + slope * s, slope, 0.0)
+        return (self.final, 0.0, 0.0)
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Vectorised ``__call__``: rows (position, velocity, acceleration), shape (3, *t.shape)."""
+        s = _as_times(t) - self.t0
+        slope = (self.final - self.initial) / self.duration
+        before = s < 0.0
+        during = ~before & (s < self.duration)
+        out = np.zeros((3, *s.shape))
+        out[0] = np.where(
+            before, self.initial, np.where(during, self.initial + slope * s, self.final)
+        )
+        out[1] = np.where(during, slope, 0.0)
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class Sine:
+    """A sinusoid ``offset + amplitude * sin(2 pi frequency_hz t + phase)``.
+
+    It never settles, so :attr:`final` is NaN: step metrics make no sense against it, and
+    :func:`twolink.metrics.step_metrics` refuses a NaN target.
+
+    Parameters
+    ----------
+    amplitude : float
+        Amplitude (may be negative or zero).
+    frequency_hz : float
+        Frequency [Hz], > 0.
+    offset : float, default 0.0
+        Mean value.
+    phase : float, default 0.0
+        Phase at ``t = 0`` [rad].
+    """
+
+    kind: ClassVar[str] = "sine"
+
+    amplitude: float
+    frequency_hz: float
+    offset: float = 0.0
+    phase: float = 0.0
+
+    def __post_init__(self) -> None:
+        _validate_fields(self, positive=("frequency_hz",))
+
+    @property
+    def final(self) -> float:
+        """NaN: a sine has no value it settles at."""
+        return math.nan
+
+    def __call__(self, t: float) -> tuple[float, float, float]:
+        """Return ``(position, velocity, acceleration)`` at time ``t``."""
+        w = 2.0 * math.pi * self.frequency_hz
+        arg = w * t + self.phase
+        s = self.amplitude * math.sin(arg)
+        return (self.offset + s, self.amplitude * w * math.cos(arg), -(w * w) * s)
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Vectorised ``__call__``: rows (position, velocity, acceleration), shape (3, *t.shape)."""
+        w = 2.0 * math.pi * self.frequency_hz
+        arg = w * _as_times(t) + self.phase
+        s = self.amplitude * np.sin(arg)
+        return np.stack([self.offset + s, self.amplitude * w * np.cos(arg), -(w * w) * s])
+
+
+@dataclass(frozen=True, slots=True)
+class Quintic:
+    """A smooth point-to-point move: the quintic with zero velocity and acceleration at both ends.
+
+    With ``s = (t - t0) / duration`` in [0, 1] the position is
+    ``initial + (final - initial) (10 s^3 - 15 s^4 + 6 s^5)`` (the minimum-jerk profile);
+    before ``t0`` it holds ``initial`` and after ``t0 + duration`` it holds ``final``.
+    Position, velocity and acceleration are continuous everywhere.
+
+    Parameters
+    ----------
+    initial, final : float
+        Start and end values.
+    duration : float
+        Duration of the move [s], > 0.
+    t0 : float, default 0.0
+        Start time [s].
+    """
+
+    kind: ClassVar[str] = "quintic"
+
+    initial: float
+    final: float
+    duration: float
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        _validate_fields(self, positive=("duration",))
+
+    def __call__(self, t: float) -> tuple[float, float, float]:
+        """Return ``(position, velocity, acceleration)`` at time ``t``."""
+        s = (t - self.t0) / self.duration
+        if s < 0.0:
+            return (self.initial, 0.0, 0.0)
+        if s >= 1.0:
+            return (self.final, 0.0, 0.0)
+        d = self.final - self.initial
+        # Horner forms, written identically in sample() so both paths round the same way.
+        p = s * s * s * (10.0 + s * (-15.0 + s * 6.0))
+        v = s * s * (30.0 + s * (-60.0 + s * 30.0))
+        a = s * (60.0 + s * (-180.0 + s * 120.0))
+        return (
+            self.initial + d * p,
+            d * v / self.duration,
+            d * a / (self.duration * self.duration),
+        )
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Vectorised ``__call__``: rows (position, velocity, acceleration), shape (3, *t.shape)."""
+        s = (_as_times(t) - self.t0) / self.duration
+        before = s < 0.0
+        after = s >= 1.0
+        during = ~before & ~after
+        d = self.final - self.initial
+        p = s * s * s * (10.0 + s * (-15.0 + s * 6.0))
+        v = s * s * (30.0 + s * (-60.0 + s * 30.0))
+        a = s * (60.0 + s * (-180.0 + s * 120.0))
+        out = np.zeros((3, *s.shape))
+        out[0] = np.where(before, self.initial, np.where(after, self.final, self.initial + d * p))
+        out[1] = np.where(during, d * v / self.duration, 0.0)
+        out[2] = np.where(during, d * a / (self.duration * self.duration), 0.0)
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class ArmReference:
+    """The references of both joints.
+
+    Parameters
+    ----------
+    joint1, joint2 : JointReference
+        Reference of joint 1 (θ1) and joint 2 (θ2).
+    """
+
+    joint1: JointReference
+    joint2: JointReference
+
+    def __post_init__(self) -> None:
+        for name in ("joint1", "joint2"):
+            ref = getattr(self, name)
+            if not isinstance(ref, JointReference):
+                raise ValueError(
+                    f"ArmReference.{name} must be a joint reference (Step, Ramp, Sine, "
+                    f"Quintic, ...), got {ref!r}"
+                )
+
+    def __call__(
+        self, t: float
+    ) -> tuple[tuple[float, float], tuple[float, float], tuple[float, float]]:
+        """Return ``((q1d, q2d), (v1d, v2d), (a1d, a2d))`` at time ``t``, as floats."""
+        q1, v1, a1 = self.joint1(t)
+        q2, v2, a2 = self.joint2(t)
+        return ((q1, q2), (v1, v2), (a1, a2))
+
+    def sample(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Vectorised ``__call__``.
+
+        Parameters
+        ----------
+        t : ndarray, shape (N,)
+            Times [s].
+
+        Returns
+        -------
+        qd, vd, ad : ndarray, shape (N, 2)
+            Desired positions, velocities and accelerations; column j is joint j + 1.
+        """
+        s1 = self.joint1.sample(t)
+        s2 = self.joint2.sample(t)
+        qd, vd, ad = (np.stack([s1[k], s2[k]], axis=-1) for k in range(3))
+        return qd, vd, ad
+
+    @property
+    def final(self) -> tuple[float, float]:
+        """The values both joints settle at (NaN for a joint that never settles)."""
+        return (self.joint1.final, self.joint2.final)
+
+
+def _reference_classes() -> dict[str, type]:
+    return {cls.kind: cls for cls in (Step, Ramp, Sine, Quintic)}
+
+
+def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic:
+    """Build a joint reference from its kind name and parameters.
+
+    Parameters
+    ----------
+    kind : {"step", "ramp", "sine", "quintic"}
+        Which reference.
+    **params
+        The class's fields, e.g. ``make_reference("ramp", initial=0, final=1, duration=5)``.
+
+    Returns
+    -------
+    Step or Ramp or Sine or Quintic
+
+    Raises
+    ------
+    ValueError
+        For an unknown kind, an unknown or missing parameter, or an invalid value; the
+        message names the kind or the parameter.
+    """
+    classes = _reference_classes()
+    cls = classes.get(kind)
+    if cls is None:
+        raise ValueError(f"unknown reference kind {kind!r}; expected one of {sorted(classes)}")
+    names = [f.name for f in fields(cls)]
+    unknown = sorted(set(params) - set(names))
+    if unknown:
+        raise ValueError(
+            f"unknown parameter(s) {unknown} for reference kind {kind!r}; expected {names}"
+        )
+    missing = [
+        f.name
+        for f in fields(cls)
+        if f.name not in params and f.default is MISSING and f.default_factory is MISSING
+    ]
+    if missing:
+        raise ValueError(f"missing parameter(s) {missing} for reference kind {kind!r}")
+    return cls(**params)
+
+
+def reference_params(ref: Step | Ramp | Sine | Quintic) -> dict[str, Any]:
+    """The inverse of :func:`make_reference`: ``{"kind": ..., **fields}``.
+
+    ``make_reference(**reference_params(ref)) == ref``; handy for writing a resolved config.
+    """
+    return {"kind": ref.kind, **asdict(ref)}
