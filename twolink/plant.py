@@ -63,6 +63,8 @@ def build_spec(
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
     spec.option.gravity = [0.0, 0.0, -p.g]
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
+    # A diverging run must show as NaN to the simulation loop, not silently restart.
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
 
     parent = spec.worldbody
     for i, (m, length) in enumerate(((p.m1, p.l1), (p.m2, p.l2)), start=1):
