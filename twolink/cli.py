@@ -54,3 +54,51 @@ def models(out: Path) -> None:
     for name, text in files.items():
         atomic_write_text(out / name, text)
         click.echo(out / name)
+
+
+def _fail_input(message: str) -> None:
+    click.echo(f"error: {message}", err=True)
+    sys.exit(2)
+
+
+@main.command()
+@click.argument("scenario", type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Output folder [default: results/<scenario name>].",
+)
+@click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
+def run(scenario: Path, out: Path | None, no_plots: bool) -> None:
+    """Run one scenario file and write its results folder.
+
+    Exit 0 when the run completes, 1 when it diverged (what was computed is kept),
+    2 on a bad scenario file.
+    """
+    from twolink.config import ConfigError, load_scenario
+    from twolink.experiment import build_controller, measure, run_scenario, write_run
+
+    try:
+        s = load_scenario(scenario)
+        controller = build_controller(s)
+    except (ConfigError, OSError) as exc:
+        _fail_input(str(exc))
+    except ValueError as exc:  # e.g. a rule base file with bad labels
+        _fail_input(f"{scenario}: {exc}")
+    traj = run_scenario(s, controller)
+    metrics = measure(s, traj)
+    folder = write_run(
+        out or Path("results") / Path(scenario).stem, s, traj, metrics, plots=not no_plots
+    )
+    for j, m in enumerate(metrics.step, start=1):
+        if m is not None:
+            click.echo(
+                f"joint {j}: Tp {m.peak_time:.3f} s  Td {m.delay_time:.3f} s  "
+                f"Ts {m.settling_time:.3f} s  Tr {m.rise_time:.3f} s  "
+                f"Mp {m.overshoot:.3f}  ess {m.steady_state_error:.4g}"
+            )
+    click.echo(f"results in {folder}")
+    if not traj.ok:
+        click.echo(f"run diverged: {traj.message}", err=True)
+        sys.exit(1)

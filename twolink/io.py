@@ -18,8 +18,8 @@ from typing import IO, Any
 def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
     """Yield a temporary path beside ``path``; on success rename it onto ``path``.
 
-    ``suffix`` keeps an extension on the temporary file for writers that look at it
-    (``numpy.savez`` appends ``.npz`` otherwise).
+    ``suffix`` keeps an extension on the temporary file for writers that pick the
+    format from the name (matplotlib's ``savefig``).
     """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)

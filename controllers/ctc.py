@@ -1,0 +1,78 @@
+"""Computed-torque control (feedback linearisation) with the controller's own model.
+
+    tau = M^(q) (qdd_d + Kd de + Kp e) + H^(q, qd) + G^(q),   e = q_d - q
+
+The hats are the controller's model parameters, which may differ from the plant's
+("uncertainty"). With a perfect model each joint's error obeys
+e'' + Kd e' + Kp e = 0.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+from controllers.base import pair, saturate
+from twolink.dynamics import terms
+from twolink.params import ArmParams
+from twolink.references import ArmReference
+
+# Default gains: natural frequency 2 rad/s, damping ratio 0.6 (Mp ~ 9.5 %, Ts ~ 3.3 s),
+# on the seconds time scale of the paper's responses. See docs/control.md.
+DEFAULT_KP = 4.0
+DEFAULT_KD = 2.4
+
+
+@dataclass
+class ComputedTorque:
+    """Computed-torque controller.
+
+    Parameters
+    ----------
+    model : ArmParams
+        The controller's model of the arm (M^, H^, G^).
+    reference : ArmReference
+        What to track.
+    kp, kd : float or pair of float
+        Proportional [1/s^2] and derivative [1/s] gains, per joint, >= 0.
+    torque_limit : float or pair of float
+        Actuator saturation [N m] per joint; ``inf`` for none.
+    """
+
+    model: ArmParams
+    reference: ArmReference
+    kp: float | Sequence[float] = DEFAULT_KP
+    kd: float | Sequence[float] = DEFAULT_KD
+    torque_limit: float | Sequence[float] = math.inf
+
+    def __post_init__(self) -> None:
+        self.kp = pair("kp", self.kp)
+        self.kd = pair("kd", self.kd)
+        self.torque_limit = pair("torque_limit", self.torque_limit, positive=True, allow_inf=True)
+
+    def reset(self) -> None:
+        """No internal state."""
+
+    def errors(self, t: float, q: Sequence[float], qd: Sequence[float]):
+        """Desired accelerations and errors at ``t``: ``(a1, a2, e1, e2, de1, de2)``."""
+        q1, q2 = q
+        w1, w2 = qd
+        r1, v1, a1 = self.reference.joint1(t)
+        r2, v2, a2 = self.reference.joint2(t)
+        return a1, a2, r1 - q1, r2 - q2, v1 - w1, v2 - w2
+
+    def torque(self, q: Sequence[float], qd: Sequence[float], v1: float, v2: float):
+        """``M^(q) v + H^ + G^``, saturated: the inner, linearising loop."""
+        m11, m12, m22, b1, b2 = terms(self.model, q[0], q[1], qd[0], qd[1])
+        lim1, lim2 = self.torque_limit
+        return (
+            saturate(m11 * v1 + m12 * v2 + b1, lim1),
+            saturate(m12 * v1 + m22 * v2 + b2, lim2),
+        )
+
+    def __call__(self, t: float, q: Sequence[float], qd: Sequence[float]) -> tuple[float, float]:
+        a1, a2, e1, e2, de1, de2 = self.errors(t, q, qd)
+        kp1, kp2 = self.kp
+        kd1, kd2 = self.kd
+        return self.torque(q, qd, a1 + kd1 * de1 + kp1 * e1, a2 + kd2 * de2 + kp2 * e2)

@@ -1,0 +1,361 @@
+"""Scenario files: TOML read with :mod:`tomllib` into frozen, validated configs.
+
+A scenario is one closed-loop run: the arm, how the plant differs from it, the
+controller, the reference, timing and seed. A file may ``extend`` another (paths
+relative to the file); its tables are merged over the base's, key by key, so a family
+of experiments shares one base and states only what differs. Every error names the
+file and the key: ``runs/x.toml: controller.kp: must be >= 0, got -1``.
+
+Schema (all keys optional except the reference)::
+
+    extends = "base.toml"
+    name = "theta1 step"
+    duration = 10.0          # s
+    control_dt = 0.001       # s, controller period (zero-order hold)
+    timestep = 0.001         # s, physics step (RK4)
+    seed = 0                 # measurement noise draws
+    [arm]                    # the nominal arm = the controller's model
+    m1 = 1.0  m2 = 1.0  l1 = 1.0  l2 = 1.0  g = 9.81
+    [plant]                  # the simulated arm: the nominal one, maybe perturbed
+    scale = { m1 = 1.2, g = 1.1 }   # uncertainty as factors on [arm]
+    payload = 0.0            # kg point mass at the tip
+    noise_std = 0.0          # rad, Gaussian noise on measured angles
+    [plant.flexibility]      # present = Spong flexible joints
+    k = [500, 500]  d = [1, 1]  j = [0.05, 0.05]
+    [controller]
+    kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules)
+    kp = [4, 4]  kd = [2.4, 2.4]  torque_limit = 1e3
+    rule_base = "paper"      # fcm_ctc: "paper", "designed", or a TOML path
+    fuzzy = { ke = 1.0, kde = 1.0, ku = 4.0, mode = "add" }
+    [reference.joint1]
+    kind = "step"  initial = 0.0  final = 1.0
+    [reference.joint2]
+    kind = "ramp"  initial = 0.0  final = 0.5  duration = 2.0
+    [initial]
+    q = [0, 0]  qd = [0, 0]
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from twolink.params import ArmParams, Flexibility
+from twolink.references import ArmReference, make_reference, reference_params
+
+CONTROLLER_KINDS = ("ctc", "fuzzy_ctc", "fcm_ctc")
+FUZZY_MODES = ("add", "replace")
+
+
+class ConfigError(ValueError):
+    """An invalid scenario: the message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class PlantConfig:
+    """How the simulated arm differs from the nominal one."""
+
+    scale: dict[str, float] = field(default_factory=dict)
+    payload: float = 0.0
+    noise_std: float = 0.0
+    flexibility: Flexibility | None = None
+
+
+@dataclass(frozen=True)
+class FuzzyConfig:
+    """Scaling of the fuzzy term: u = ku * engine(ke * e, kde * de), and how it joins CTC."""
+
+    ke: float = 1.0
+    kde: float = 1.0
+    ku: float = 4.0
+    mode: str = "add"
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    kind: str = "ctc"
+    kp: tuple[float, float] = (4.0, 4.0)
+    kd: tuple[float, float] = (2.4, 2.4)
+    torque_limit: float = math.inf
+    rule_base: str = "paper"
+    fuzzy: FuzzyConfig = FuzzyConfig()
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One closed-loop experiment, fully resolved and validated."""
+
+    name: str
+    arm: ArmParams
+    plant: PlantConfig
+    controller: ControllerConfig
+    reference: ArmReference
+    duration: float = 10.0
+    control_dt: float = 1e-3
+    timestep: float = 1e-3
+    seed: int = 0
+    q0: tuple[float, float] = (0.0, 0.0)
+    qd0: tuple[float, float] = (0.0, 0.0)
+    source: str = ""
+
+    @property
+    def plant_params(self) -> ArmParams:
+        """The simulated arm's parameters: the nominal arm with the uncertainty factors."""
+        return self.arm.scaled(**self.plant.scale)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The resolved config as plain data (what a run writes as ``config.toml``)."""
+        plant: dict[str, Any] = {
+            "scale": dict(self.plant.scale),
+            "payload": self.plant.payload,
+            "noise_std": self.plant.noise_std,
+        }
+        if self.plant.flexibility is not None:
+            plant["flexibility"] = {k: list(v) for k, v in asdict(self.plant.flexibility).items()}
+        ctrl = asdict(self.controller)
+        ctrl["kp"], ctrl["kd"] = list(ctrl["kp"]), list(ctrl["kd"])
+        return {
+            "name": self.name,
+            "duration": self.duration,
+            "control_dt": self.control_dt,
+            "timestep": self.timestep,
+            "seed": self.seed,
+            "arm": asdict(self.arm),
+            "plant": plant,
+            "controller": ctrl,
+            "reference": {
+                "joint1": reference_params(self.reference.joint1),
+                "joint2": reference_params(self.reference.joint2),
+            },
+            "initial": {"q": list(self.q0), "qd": list(self.qd0)},
+        }
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
+    """Deep-merge ``over`` into a copy of ``base``: tables merge, other values replace."""
+    out = copy.deepcopy(base)
+    for key, value in over.items():
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
+            out[key] = merge(out[key], value)
+        else:
+            out[key] = copy.deepcopy(value)
+    return out
+
+
+def read_toml(path: str | Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+    """Read a TOML file, following ``extends`` chains; errors name the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise ConfigError(f"{path}: no such file")
+    if path.resolve() in _seen:
+        raise ConfigError(f"{path}: extends itself (cycle through {[str(p) for p in _seen]})")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    base = data.pop("extends", None)
+    if base is None:
+        return data
+    if not isinstance(base, str):
+        raise ConfigError(f"{path}: extends: must be a file path, got {base!r}")
+    return merge(read_toml(path.parent / base, (*_seen, path.resolve())), data)
+
+
+class _Table:
+    """Reads one TOML table, checking types; ``done()`` rejects keys nobody read."""
+
+    def __init__(self, data: Any, where: str, file: str):
+        self.where, self.file = where, file
+        if not isinstance(data, dict):
+            self.fail("", f"must be a table, got {data!r}")
+        self.data = dict(data)
+        self.read: set[str] = set()
+
+    def fail(self, key: str, problem: str):
+        name = f"{self.where}.{key}" if self.where and key else self.where or key
+        raise ConfigError(f"{self.file}: {name}: {problem}")
+
+    def raw(self, key: str, default: Any = None) -> Any:
+        self.read.add(key)
+        return self.data.get(key, default)
+
+    def number(self, key: str, default: float, **checks: Any) -> float:
+        return self._checked(key, self.raw(key, default), **checks)
+
+    def pair(self, key: str, default: tuple[float, float], **checks: Any) -> tuple[float, float]:
+        value = self.raw(key, default)
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            value = (value, value)
+        if not isinstance(value, list | tuple) or len(value) != 2:
+            self.fail(key, f"must be a number or a list of 2 numbers, got {value!r}")
+        return self._checked(key, value[0], **checks), self._checked(key, value[1], **checks)
+
+    def _checked(
+        self,
+        key: str,
+        value: Any,
+        *,
+        minimum: float | None = None,
+        positive: bool = False,
+        allow_inf: bool = False,
+    ) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            self.fail(key, f"must be a number, got {value!r}")
+        if math.isnan(value) or (math.isinf(value) and not allow_inf):
+            self.fail(key, f"must be finite, got {value!r}")
+        if positive and not value > 0:
+            self.fail(key, f"must be > 0, got {value!r}")
+        if minimum is not None and value < minimum:
+            self.fail(key, f"must be >= {minimum}, got {value!r}")
+        return float(value)
+
+    def string(self, key: str, default: str, choices: tuple[str, ...] | None = None) -> str:
+        value = self.raw(key, default)
+        if not isinstance(value, str):
+            self.fail(key, f"must be a string, got {value!r}")
+        if choices is not None and value not in choices:
+            self.fail(key, f"must be one of {list(choices)}, got {value!r}")
+        return value
+
+    def integer(self, key: str, default: int) -> int:
+        value = self.raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            self.fail(key, f"must be an integer >= 0, got {value!r}")
+        return value
+
+    def table(self, key: str) -> _Table:
+        where = f"{self.where}.{key}" if self.where else key
+        return _Table(self.raw(key, {}), where, self.file)
+
+    def done(self) -> None:
+        unknown = sorted(set(self.data) - self.read)
+        if unknown:
+            self.fail(unknown[0], f"unknown key (known here: {sorted(self.read)})")
+
+
+def _arm(t: _Table) -> ArmParams:
+    d = ArmParams()
+    arm = ArmParams(
+        m1=t.number("m1", d.m1, positive=True),
+        m2=t.number("m2", d.m2, positive=True),
+        l1=t.number("l1", d.l1, positive=True),
+        l2=t.number("l2", d.l2, positive=True),
+        g=t.number("g", d.g),
+    )
+    t.done()
+    return arm
+
+
+def _plant(t: _Table) -> PlantConfig:
+    scale_t = t.table("scale")
+    scale = {}
+    for key in list(scale_t.data):
+        if key not in ("m1", "m2", "l1", "l2", "g"):
+            scale_t.fail(key, "unknown key (known here: ['g', 'l1', 'l2', 'm1', 'm2'])")
+        scale[key] = scale_t.number(key, 1.0, positive=key != "g")
+    flexibility = None
+    if "flexibility" in t.data:
+        f = t.table("flexibility")
+        d = Flexibility()
+        flexibility = Flexibility(
+            k=f.pair("k", d.k, positive=True),
+            d=f.pair("d", d.d, minimum=0.0),
+            j=f.pair("j", d.j, positive=True),
+        )
+        f.done()
+    plant = PlantConfig(
+        scale=scale,
+        payload=t.number("payload", 0.0, minimum=0.0),
+        noise_std=t.number("noise_std", 0.0, minimum=0.0),
+        flexibility=flexibility,
+    )
+    t.done()
+    return plant
+
+
+def _controller(t: _Table) -> ControllerConfig:
+    d = ControllerConfig()
+    f = t.table("fuzzy")
+    fd = FuzzyConfig()
+    fuzzy = FuzzyConfig(
+        ke=f.number("ke", fd.ke, positive=True),
+        kde=f.number("kde", fd.kde, positive=True),
+        ku=f.number("ku", fd.ku, minimum=0.0),
+        mode=f.string("mode", fd.mode, FUZZY_MODES),
+    )
+    f.done()
+    ctrl = ControllerConfig(
+        kind=t.string("kind", d.kind, CONTROLLER_KINDS),
+        kp=t.pair("kp", d.kp, minimum=0.0),
+        kd=t.pair("kd", d.kd, minimum=0.0),
+        torque_limit=t.number("torque_limit", d.torque_limit, positive=True, allow_inf=True),
+        rule_base=t.string("rule_base", d.rule_base),
+        fuzzy=fuzzy,
+    )
+    t.done()
+    return ctrl
+
+
+def _reference(t: _Table) -> ArmReference:
+    joints = []
+    for name in ("joint1", "joint2"):
+        j = t.table(name)
+        params = dict(j.data)
+        kind = params.pop("kind", None)
+        if kind is None:
+            j.fail("kind", "missing (one of step, ramp, sine, quintic)")
+        try:
+            joints.append(make_reference(kind, **params))
+        except (ValueError, TypeError) as exc:
+            j.fail("", str(exc))
+    t.done()
+    return ArmReference(*joints)
+
+
+def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
+    """Validate plain data (as read from TOML) into a :class:`Scenario`."""
+    top = _Table(data, "", source)
+    if "reference" not in data:
+        top.fail("reference", "missing: a scenario needs [reference.joint1] and .joint2")
+    initial = top.table("initial")
+    scenario = Scenario(
+        name=top.string("name", Path(source).stem),
+        arm=_arm(top.table("arm")),
+        plant=_plant(top.table("plant")),
+        controller=_controller(top.table("controller")),
+        reference=_reference(top.table("reference")),
+        duration=top.number("duration", 10.0, positive=True),
+        control_dt=top.number("control_dt", 1e-3, positive=True),
+        timestep=top.number("timestep", 1e-3, positive=True),
+        seed=top.integer("seed", 0),
+        q0=initial.pair("q", (0.0, 0.0)),
+        qd0=initial.pair("qd", (0.0, 0.0)),
+        source=source,
+    )
+    initial.done()
+    top.done()
+    steps = scenario.control_dt / scenario.timestep
+    if abs(steps - round(steps)) > 1e-9 * steps or round(steps) < 1:
+        top.fail("control_dt", f"must be a whole multiple of timestep {scenario.timestep}")
+    if scenario.duration < scenario.control_dt:
+        top.fail("duration", f"must be at least control_dt {scenario.control_dt}")
+    try:
+        scenario.plant_params  # noqa: B018 - the scaled arm must be valid too
+    except ValueError as exc:
+        top.fail("plant.scale", str(exc))
+    return scenario
+
+
+def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> Scenario:
+    """Read and validate a scenario file, with optional overrides merged on top."""
+    data = read_toml(path)
+    if overrides:
+        data = merge(data, overrides)
+    return scenario_from_dict(data, str(path))

@@ -1,0 +1,171 @@
+"""From a scenario to results: build the plant and controller, run, measure, write.
+
+This is the glue the CLI, the reproduction and the sweeps share; it holds no physics
+and no control law of its own.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from controllers.base import Controller
+from controllers.ctc import ComputedTorque
+from twolink.config import Scenario
+from twolink.io import atomic_write_json, atomic_write_text
+from twolink.metrics import error_measures, metrics_dict, step_metrics, torque_measures
+from twolink.plant import Plant
+from twolink.sim import Trajectory, simulate
+
+RULEBASE_DIR = Path(__file__).resolve().parents[1] / "controllers" / "rulebases"
+
+
+def build_plant(s: Scenario) -> Plant:
+    """The simulated arm: the nominal arm with the scenario's uncertainty."""
+    return Plant.build(s.plant_params, s.plant.flexibility, s.plant.payload, s.timestep)
+
+
+def resolve_rule_base(name: str, relative_to: str | Path = ".") -> Path:
+    """Path of a rule base: "paper", "designed", "default" or a TOML path."""
+    builtin = {
+        "paper": "paper_table1.toml",
+        "designed": "designed.toml",
+        "default": "default_7x7.toml",
+    }
+    if name in builtin:
+        return RULEBASE_DIR / builtin[name]
+    path = Path(name)
+    return path if path.is_absolute() else Path(relative_to).parent / path
+
+
+def build_controller(s: Scenario, rule_base: Any = None) -> Controller:
+    """The scenario's controller, modelled on the nominal arm.
+
+    ``rule_base`` overrides the scenario's rule base for "fcm_ctc" (a path or an
+    engine), e.g. with a freshly designed one.
+    """
+    c = s.controller
+    common = dict(model=s.arm, reference=s.reference, kp=c.kp, kd=c.kd, torque_limit=c.torque_limit)
+    if c.kind == "ctc":
+        return ComputedTorque(**common)
+    from controllers import fuzzy
+    from controllers.fuzzy_ctc import FuzzyComputedTorque
+
+    if c.kind == "fuzzy_ctc":
+        engine = fuzzy.default_fuzzy_pd()
+    else:
+        source = rule_base if rule_base is not None else resolve_rule_base(c.rule_base, s.source)
+        engine = (
+            source
+            if callable(source)
+            else fuzzy.default_fuzzy_pd().with_rules(fuzzy.load_rule_base(source))
+        )
+    f = c.fuzzy
+    return FuzzyComputedTorque(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku, mode=f.mode)
+
+
+def measurement_noise(s: Scenario) -> np.ndarray | None:
+    """Seeded Gaussian noise on the measured angles, or None when the scenario has none."""
+    if s.plant.noise_std == 0:
+        return None
+    n = round(s.duration / s.control_dt)
+    return np.random.default_rng(s.seed).normal(0.0, s.plant.noise_std, size=(n + 1, 2))
+
+
+def run_scenario(
+    s: Scenario, controller: Controller | None = None, plant: Plant | None = None
+) -> Trajectory:
+    """Simulate the scenario (deterministic for its seed)."""
+    return simulate(
+        plant or build_plant(s),
+        controller or build_controller(s),
+        s.duration,
+        control_dt=s.control_dt,
+        q0=s.q0,
+        qd0=s.qd0,
+        noise=measurement_noise(s),
+    )
+
+
+@dataclass(frozen=True)
+class RunMetrics:
+    """Everything measured on one run. ``step[j]`` is None where joint j has no step."""
+
+    step: tuple[Any, Any]
+    errors: Any
+    torque: Any
+    status: str
+    message: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return metrics_dict(
+            status=self.status,
+            message=self.message,
+            joint1=asdict(self.step[0]) if self.step[0] else None,
+            joint2=asdict(self.step[1]) if self.step[1] else None,
+            errors=asdict(self.errors),
+            torque=asdict(self.torque),
+        )
+
+
+def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
+    """Step metrics per joint (towards the reference's final value), integral measures."""
+    steps = []
+    for j, target in enumerate(s.reference.final):
+        moves = np.isfinite(target) and target != s.q0[j]
+        steps.append(step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j]) if moves else None)
+    return RunMetrics(
+        step=(steps[0], steps[1]),
+        errors=error_measures(traj.t, traj.e),
+        torque=torque_measures(traj.tau),
+        status=traj.status,
+        message=traj.message,
+    )
+
+
+def to_toml(data: dict[str, Any]) -> str:
+    """Plain data as TOML (the subset configs use: tables, numbers, strings, lists)."""
+
+    def value(v: Any) -> str:
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, float):
+            return {float("inf"): "inf", float("-inf"): "-inf"}.get(v, repr(v))
+        if isinstance(v, int):
+            return str(v)
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, list | tuple):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        if isinstance(v, dict):
+            return "{ " + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + " }"
+        raise TypeError(f"cannot write {v!r} as TOML")
+
+    def table(d: dict[str, Any], prefix: str) -> list[str]:
+        nested = {k: v for k, v in d.items() if isinstance(v, dict) and v}
+        lines = [f"[{prefix}]"] if prefix else []
+        lines += [f"{k} = {value(v)}" for k, v in d.items() if k not in nested]
+        for k, v in nested.items():
+            lines += ["", *table(v, f"{prefix}.{k}" if prefix else k)]
+        return lines
+
+    return "\n".join(table(data, "")) + "\n"
+
+
+def write_run(
+    out: str | Path, s: Scenario, traj: Trajectory, metrics: RunMetrics, plots: bool = True
+) -> Path:
+    """Write one run's folder: config.toml, trajectory.npz, metrics.json and PNG plots."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(out / "config.toml", to_toml(s.to_dict()))
+    traj.save(out / "trajectory.npz")
+    atomic_write_json(out / "metrics.json", metrics.to_dict())
+    if plots:
+        from twolink.plots import save_run_plots
+
+        save_run_plots(out, traj, title=s.name)
+    return out

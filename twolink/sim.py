@@ -1,0 +1,192 @@
+"""The closed loop: a controller against a MuJoCo plant, and the recorded trajectory.
+
+The controller runs at a fixed rate with zero-order hold: it is called every
+``control_dt`` with the measured link state, and its torques are held over the
+physics substeps until the next call. A run stops early, keeping what it computed,
+when the state or torque becomes non-finite or leaves sane bounds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from controllers.base import Controller
+from twolink.io import atomic_path
+from twolink.plant import Plant
+
+STATUS_OK = "ok"
+STATUS_DIVERGED = "diverged"
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """What counts as a runaway: beyond these the run stops as diverged."""
+
+    angle: float = 100.0  # rad: ~16 turns, far past any reference
+    rate: float = 1e3  # rad/s
+    torque: float = 1e6  # N m
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A recorded closed-loop run, sampled at the control instants.
+
+    Sample k is the state measured at ``t[k]`` and the torque the controller chose
+    then. Arrays of pairs have shape (N, 2), columns joint 1 and joint 2.
+
+    Attributes
+    ----------
+    t : (N,) times [s]
+    q, qd : link angles [rad] and rates [rad/s]
+    q_ref, qd_ref, qdd_ref : reference position, velocity, acceleration
+    tau : torques [N m]
+    motor_q : rotor angles of the flexible arm (N, 2), or an empty (0, 2) array
+    status : "ok" or "diverged"
+    message : why a run stopped early ("" if it did not)
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    q_ref: np.ndarray
+    qd_ref: np.ndarray
+    qdd_ref: np.ndarray
+    tau: np.ndarray
+    motor_q: np.ndarray
+    status: str = STATUS_OK
+    message: str = ""
+
+    @property
+    def e(self) -> np.ndarray:
+        """Tracking error q_ref - q."""
+        return self.q_ref - self.q
+
+    @property
+    def de(self) -> np.ndarray:
+        """Error rate qd_ref - qd."""
+        return self.qd_ref - self.qd
+
+    @property
+    def ok(self) -> bool:
+        return self.status == STATUS_OK
+
+    def save(self, path: str | Path) -> None:
+        """Write to ``.npz`` atomically."""
+        arrays = {f.name: getattr(self, f.name) for f in fields(self)}
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Trajectory:
+        with np.load(path) as data:
+            kwargs = {f.name: data[f.name] for f in fields(cls)}
+        kwargs["status"] = str(kwargs["status"])
+        kwargs["message"] = str(kwargs["message"])
+        return cls(**kwargs)
+
+    def equals(self, other: Trajectory) -> bool:
+        """Bit-for-bit equality of every array and the status."""
+        return all(
+            np.array_equal(getattr(self, f.name), getattr(other, f.name)) for f in fields(self)
+        )
+
+
+def simulate(
+    plant: Plant,
+    controller: Controller,
+    duration: float,
+    control_dt: float = 1e-3,
+    q0: tuple[float, float] = (0.0, 0.0),
+    qd0: tuple[float, float] = (0.0, 0.0),
+    bounds: Bounds = Bounds(),
+    noise: np.ndarray | None = None,
+) -> Trajectory:
+    """Run ``controller`` against ``plant`` for ``duration`` seconds.
+
+    Parameters
+    ----------
+    plant : Plant
+        The MuJoCo plant; it is reset to (q0, qd0) with relaxed springs.
+    controller : Controller
+        Called every ``control_dt`` seconds; its torques are held in between.
+    duration, control_dt : float
+        Length of the run and control period [s]; ``control_dt`` must be a whole
+        number of physics timesteps.
+    q0, qd0 : pair of float
+        Initial link angles and rates.
+    bounds : Bounds
+        Past these (or at a non-finite value) the run stops with status "diverged".
+    noise : ndarray (N + 1, 2), optional
+        Measurement noise added to the angles the controller sees (not to the
+        recorded state), one row per control instant.
+
+    Returns
+    -------
+    Trajectory
+        Samples at t = 0, control_dt, ..., duration (fewer if the run diverged).
+    """
+    substeps = round(control_dt / plant.dt)
+    if substeps < 1 or not math.isclose(substeps * plant.dt, control_dt, rel_tol=1e-9):
+        raise ValueError(
+            f"control_dt {control_dt} must be a whole multiple of the timestep {plant.dt}"
+        )
+    if not duration > 0:
+        raise ValueError(f"duration must be > 0, got {duration}")
+    n = round(duration / control_dt)
+    if noise is not None and np.shape(noise) != (n + 1, 2):
+        raise ValueError(f"noise must have shape {(n + 1, 2)}, got {np.shape(noise)}")
+    noise_rows = None if noise is None else noise.tolist()
+    plant.reset(q0, qd0)
+    controller.reset()
+    qpos, qvel = plant.data.qpos, plant.data.qvel
+    step = plant.step
+    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
+    rows: list[tuple[float, ...]] = []
+    motor: list[tuple[float, float]] = []
+    status, message = STATUS_OK, ""
+    for k in range(n + 1):
+        t = k * control_dt
+        q1, q2, w1, w2 = float(qpos[0]), float(qpos[1]), float(qvel[0]), float(qvel[1])
+        # NaN fails every comparison, so this also catches non-finite states.
+        if not (abs(q1) < qmax and abs(q2) < qmax and abs(w1) < wmax and abs(w2) < wmax):
+            status = STATUS_DIVERGED
+            message = (
+                f"state out of bounds at t={t:.4f} s: "
+                f"q=({q1:.4g}, {q2:.4g}), qd=({w1:.4g}, {w2:.4g})"
+            )
+            break
+        if noise_rows is None:
+            tau1, tau2 = controller(t, (q1, q2), (w1, w2))
+        else:
+            n1, n2 = noise_rows[k]
+            tau1, tau2 = controller(t, (q1 + n1, q2 + n2), (w1, w2))
+        if not (abs(tau1) < tmax and abs(tau2) < tmax):
+            status = STATUS_DIVERGED
+            message = f"torque out of bounds at t={t:.4f} s: tau=({tau1:.4g}, {tau2:.4g})"
+            break
+        rows.append((t, q1, q2, w1, w2, tau1, tau2))
+        if plant.flexible:
+            motor.append((float(qpos[2]), float(qpos[3])))
+        if k == n:
+            break
+        for _ in range(substeps):
+            step(tau1, tau2)
+    rec = np.array(rows, dtype=float).reshape(-1, 7)
+    t = rec[:, 0]
+    q_ref, qd_ref, qdd_ref = controller.reference.sample(t)
+    return Trajectory(
+        t=t,
+        q=rec[:, 1:3],
+        qd=rec[:, 3:5],
+        q_ref=q_ref.reshape(-1, 2),
+        qd_ref=qd_ref.reshape(-1, 2),
+        qdd_ref=qdd_ref.reshape(-1, 2),
+        tau=rec[:, 5:7],
+        motor_q=np.array(motor, dtype=float).reshape(-1, 2),
+        status=status,
+        message=message,
+    )
