@@ -102,3 +102,99 @@ def run(scenario: Path, out: Path | None, no_plots: bool) -> None:
     if not traj.ok:
         click.echo(f"run diverged: {traj.message}", err=True)
         sys.exit(1)
+
+
+@main.command()
+@click.option(
+    "--config",
+    "config_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Design file [default: runs/paper/design.toml].",
+)
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Rule-base file to write [default: controllers/rulebases/designed.toml].",
+)
+@click.option(
+    "--figure",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="Also save the phase-plane figure (the paper's Figure 2) here.",
+)
+def design(config_path: Path | None, out: Path | None, figure: Path | None) -> None:
+    """Design the reduced FCM rule base (the paper's steps 1-6) and write it with evidence."""
+    from twolink.config import ConfigError
+    from twolink.design import DEFAULT_DESIGN, load_design_config, write_design
+    from twolink.design import design as run_design
+    from twolink.experiment import RULEBASE_DIR
+
+    try:
+        config = load_design_config(config_path or DEFAULT_DESIGN)
+    except (ConfigError, OSError) as exc:
+        _fail_input(str(exc))
+    result = run_design(config)
+    path = write_design(result, out or RULEBASE_DIR / "designed.toml")
+    for j, i in enumerate(result.kept):
+        rule = result.engine.rules[i]
+        c = result.clustering.centers[j]
+        click.echo(
+            f"cluster {j}: centre ({c[0]:+.3f}, {c[1]:+.3f})  rule {' '.join(rule)}"
+            f"  score {result.scores[j, i]:.3f}"
+        )
+    click.echo(f"{len(result.rules)} rules kept -> {path}")
+    if figure:
+        from twolink.plots import phase_plane_figure, save_figure
+
+        save_figure(phase_plane_figure(result), figure)
+        click.echo(f"phase plane -> {figure}")
+
+
+@main.command()
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("results/reproduce"),
+    show_default=True,
+    help="Output folder.",
+)
+@click.option(
+    "--manifest",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Reproduction manifest [default: runs/paper/reproduce.toml].",
+)
+@click.option("--workers", type=int, default=None, help="Processes [default: all cores].")
+@click.option("--no-trace", is_flag=True, help="Skip the rerun recordings.")
+def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: bool) -> None:
+    """Reproduce the paper's Tables 2-8 and figures: report, CSV/JSON, PNGs, .rrd."""
+    import time
+
+    from twolink.config import ConfigError
+    from twolink.reproduce import DEFAULT_MANIFEST
+    from twolink.reproduce import reproduce as run_reproduction
+
+    start = time.perf_counter()
+    try:
+        result = run_reproduction(manifest or DEFAULT_MANIFEST, out, workers, trace=not no_trace)
+    except (ConfigError, OSError) as exc:
+        _fail_input(str(exc))
+    except KeyboardInterrupt:
+        click.echo(
+            "\ninterrupted: files written so far are whole; run again to complete.", err=True
+        )
+        sys.exit(130)
+    failed = [r for r in result.rows if r["status"] != "ok"]
+    click.echo(
+        f"{len(result.rows)} runs in {time.perf_counter() - start:.1f} s "
+        f"({'designed' if result.designed else 'reused'} rule base {result.rule_base})"
+    )
+    click.echo(f"report:     {out / 'report.md'}")
+    click.echo(f"metrics:    {out / 'metrics.csv'}, {out / 'metrics.json'}")
+    click.echo(f"figures:    {out / 'figures'}")
+    if not no_trace:
+        click.echo(f"recordings: rerun {out / 'reproduction.rrd'} (one trace.rrd per run too)")
+    if failed:
+        click.echo(f"{len(failed)} run(s) diverged: see the report", err=True)

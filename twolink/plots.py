@@ -6,6 +6,7 @@ Uses the non-interactive Agg backend: runs are headless.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -75,3 +76,131 @@ def save_run_plots(out: str | Path, traj: Trajectory, title: str = "") -> list[P
         save_figure(fig, path)
         paths.append(path)
     return paths
+
+
+CONTROLLER_STYLES = {"CTC": ("tab:red", "-"), "FCM": ("tab:green", "-")}
+
+
+def response_figure(trajs: dict[str, Trajectory], joint: int, title: str) -> Figure:
+    """One joint's response under several controllers, with the reference (Figs 3-10)."""
+    fig, (ax, ax_e) = plt.subplots(
+        2, 1, figsize=(8, 5.5), sharex=True, height_ratios=(2, 1), constrained_layout=True
+    )
+    j = joint - 1
+    first = next(iter(trajs.values()))
+    ax.plot(first.t, first.q_ref[:, j], "k--", lw=1.2, label="reference")
+    for name, traj in trajs.items():
+        colour, style = CONTROLLER_STYLES.get(name, (None, "-"))
+        label = name if traj.ok else f"{name} ({traj.status})"
+        ax.plot(traj.t, traj.q[:, j], style, color=colour, lw=1.5, label=label)
+        ax_e.plot(traj.t, traj.e[:, j], style, color=colour, lw=1.2, label=name)
+    ax.set_ylabel(f"θ{joint} [rad]")
+    ax_e.set_ylabel(f"e{joint} = θd − θ [rad]")
+    ax_e.set_xlabel("time [s]")
+    for a in (ax, ax_e):
+        a.grid(alpha=0.3)
+        a.legend(loc="best", fontsize=8)
+    ax.set_title(title)
+    return fig
+
+
+def phase_plane_figure(result) -> Figure:
+    """The paper's Figure 2: phase-plane data, FCM centres, and the fired-rule sequence.
+
+    ``result`` is a :class:`twolink.design.DesignResult`.
+    """
+    fig, ax = plt.subplots(figsize=(7.5, 6.5), constrained_layout=True)
+    pts = result.points
+    ax.plot(pts[:, 0], pts[:, 1], "-", color="0.6", lw=0.8, zorder=1)
+    hard = result.clustering.memberships.argmax(axis=1)
+    ax.scatter(
+        pts[:, 0],
+        pts[:, 1],
+        c=hard,
+        cmap="tab10",
+        s=6,
+        zorder=2,
+        vmin=0,
+        vmax=9,
+        label="phase-plane samples (by cluster)",
+    )
+    centres = result.clustering.centers
+    ax.scatter(
+        centres[:, 0],
+        centres[:, 1],
+        marker="X",
+        s=180,
+        c="k",
+        zorder=4,
+        label="FCM cluster centres",
+    )
+    for j, (x, y) in enumerate(centres):
+        rule = result.engine.rules[result.kept[j]]
+        ax.annotate(
+            f"{rule.e},{rule.de}→{rule.u}",
+            (x, y),
+            xytext=(8, 8),
+            textcoords="offset points",
+            fontsize=9,
+            weight="bold",
+        )
+    # label each long run of the linguistic trajectory with its rule, lightly
+    for start, end, rule in result.segments():
+        if end - start >= 5:
+            mid = (start + end) // 2
+            ax.annotate(
+                f"{rule.e},{rule.de}", pts[mid], fontsize=6, color="0.35", ha="center", zorder=3
+            )
+    ticks = [-1, -2 / 3, -1 / 3, 0, 1 / 3, 2 / 3, 1]
+    labels = ["NB", "NM", "NS", "Z", "PS", "PM", "PB"]
+    ax.set_xticks(ticks, [f"{lab}\n{t:.2g}" for lab, t in zip(labels, ticks, strict=True)])
+    ax.set_yticks(ticks, [f"{lab} {t:.2g}" for lab, t in zip(labels, ticks, strict=True)])
+    ax.set_xlim(-1.05, 1.05)
+    ax.set_ylim(-1.05, 1.05)
+    ax.grid(alpha=0.3)
+    ax.set_xlabel("normalised error ke·e")
+    ax.set_ylabel("normalised error rate kde·ė")
+    ax.set_title("Phase plane of the 7x7 fuzzy-CTC runs with FCM centres and kept rules")
+    ax.legend(loc="lower left", fontsize=8)
+    return fig
+
+
+def membership_figure(engine) -> Figure:
+    """Membership functions of e, de and u of a Mamdani engine."""
+    fig, axes = plt.subplots(3, 1, figsize=(7, 6.5), constrained_layout=True)
+    for ax, (name, var) in zip(
+        axes,
+        (("e (normalised)", engine.e), ("ė (normalised)", engine.de), ("u (normalised)", engine.u)),
+        strict=True,
+    ):
+        grid = var.grid
+        for label, mu in zip(var.labels, var.table, strict=True):
+            ax.plot(grid, mu, label=label)
+        ax.set_ylabel("membership")
+        ax.set_xlabel(name)
+        ax.legend(ncol=7, fontsize=7, loc="upper center")
+        ax.grid(alpha=0.3)
+    fig.suptitle("Membership functions")
+    return fig
+
+
+def control_surface_figure(engines: dict[str, Any], n: int = 121) -> Figure:
+    """Control surfaces u(e, de) of engines side by side (no-fire regions show as 0)."""
+    import numpy as np
+
+    fig, axes = plt.subplots(
+        1, len(engines), figsize=(5.2 * len(engines), 4.6), constrained_layout=True, squeeze=False
+    )
+    x = np.linspace(-1, 1, n)
+    e, de = np.meshgrid(x, x)
+    for ax, (name, engine) in zip(axes[0], engines.items(), strict=True):
+        u = engine(e, de)
+        fired = engine.firing(e, de).max(axis=-1) > 0
+        im = ax.contourf(e, de, u, levels=np.linspace(-1, 1, 21), cmap="RdBu_r")
+        ax.contour(e, de, fired.astype(float), levels=[0.5], colors="k", linewidths=0.8)
+        ax.set_title(f"{name} ({len(engine.rules)} rules)")
+        ax.set_xlabel("normalised e")
+        ax.set_ylabel("normalised ė")
+        fig.colorbar(im, ax=ax, label="u (normalised)")
+    fig.suptitle("Control surfaces (black line: edge of the region where some rule fires)")
+    return fig
