@@ -1,0 +1,374 @@
+"""Rerun recordings: valid files, every sample read back, the arm where MuJoCo puts it, atomic."""
+
+import ast
+import os
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pyarrow as pa
+import pytest
+import rerun as rr
+from rerun.chunk import RrdReader
+
+from twolink import tracing
+from twolink.config import load_scenario
+from twolink.experiment import run_scenario
+from twolink.params import ArmParams
+from twolink.plant import Plant
+
+ROOT = Path(__file__).resolve().parents[1]
+SCALARS = {  # entity leaf -> Trajectory attribute it holds
+    "angle": "q",
+    "reference": "q_ref",
+    "error": "e",
+    "error_rate": "de",
+    "torque": "tau",
+}
+
+
+@pytest.fixture(scope="module")
+def run():
+    # 1.1 s: past t = 1.025 s, where t * 1e9 falls just short of a whole nanosecond.
+    s = load_scenario(ROOT / "runs" / "theta1_step.toml", {"duration": 1.1})
+    return s, run_scenario(s)
+
+
+def rerun_cli(*args: str, home: Path) -> subprocess.CompletedProcess:
+    # `python -m rerun` passes the CLI's exit status on (`-m rerun_cli` drops it). Its
+    # analytics config goes to a scratch XDG home, not the user's.
+    env = {**os.environ, "XDG_CONFIG_HOME": str(home / "config"), "XDG_DATA_HOME": str(home)}
+    return subprocess.run(
+        [sys.executable, "-m", "rerun", *args], capture_output=True, text=True, env=env
+    )
+
+
+def read_back(path: Path) -> tuple[dict[str, pa.Table], dict[str, pa.Table]]:
+    """Temporal rows (sorted by time) and static rows of every entity of the recording."""
+    # store() needs the footer: it fails on a file whose sink was never closed.
+    chunks = list(RrdReader(path).store().stream())
+    temporal: dict[str, list[pa.RecordBatch]] = {}
+    static: dict[str, list[pa.RecordBatch]] = {}
+    for ch in chunks:
+        (static if ch.is_static else temporal).setdefault(ch.entity_path, []).append(
+            ch.to_record_batch()
+        )
+    tables = {}
+    for entity, batches in temporal.items():
+        table = pa.Table.from_batches(batches)
+        tables[entity] = table.sort_by("time")
+    return tables, {e: pa.Table.from_batches(b) for e, b in static.items()}
+
+
+def values(table: pa.Table, column: str, width: int | None = None) -> np.ndarray:
+    """All values of one component, nesting dropped: flat, or (-1, width) for vectors."""
+    col = table.column(column).combine_chunks()
+    while pa.types.is_list(col.type) or pa.types.is_fixed_size_list(col.type):
+        col = col.flatten()
+    flat = col.to_numpy(zero_copy_only=False)
+    return flat if width is None else flat.reshape(-1, width)
+
+
+def entity(prefix: str, *parts: str) -> str:
+    return "/" + "/".join((prefix, *parts))
+
+
+def test_recording_passes_rerun_verify_and_leaves_no_temp_file(tmp_path, run):
+    s, traj = run
+    out = tmp_path / "out" / "trace.rrd"
+    assert tracing.write_recording(out, [("ctc", traj, s.arm, {})]) == out
+    assert os.listdir(out.parent) == ["trace.rrd"]
+    ok = rerun_cli("rrd", "verify", str(out), home=tmp_path)
+    assert ok.returncode == 0, ok.stderr
+    # The check can fail: a truncated copy (no footer) does not verify.
+    cut = tmp_path / "cut.rrd"
+    cut.write_bytes(out.read_bytes()[: out.stat().st_size // 2])
+    assert rerun_cli("rrd", "verify", str(cut), home=tmp_path).returncode != 0
+
+
+def test_the_file_is_complete_before_it_is_renamed_into_place(tmp_path, run, monkeypatch):
+    s, traj = run
+    real_replace, renamed = os.replace, []
+
+    def checked_replace(src, dst):
+        # store() reads the footer, which rerun writes only when the sink is closed.
+        assert len(RrdReader(src).store()) > 0
+        renamed.append(Path(dst).name)
+        real_replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", checked_replace)
+    tracing.write_recording(tmp_path / "trace.rrd", [("ctc", traj, s.arm, {})])
+    assert renamed == ["trace.rrd"]
+
+
+def test_every_series_holds_every_sample_on_the_time_grid(tmp_path, run):
+    s, traj = run
+    out = tmp_path / "trace.rrd"
+    tracing.write_recording(out, [("ctc", traj, s.arm, {"name": s.name})])
+    temporal, static = read_back(out)
+    n = len(traj.t)
+    expected_ns = np.round(traj.t * 1e9).astype(np.int64)
+    for j in range(2):
+        for leaf, attr in SCALARS.items():
+            table = temporal[entity("ctc", f"joint{j + 1}", leaf)]
+            assert table.num_rows == n
+            times = table.column("time").combine_chunks().cast(pa.int64()).to_numpy()
+            np.testing.assert_array_equal(times, expected_ns)
+            np.testing.assert_array_equal(
+                values(table, "Scalars:scalars"), getattr(traj, attr)[:, j]
+            )
+        state = temporal[entity("ctc", "phase", f"joint{j + 1}", "state")]
+        plane = np.stack([traj.e[:, j], traj.de[:, j]], axis=1).astype(np.float32)
+        np.testing.assert_array_equal(values(state, "Points2D:positions", 2), plane)
+        path = static[entity("ctc", "phase", f"joint{j + 1}", "path")]
+        np.testing.assert_array_equal(values(path, "LineStrips2D:strips", 2), plane)
+    # A rigid arm has no rotor angles; the steady step does not move the arm's base.
+    assert entity("ctc", "joint1", "motor_angle") not in temporal
+    assert values(static[entity("ctc", "status")], "TextLog:text").tolist() == [f"{s.name}: ok"]
+    base = values(static[entity("ctc", "arm", "base")], "Points3D:positions", 3)
+    np.testing.assert_array_equal(base, [[0.0, 0.0, 0.0]])
+
+
+def test_arm_points_match_mujoco_kinematics():
+    arm = ArmParams(m1=1.2, m2=0.7, l1=0.9, l2=0.6)
+    q = np.random.default_rng(0).uniform(-np.pi, np.pi, size=(20, 2))
+    plant = Plant.build(arm)
+    pts = tracing.arm_points(arm, q)
+    for k in range(len(q)):
+        plant.set_state(q[k], np.zeros(2))
+        np.testing.assert_allclose(pts[k, 0], 0.0, atol=0.0)
+        np.testing.assert_allclose(pts[k, 1], plant.data.body("link2").xpos, atol=1e-12)
+        np.testing.assert_allclose(pts[k, 2], plant.data.site("tip").xpos, atol=1e-12)
+
+
+def test_recorded_arm_follows_the_run(tmp_path, run):
+    s, traj = run
+    out = tmp_path / "trace.rrd"
+    tracing.write_recording(out, [("ctc", traj, s.arm, {})])
+    temporal, _ = read_back(out)
+    expected = tracing.arm_points(s.arm, traj.q).astype(np.float32)
+    links = temporal[entity("ctc", "arm", "links")]
+    assert links.num_rows == len(traj.t)
+    np.testing.assert_array_equal(
+        values(links, "LineStrips3D:strips", 3).reshape(-1, 3, 3), expected
+    )
+    joints = temporal[entity("ctc", "arm", "joints")]
+    assert joints.num_rows == len(traj.t)
+    np.testing.assert_array_equal(
+        values(joints, "Points3D:positions", 3).reshape(-1, 3, 3), expected
+    )
+    # The step moves joint 1 by 1 rad: the tip ends up high in the (x, z) plane.
+    assert expected[-1, 2, 2] > 1.0 and np.all(expected[:, :, 1] == 0.0)
+
+
+def test_centres_fired_rules_and_phase_scale(tmp_path, run):
+    s, traj = run
+    n = len(traj.t)
+    centres = np.array([[-0.5, 0.0], [0.0, 0.0], [0.5, 0.25]])
+    rules = np.array([[f"R{k % 5}", f"S{k % 3}"] for k in range(n)])
+    extras = {
+        "centres": centres,
+        "fired_rules": rules,
+        "phase_scale": (2.0, 0.5),
+        "centre_labels": ["NB", "ZE", "PB"],
+    }
+    out = tmp_path / "trace.rrd"
+    tracing.write_recording(out, [("fcm", traj, s.arm, extras)])
+    temporal, static = read_back(out)
+    c = static[entity("fcm", "phase", "centres")]
+    np.testing.assert_array_equal(values(c, "Points2D:positions", 2), centres)
+    assert values(c, "Points2D:labels").tolist() == ["NB", "ZE", "PB"]
+    for j in range(2):
+        state = temporal[entity("fcm", "phase", f"joint{j + 1}", "state")]
+        assert values(state, "Points2D:labels").tolist() == rules[:, j].tolist()
+        plane = np.stack([2.0 * traj.e[:, j], 0.5 * traj.de[:, j]], axis=1)
+        np.testing.assert_array_equal(
+            values(state, "Points2D:positions", 2), plane.astype(np.float32)
+        )
+        log = temporal[entity("fcm", "phase", f"joint{j + 1}", "fired_rule")]
+        assert log.num_rows == n
+        assert values(log, "TextLog:text").tolist() == rules[:, j].tolist()
+
+
+def test_per_joint_centres_go_under_each_joint(tmp_path, run):
+    s, traj = run
+    centres = np.array([[[0.0, 0.0], [1.0, 1.0]], [[0.0, 0.5], [2.0, 2.0]]])
+    out = tmp_path / "trace.rrd"
+    tracing.write_recording(out, [("fcm", traj, s.arm, {"centres": centres})])
+    _, static = read_back(out)
+    for j in range(2):
+        c = static[entity("fcm", "phase", f"joint{j + 1}", "centres")]
+        np.testing.assert_array_equal(values(c, "Points2D:positions", 2), centres[j])
+        assert values(c, "Points2D:labels").tolist() == ["c1", "c2"]
+    assert entity("fcm", "phase", "centres") not in static
+
+
+def test_decimation_keeps_every_kth_sample_and_the_last(tmp_path, run):
+    np.testing.assert_array_equal(tracing.sample_indices(10, 3), [0, 3, 6, 9])
+    np.testing.assert_array_equal(tracing.sample_indices(11, 3), [0, 3, 6, 9, 10])
+    np.testing.assert_array_equal(tracing.sample_indices(4, 1), [0, 1, 2, 3])
+    for bad in (0, -1, 1.5, True):
+        with pytest.raises(ValueError, match="every"):
+            tracing.sample_indices(10, bad)
+    s, traj = run
+    out = tmp_path / "trace.rrd"
+    tracing.write_recording(out, [("ctc", traj, s.arm, {})], every=7)
+    temporal, _ = read_back(out)
+    idx = np.r_[np.arange(0, len(traj.t), 7), len(traj.t) - 1]  # 1101 samples: 0..1099, 1100
+    for name in ("joint2/torque", "phase/joint1/state", "arm/links"):
+        table = temporal[entity("ctc", *name.split("/"))]
+        times = table.column("time").combine_chunks().cast(pa.int64()).to_numpy()
+        np.testing.assert_array_equal(times, np.round(traj.t[idx] * 1e9).astype(np.int64))
+    np.testing.assert_array_equal(
+        values(temporal[entity("ctc", "joint1", "angle")], "Scalars:scalars"), traj.q[idx, 0]
+    )
+
+
+def test_several_runs_share_a_file_and_the_layout_selects_their_entities(tmp_path, run):
+    s, traj = run
+    flexible = replace(traj, motor_q=traj.q + 0.01)
+    diverged = replace(traj, status="diverged", message="angle beyond 100 rad at t=0.5")
+    named = tracing.entity_prefix("θ1 step, CTC")
+    runs = [
+        (named, traj, s.arm, {}),
+        ("paper/flexible", flexible, s.arm, {"name": "flexible"}),
+        ("paper/diverged", diverged, s.arm, {}),
+    ]
+    out = tmp_path / "all.rrd"
+    tracing.write_recording(out, runs)
+    temporal, static = read_back(out)
+    n = len(traj.t)
+    for prefix in (named, "paper/flexible", "paper/diverged"):
+        assert temporal[entity(prefix, "joint2", "angle")].num_rows == n
+    motor = temporal[entity("paper/flexible", "joint1", "motor_angle")]
+    np.testing.assert_array_equal(values(motor, "Scalars:scalars"), flexible.motor_q[:, 0])
+    status = static[entity("paper/diverged", "status")]
+    assert values(status, "TextLog:text").tolist() == [f"diverged: {diverged.message}"]
+    assert values(status, "TextLog:level").tolist() == ["WARN"]
+
+    # The blueprint travels in the file; every view selects entities that were logged,
+    # and together the views show every time series.
+    reader = RrdReader(out)
+    (bp,) = reader.blueprints()
+    (recording,) = reader.recordings()
+    assert recording.recording_id == tracing.recording_id("twolink", runs)
+    queries, origins = [], []
+    for ch in reader.stream(store=bp):
+        batch = ch.to_record_batch()
+        if "ViewContents:query" in batch.schema.names:
+            queries += batch.column("ViewContents:query").to_pylist()
+        if "ViewBlueprint:space_origin" in batch.schema.names:
+            origins += batch.column("ViewBlueprint:space_origin").to_pylist()
+    shown = set()
+    for query in queries:
+        if query == ["$origin/**"]:
+            continue
+        selected = {ch.entity_path for ch in RrdReader(out).stream().filter(content=query)}
+        assert selected, query
+        shown |= selected
+    scalar_entities = {e for e in temporal if e.rsplit("/", 1)[-1] in {*SCALARS, "motor_angle"}}
+    assert scalar_entities <= shown
+    spatial = {o for (o,) in origins if o != "/"}
+    assert spatial == {
+        f"{p}/{leaf}"
+        for p in (named, "paper/flexible", "paper/diverged")
+        for leaf in ("phase", "arm")
+    }
+
+
+def test_a_single_run_may_sit_at_the_root(tmp_path, run):
+    s, traj = run
+    out = tmp_path / "trace.rrd"
+    tracing.write_recording(out, [("", traj, s.arm, {})])
+    temporal, static = read_back(out)
+    assert temporal["/joint1/angle"].num_rows == len(traj.t)
+    assert "/arm/base" in static
+
+
+def test_log_run_checks_its_inputs_before_sending_anything(run):
+    s, traj = run
+    rec = rr.RecordingStream("twolink-test", recording_id="check-inputs")
+    memory = rec.memory_recording()
+    before = memory.num_msgs()
+    bad = [
+        {"centres": np.zeros((2, 2)), "centre_labels": ["only one"]},
+        {"fired_rules": ["R1"] * (len(traj.t) - 1)},
+        {"phase_scale": (1.0, float("nan"))},
+        {"every": 0},
+    ]
+    for kwargs in bad:
+        with pytest.raises(ValueError):
+            tracing.log_run(rec, traj, s.arm, "run", **kwargs)
+    with pytest.raises(ValueError, match="no samples"):
+        tracing.log_run(rec, replace(traj, t=traj.t[:0]), s.arm, "run")
+    assert memory.num_msgs() == before
+    tracing.log_run(rec, traj, s.arm, "run")
+    assert memory.num_msgs() > before
+
+
+def test_identical_runs_give_the_same_recording(tmp_path, run):
+    s, traj = run
+    a, b, c = tmp_path / "a.rrd", tmp_path / "b.rrd", tmp_path / "c.rrd"
+    tracing.write_recording(a, [("ctc", traj, s.arm, {})])
+    tracing.write_recording(b, [("ctc", traj, s.arm, {})])
+    other = replace(traj, tau=traj.tau * 1.001)
+    tracing.write_recording(c, [("ctc", other, s.arm, {})])
+    ids = [RrdReader(p).recordings()[0].recording_id for p in (a, b, c)]
+    assert ids[0] == ids[1] != ids[2]
+    assert rerun_cli("rrd", "compare", str(a), str(b), home=tmp_path).returncode == 0
+    assert rerun_cli("rrd", "compare", str(a), str(c), home=tmp_path).returncode != 0
+
+
+@pytest.mark.parametrize(
+    "bad_extras",
+    [{"centres": np.zeros((3, 3))}, {"no_such_option": 1}, {"fired_rules": ["R1"] * 5}],
+)
+def test_a_failing_write_keeps_the_old_file_and_leaves_no_temp(tmp_path, run, bad_extras):
+    s, traj = run
+    out = tmp_path / "trace.rrd"
+    out.write_bytes(b"previous recording")
+    # The good run is logged into the temporary file before the bad one fails.
+    runs = [("good", traj, s.arm, {}), ("bad", traj, s.arm, bad_extras)]
+    with pytest.raises((ValueError, TypeError)):
+        tracing.write_recording(out, runs)
+    assert os.listdir(tmp_path) == ["trace.rrd"]
+    assert out.read_bytes() == b"previous recording"
+    fresh = tmp_path / "new" / "trace.rrd"
+    with pytest.raises((ValueError, TypeError)):
+        tracing.write_recording(fresh, runs)
+    assert os.listdir(fresh.parent) == []
+
+
+def test_disabled_rerun_raises_instead_of_writing_an_empty_file(tmp_path, run, monkeypatch):
+    s, traj = run
+    monkeypatch.setenv("RERUN", "off")
+    with pytest.raises(RuntimeError, match="disabled"):
+        tracing.write_recording(tmp_path / "trace.rrd", [("ctc", traj, s.arm, {})])
+    assert os.listdir(tmp_path) == []
+
+
+def test_bad_prefixes_are_refused(tmp_path, run):
+    s, traj = run
+    for pair in (("a", "a"), ("a", "a/b"), ("", "b")):
+        with pytest.raises(ValueError, match="prefixes"):
+            tracing.write_recording(tmp_path / "x.rrd", [(p, traj, s.arm, {}) for p in pair])
+    with pytest.raises(ValueError, match="non-empty"):
+        tracing.entity_prefix("run", "")
+    assert not (tmp_path / "x.rrd").exists()
+
+
+def test_only_the_tracing_module_imports_rerun():
+    importers = []
+    for path in sorted([*(ROOT / "twolink").glob("*.py"), *(ROOT / "controllers").glob("*.py")]):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            else:
+                continue
+            if any(n == "rerun" or n.startswith("rerun.") for n in names):
+                importers.append(path.name)
+    assert set(importers) == {"tracing.py"}
