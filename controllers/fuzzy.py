@@ -34,7 +34,6 @@ from __future__ import annotations
 import math
 import os
 import re
-import tempfile
 import tomllib
 import types
 from bisect import bisect_left, bisect_right
@@ -45,6 +44,8 @@ from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import skfuzzy
+
+from twolink.io import atomic_write_text
 
 __all__ = [
     "LABELS_7",
@@ -543,16 +544,7 @@ def save_rule_base(
             f"u = {_toml_string(r.u)}",
             "",
         ]
-    text = "\n".join(lines)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    atomic_write_text(path, "\n".join(lines))
     return path
 
 

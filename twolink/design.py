@@ -29,6 +29,7 @@ from controllers.fcm import FCMResult, fcm
 from controllers.fuzzy import MamdaniEngine, Rule, load_rule_base, save_rule_base
 from twolink.config import Scenario, _Table, load_scenario, read_toml
 from twolink.experiment import build_controller, run_scenario
+from twolink.io import atomic_path
 
 DEFAULT_DESIGN = Path(__file__).resolve().parents[1] / "runs" / "paper" / "design.toml"
 DECIMATE = 10  # cluster every 10th sample (100 Hz): the shape of the trajectory, 10x cheaper
@@ -110,6 +111,7 @@ class DesignResult:
     scores : (c, R) membership-weighted firing strength of each rule in each cluster
     kept : (c,) index of the rule kept for each cluster
     digest : hash of the design inputs
+    splits : sample indices where one design run's trajectory ends and the next begins
     """
 
     rules: tuple[Rule, ...]
@@ -120,6 +122,7 @@ class DesignResult:
     scores: np.ndarray
     kept: np.ndarray
     digest: str
+    splits: tuple[int, ...] = ()
 
     @property
     def firing_counts(self) -> dict[Rule, int]:
@@ -136,6 +139,22 @@ class DesignResult:
             (int(a), int(b), self.engine.rules[self.linguistic[a]])
             for a, b in zip(starts, ends, strict=True)
         ]
+
+
+def rule_label(rule: Rule) -> str:
+    """A rule as short text: ``"PS,NM→NS"``."""
+    return f"{rule.e},{rule.de}→{rule.u}"
+
+
+def fired_rule_labels(engine: MamdaniEngine, e: np.ndarray, de: np.ndarray) -> np.ndarray:
+    """The dominant fired rule at each (e, de) (normalised inputs), as labels.
+
+    "none" where no rule fires. Shape of ``e`` and ``de`` broadcast together.
+    """
+    firing = engine.firing(e, de)
+    labels = np.array([rule_label(r) for r in engine.rules] + ["none"])
+    dominant = np.where(firing.max(axis=-1) > 0, firing.argmax(axis=-1), len(engine.rules))
+    return labels[dominant]
 
 
 def phase_plane(s: Scenario, engine_input: tuple[float, float]) -> np.ndarray:
@@ -202,17 +221,70 @@ def write_design(result: DesignResult, path: str | Path) -> Path:
     )
 
 
-def design_or_load(config: DesignConfig, path: Path) -> tuple[Path, bool]:
-    """Reuse the rule base at ``path`` if its digest matches ``config``; else design it.
+def save_design(result: DesignResult, folder: str | Path) -> Path:
+    """Write ``rule_base.toml`` (rules + evidence) and ``evidence.npz`` (the arrays)."""
+    folder = Path(folder)
+    c = result.clustering
+    arrays = {
+        "points": result.points,
+        "linguistic": result.linguistic,
+        "scores": result.scores,
+        "kept": result.kept,
+        "splits": np.array(result.splits, dtype=int),
+        "centers": c.centers,
+        "memberships": c.memberships,
+        "initial_memberships": c.initial_memberships,
+        "objective": c.objective,
+        "fcm": np.array([c.n_iter, c.converged, c.m], dtype=float),
+    }
+    with atomic_path(folder / "evidence.npz") as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, **arrays)
+    # the rule base last: its digest marks the pair as complete and current
+    return write_design(result, folder / "rule_base.toml")
 
-    Returns the path and whether a new design was run.
+
+def load_design(config: DesignConfig, folder: str | Path) -> DesignResult | None:
+    """The design saved in ``folder`` if it is whole and its digest matches, else None."""
+    folder = Path(folder)
+    try:
+        saved = load_rule_base(folder / "rule_base.toml")
+        if saved.metadata.get("evidence", {}).get("digest") != config.digest():
+            return None
+        with np.load(folder / "evidence.npz") as a:
+            n_iter, converged, m = a["fcm"]
+            clustering = FCMResult(
+                a["centers"],
+                a["memberships"],
+                a["initial_memberships"],
+                a["objective"],
+                int(n_iter),
+                bool(converged),
+                float(m),
+            )
+            engine = build_controller(config.scenarios[0]).engine
+            return DesignResult(
+                saved.rules,
+                engine,
+                a["points"],
+                a["linguistic"],
+                clustering,
+                a["scores"],
+                a["kept"],
+                config.digest(),
+                tuple(a["splits"].tolist()),
+            )
+    except (ValueError, OSError, KeyError):
+        return None  # missing, unreadable or stale: design afresh
+
+
+def design_or_load(config: DesignConfig, folder: str | Path) -> tuple[DesignResult, bool]:
+    """Reuse the design saved in ``folder`` if current; else run it and save it.
+
+    Returns the design and whether it was newly run.
     """
-    if path.is_file():
-        try:
-            saved = load_rule_base(path)
-            if saved.metadata.get("evidence", {}).get("digest") == config.digest():
-                return path, False
-        except (ValueError, OSError):
-            pass  # unreadable or stale: design afresh
-    write_design(design(config), path)
-    return path, True
+    saved = load_design(config, folder)
+    if saved is not None:
+        return saved, False
+    result = design(config)
+    save_design(result, folder)
+    return result, True

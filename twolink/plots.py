@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 import matplotlib
+import numpy as np
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
@@ -111,7 +112,8 @@ def phase_plane_figure(result) -> Figure:
     """
     fig, ax = plt.subplots(figsize=(7.5, 6.5), constrained_layout=True)
     pts = result.points
-    ax.plot(pts[:, 0], pts[:, 1], "-", color="0.6", lw=0.8, zorder=1)
+    for run in np.split(pts, result.splits):  # one line per design run
+        ax.plot(run[:, 0], run[:, 1], "-", color="0.6", lw=0.8, zorder=1)
     hard = result.clustering.memberships.argmax(axis=1)
     ax.scatter(
         pts[:, 0],

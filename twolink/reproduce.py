@@ -19,8 +19,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from twolink.config import ConfigError, _Table, load_scenario, merge, read_toml
-from twolink.experiment import measure, run_scenario, write_run
+from twolink.experiment import build_controller, measure, run_scenario, write_run
 from twolink.sim import Trajectory
 
 DEFAULT_MANIFEST = Path(__file__).resolve().parents[1] / "runs" / "paper" / "reproduce.toml"
@@ -127,14 +129,16 @@ class RunSpec:
     variant: Variant
     controller: str
     overrides: dict[str, Any]
+    centres: tuple[tuple[float, float], ...] = ()  # FCM centres, for the phase-plane trace
 
     @property
     def folder(self) -> str:
         return f"{self.variant.name}/{self.experiment.key}/{self.controller}"
 
 
-def plan(manifest: Manifest, rule_base: Path) -> list[RunSpec]:
+def plan(manifest: Manifest, rule_base: Path, centres=()) -> list[RunSpec]:
     """Every run of the reproduction, in report order."""
+    centres = tuple(tuple(map(float, c)) for c in centres)
     specs = []
     for variant in manifest.variants:
         for exp in manifest.experiments:
@@ -143,21 +147,25 @@ def plan(manifest: Manifest, rule_base: Path) -> list[RunSpec]:
                 if ctrl.get("rule_base") == "designed":
                     ctrl["rule_base"] = str(rule_base.resolve())
                 overrides = merge(variant.overrides, {"controller": ctrl})
-                specs.append(RunSpec(exp, variant, name, overrides))
+                fuzzy = ctrl.get("kind", "ctc") != "ctc"
+                specs.append(RunSpec(exp, variant, name, overrides, centres if fuzzy else ()))
     return specs
 
 
 def _execute(spec: RunSpec, out: Path, trace: bool) -> dict[str, Any]:
     """Run one spec and write its folder; returns the metrics row (a worker task)."""
     scenario = load_scenario(spec.experiment.scenario, spec.overrides)
-    traj = run_scenario(scenario)
+    controller = build_controller(scenario)
+    traj = run_scenario(scenario, controller)
     metrics = measure(scenario, traj)
     folder = write_run(out / spec.folder, scenario, traj, metrics, plots=False)
     if trace:
         from twolink import tracing
 
         tracing.write_recording(
-            folder / "trace.rrd", [(spec.folder, traj, scenario.plant_params, {})]
+            folder / "trace.rrd",
+            [(spec.folder, traj, scenario.plant_params, trace_extras(spec, controller, traj))],
+            every=TRACE_EVERY,
         )
     joint = metrics.step[spec.experiment.joint - 1]
     row = {
@@ -170,6 +178,27 @@ def _execute(spec: RunSpec, out: Path, trace: bool) -> dict[str, Any]:
     for key, name in METRIC_FIELDS.items():
         row[key] = getattr(joint, name) if joint is not None else math.nan
     return row
+
+
+TRACE_EVERY = 5  # recordings at 200 Hz: smooth to watch; trajectory.npz keeps every sample
+COMBINED_TRACE_EVERY = 10
+
+
+def trace_extras(spec: RunSpec, controller: Any, traj: Trajectory) -> dict[str, Any]:
+    """Phase-plane extras of a fuzzy run: the engine's view, FCM centres, fired rules."""
+    engine = getattr(controller, "engine", None)
+    if engine is None:
+        return {}
+    from twolink.design import fired_rule_labels
+
+    scale = (controller.ke, controller.kde)
+    extras: dict[str, Any] = {
+        "phase_scale": scale,
+        "fired_rules": fired_rule_labels(engine, scale[0] * traj.e, scale[1] * traj.de),
+    }
+    if spec.centres:
+        extras["centres"] = np.array(spec.centres)
+    return extras
 
 
 def run_all(
@@ -241,14 +270,15 @@ def reproduce(
 
     from controllers import fuzzy
     from twolink import plots, report
-    from twolink.design import design, design_or_load, load_design_config, write_design
+    from twolink.design import design_or_load, load_design_config
     from twolink.io import atomic_write_json, atomic_write_text
 
     out = Path(out)
     manifest = load_manifest(manifest_path)
     config = load_design_config(manifest.design)
-    rule_base, designed = design_or_load(config, out / "design" / "rule_base.toml")
-    specs = plan(manifest, rule_base)
+    result, designed = design_or_load(config, out / "design")
+    rule_base = out / "design" / "rule_base.toml"
+    specs = plan(manifest, rule_base, result.clustering.centers)
     with tqdm(total=len(specs), desc="experiments", unit="run", disable=not progress) as bar:
         rows = run_all(specs, out, workers, trace, progress=bar.update)
 
@@ -268,9 +298,7 @@ def reproduce(
                 out / name,
             )
             figures[f"{variant.name}/{exp.key}"] = name
-    result = design(config)  # deterministic and cheap; gives the evidence to plot
-    write_design(result, out / "design" / "rule_base.toml")
-    designed_engine = result.engine.with_rules(fuzzy.load_rule_base(rule_base))
+    designed_engine = result.engine.with_rules(result.rules)
     plots.save_figure(plots.phase_plane_figure(result), out / "figures/design_phase_plane.png")
     plots.save_figure(plots.membership_figure(result.engine), out / "figures/membership.png")
     plots.save_figure(
@@ -324,6 +352,7 @@ def reproduce(
                 )
                 for sp in specs
             ],
+            every=COMBINED_TRACE_EVERY,
         )
     return Reproduction(out, rows, designed, rule_base)
 

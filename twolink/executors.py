@@ -1,0 +1,215 @@
+"""Executors for sweeps: one :class:`concurrent.futures.Executor` interface, three back ends.
+
+- ``inprocess``: runs each task in the calling thread when it is submitted (debugging,
+  profiling, tests with monkeypatching; Ctrl-C lands in the task itself).
+- ``process`` (default): a local :class:`~concurrent.futures.ProcessPoolExecutor`, one worker
+  per core. Workers are started with "spawn" (MuJoCo and tqdm's thread make ``fork``
+  unsafe), import the package once, and ignore SIGINT: the parent alone decides how a
+  sweep stops, and ends its workers itself (:meth:`SweepExecutor.abort`).
+- ``dask``: a :mod:`dask.distributed` client, on a scheduler at ``scheduler`` or, without
+  one, on a :class:`~distributed.LocalCluster` of ``workers`` single-threaded processes.
+  Dask is an optional extra (``pip install twolink[dask]``) and imported only here, lazily.
+  Remote workers need ``twolink`` installed; they never touch the client's files (tasks
+  return their results, the client writes them).
+
+Every executor is a context manager and counts its ``workers`` (for cost accounting).
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+from collections.abc import Callable
+from concurrent import futures
+from typing import Any
+
+EXECUTORS = ("inprocess", "process", "dask")
+
+
+class ExecutorError(RuntimeError):
+    """An executor could not be started (missing extra, unreachable scheduler, ...)."""
+
+
+class SweepExecutor(futures.Executor):
+    """A :class:`concurrent.futures.Executor` that also knows its size and can be aborted.
+
+    Attributes
+    ----------
+    workers : int
+        How many tasks run at once.
+    name : str
+        The back end ("inprocess", "process" or "dask").
+    """
+
+    name = "abstract"
+    workers = 1
+
+    def abort(self) -> None:
+        """Stop now: cancel queued tasks and end running ones; their results are lost."""
+        self.shutdown(wait=True, cancel_futures=True)
+
+
+class InProcessExecutor(SweepExecutor):
+    """Runs each task at ``submit``, in the calling thread; the future is already done."""
+
+    name = "inprocess"
+    workers = 1
+
+    def __init__(self) -> None:
+        self._shutdown = False
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> futures.Future:
+        if self._shutdown:
+            raise RuntimeError("cannot submit to an executor that was shut down")
+        future: futures.Future = futures.Future()
+        future.set_running_or_notify_cancel()
+        try:
+            result = fn(*args, **kwargs)
+        except Exception as exc:  # a task's failure belongs in its future, as in a pool
+            future.set_exception(exc)
+        else:
+            future.set_result(result)
+        return future
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._shutdown = True
+
+
+def _ignore_sigint() -> None:
+    # A terminal's Ctrl-C reaches the whole process group; only the parent should act on it.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class ProcessExecutor(SweepExecutor):
+    """A local process pool of ``workers`` processes (default: all cores)."""
+
+    name = "process"
+
+    def __init__(self, workers: int | None = None) -> None:
+        self.workers = workers or os.cpu_count() or 1
+        self._pool = futures.ProcessPoolExecutor(
+            max_workers=self.workers,
+            mp_context=multiprocessing.get_context("spawn"),
+            initializer=_ignore_sigint,
+        )
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> futures.Future:
+        return self._pool.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)
+
+    def abort(self) -> None:
+        # The pool has no public way to stop a running task (before Python 3.14's
+        # terminate_workers); without this, shutdown waits for every task already handed
+        # to a worker, which can be several chunks.
+        terminate = getattr(self._pool, "terminate_workers", None)
+        if terminate is not None:
+            terminate()
+        else:
+            for process in list((getattr(self._pool, "_processes", None) or {}).values()):
+                process.terminate()
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+
+class DaskExecutor(SweepExecutor):
+    """Tasks on a Dask distributed cluster: at ``scheduler``, or a new local one."""
+
+    name = "dask"
+
+    def __init__(self, workers: int | None = None, scheduler: str | None = None) -> None:
+        try:
+            from dask.distributed import Client, LocalCluster
+        except ImportError as exc:
+            raise ExecutorError(
+                f"the dask executor needs dask.distributed: pip install 'twolink[dask]' ({exc})"
+            ) from None
+        self._cluster = None
+        try:
+            if scheduler:
+                self._client = Client(scheduler, timeout="10s")
+            else:
+                self._cluster = LocalCluster(
+                    n_workers=workers or os.cpu_count() or 1,
+                    threads_per_worker=1,
+                    processes=True,
+                    dashboard_address=None,
+                )
+                self._client = Client(self._cluster)
+        except OSError as exc:
+            self._close()
+            raise ExecutorError(f"cannot reach the Dask scheduler {scheduler!r}: {exc}") from None
+        info = self._client.scheduler_info()
+        threads = sum(w.get("nthreads", 1) for w in info.get("workers", {}).values())
+        self.workers = threads or workers or 1
+        self._executor = self._client.get_executor(pure=False)
+
+    def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> futures.Future:
+        return self._executor.submit(fn, *args, **kwargs)
+
+    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
+        if cancel_futures:
+            self._cancel_all()
+        self._executor.shutdown(wait=wait and not cancel_futures)
+        self._close()
+
+    def abort(self) -> None:
+        self.shutdown(wait=False, cancel_futures=True)
+
+    def _cancel_all(self) -> None:
+        pending = [f for f in self._executor._futures if not f.done()]
+        if pending:
+            self._client.cancel(pending)
+
+    def _close(self) -> None:
+        client = getattr(self, "_client", None)
+        if client is not None:
+            client.close()
+        if self._cluster is not None:
+            self._cluster.close()
+            self._cluster = None
+
+
+def check_options(kind: str, workers: int | None, scheduler: str | None) -> None:
+    """Raise ValueError for an unknown ``kind``, ``workers < 1`` or a misplaced scheduler."""
+    if kind not in EXECUTORS:
+        raise ValueError(f"unknown executor {kind!r}: one of {list(EXECUTORS)}")
+    if workers is not None and (isinstance(workers, bool) or workers < 1):
+        raise ValueError(f"workers must be >= 1, got {workers}")
+    if scheduler and kind != "dask":
+        raise ValueError(f"a scheduler address needs the dask executor, not {kind!r}")
+
+
+def open_executor(
+    kind: str = "process", workers: int | None = None, scheduler: str | None = None
+) -> SweepExecutor:
+    """Start an executor; use it as a context manager.
+
+    Parameters
+    ----------
+    kind : {"inprocess", "process", "dask"}
+        The back end.
+    workers : int, optional
+        Worker processes for "process" and a local Dask cluster (default: all cores).
+        Ignored by "inprocess" and by a remote Dask scheduler.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://host:8786``); only with "dask".
+
+    Returns
+    -------
+    SweepExecutor
+
+    Raises
+    ------
+    ValueError
+        Unknown ``kind``, ``workers < 1``, or a scheduler for a non-Dask executor.
+    ExecutorError
+        Dask is not installed or its scheduler cannot be reached.
+    """
+    check_options(kind, workers, scheduler)
+    if kind == "inprocess":
+        return InProcessExecutor()
+    if kind == "process":
+        return ProcessExecutor(workers)
+    return DaskExecutor(workers, scheduler)
