@@ -198,3 +198,7 @@ def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: b
         click.echo(f"recordings: rerun {out / 'reproduction.rrd'} (one trace.rrd per run too)")
     if failed:
         click.echo(f"{len(failed)} run(s) diverged: see the report", err=True)
+
+
+if __name__ == "__main__":
+    main()
