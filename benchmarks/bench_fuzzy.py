@@ -130,6 +130,30 @@ def main() -> None:
             f"mj_step of the arm: {t_step * 1e6:.2f} us; engine call for both joints = "
             f"{t_two / t_step:.1f} mj_steps"
         )
+        closed_loop_ratio()
+
+
+def closed_loop_ratio() -> None:
+    """(c) a 10 s, 1 kHz FCM-CTC closed loop vs a bare mj_step loop of the same length."""
+    from bench_ctc import DT, REPEATS, bare_loop, closed_loop  # same folder
+
+    from controllers.fuzzy import paper_fuzzy_pd
+    from controllers.fuzzy_ctc import FuzzyComputedTorque
+    from twolink.params import ArmParams
+    from twolink.plant import Plant
+    from twolink.references import ArmReference, Step
+
+    p = ArmParams()
+    plant = Plant.build(p, timestep=DT)
+    ref = ArmReference(Step(0.0, 1.0), Step(0.0, 0.5))
+    results = {}
+    for name, engine in (("7x7", default_fuzzy_pd()), ("paper 5-rule", paper_fuzzy_pd())):
+        controller = FuzzyComputedTorque(p, ref, engine=engine)
+        results[name] = min(closed_loop(plant, controller) for _ in range(REPEATS))
+    bare = min(bare_loop(plant) for _ in range(REPEATS))
+    print(f"bare mj_step loop, 10 s at 1 kHz: {bare * 1e3:.1f} ms")
+    for name, t in results.items():
+        print(f"(c) FCM-CTC ({name}) closed loop / bare: {t / bare:5.2f}x  (target <= 5x)")
 
 
 if __name__ == "__main__":
