@@ -1,0 +1,44 @@
+"""The `twolink validate`, `design` and `models` commands."""
+
+from click.testing import CliRunner
+
+import twolink.validation
+from controllers.fuzzy import load_rule_base
+from twolink.cli import main
+from twolink.params import ArmParams, Flexibility
+from twolink.plant import model_xml
+
+
+def test_validate_prints_the_table_and_exits_0():
+    result = CliRunner().invoke(main, ["validate", "-n", "50", "--seed", "3"])
+    assert result.exit_code == 0, result.output
+    for name in ("mj_fullM", "qfrc_bias", "mj_inverse", "qacc", "energy drift"):
+        assert name in result.output
+    assert "FAIL" not in result.output
+
+
+def test_validate_exits_1_when_a_check_fails(monkeypatch):
+    # An impossible tolerance: the command must report the failure, not hide it.
+    monkeypatch.setattr(twolink.validation, "TOLERANCE", 0.0)
+    result = CliRunner().invoke(main, ["validate", "-n", "20"])
+    assert result.exit_code == 1
+    assert "FAIL" in result.output
+
+
+def test_design_writes_a_rule_base_with_evidence(tmp_path):
+    out = tmp_path / "rules.toml"
+    result = CliRunner().invoke(
+        main, ["design", "--out", str(out), "--figure", str(tmp_path / "phase.png")]
+    )
+    assert result.exit_code == 0, result.output
+    rules = load_rule_base(out)
+    assert 1 <= len(rules) <= 5
+    assert "kept_per_cluster" in rules.metadata["evidence"]
+    assert (tmp_path / "phase.png").stat().st_size > 10_000
+
+
+def test_models_regenerates_the_mjcf_files(tmp_path):
+    result = CliRunner().invoke(main, ["models", "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "twolink.xml").read_text() == model_xml(ArmParams())
+    assert (tmp_path / "twolink_flexible.xml").read_text() == model_xml(ArmParams(), Flexibility())
