@@ -200,5 +200,15 @@ def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: b
         click.echo(f"{len(failed)} run(s) diverged: see the report", err=True)
 
 
+def _add_sweep() -> None:
+    # the sweep command lives with the sweep code (it has many options of its own)
+    from twolink.sweep import sweep_command
+
+    main.add_command(sweep_command)
+
+
+_add_sweep()
+
+
 if __name__ == "__main__":
     main()

@@ -972,7 +972,9 @@ def sweep_figures(results: SweepResults) -> dict[str, Figure]:
                     ax.plot(results.columns[p][ok], results.columns[col][ok], ".", ms=3,
                             color=colours[c], alpha=0.6, label=c)  # fmt: skip
                 x = results.columns[p]
-                if np.all(x > 0) and x.max() > 20 * x.min():  # e.g. a loguniform stiffness
+                # Log axis for values spread over decades (a loguniform stiffness), not for
+                # a uniform draw that merely starts near zero.
+                if x.size and np.all(x > 0) and x.max() > 10 * np.median(x):
                     ax.set_xscale("log")
                 if row == n - 1:
                     ax.set_xlabel(p)

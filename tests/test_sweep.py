@@ -1,0 +1,562 @@
+"""Monte Carlo sweeps: draws, executors, resumption after a kill, bad sweep files, failures."""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from twolink import sweep as sw
+from twolink.config import ConfigError, load_scenario
+from twolink.experiment import measure, run_scenario
+
+REPO = Path(__file__).resolve().parents[1]
+BASE = REPO / "runs" / "paper" / "base.toml"
+
+# A small sweep: short runs, both controllers, every kind of distribution, flexible joints.
+SMALL = f"""
+name = "small"
+scenario = "{BASE}"
+samples = 8
+seed = 7
+chunk_size = 3
+
+[overrides]
+duration = 0.5
+
+[reference.joint1]
+kind = "step"
+final = 1.0
+
+[reference.joint2]
+kind = "step"
+final = 0.5
+
+[parameters]
+m1 = {{ dist = "uniform", low = 0.8, high = 1.2 }}
+m2 = {{ dist = "normal", mean = 1.0, std = 0.1, low = 0.5 }}
+l2 = {{ dist = "loguniform", low = 0.9, high = 1.1 }}
+payload = {{ dist = "choice", values = [0.0, 0.1, 0.2], weights = [1, 1, 2] }}
+k = {{ dist = "grid", values = [50.0, 5000.0] }}
+
+[controllers.ctc]
+kind = "ctc"
+
+[controllers.fcm]
+kind = "fcm_ctc"
+rule_base = "paper"
+"""
+
+
+def write(tmp_path: Path, text: str, name: str = "sweep.toml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def columns_equal(a: sw.SweepResults, b: sw.SweepResults) -> None:
+    assert list(a.columns) == list(b.columns)
+    for name in a.columns:
+        x, y = a.columns[name], b.columns[name]
+        if x.dtype == object:
+            assert list(x) == list(y), name
+        else:
+            assert np.array_equal(x, y, equal_nan=True), name
+
+
+def chunk_bytes(out: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted((out / "chunks").glob("chunk_*.csv"))}
+
+
+def log_chunks(out: Path) -> list[int]:
+    return [int(line.split()[0]) for line in (out / "computed.log").read_text().splitlines()]
+
+
+# ----------------------------------------------------------------------------- draws
+
+
+def test_each_sample_draws_from_its_own_seeded_generator(tmp_path):
+    plan = sw.load_sweep(write(tmp_path, SMALL))
+    assert plan.parameter_names == ("k", "l2", "m1", "m2", "payload")
+    for i in range(plan.samples):
+        values, noise_seed = plan.draw(i)
+        # The same draws, by hand: grid from the index, the rest in name order.
+        rng = np.random.default_rng([7, i])
+        expected = {"k": (50.0, 5000.0)[i % 2]}
+        expected["l2"] = math.exp(rng.uniform(math.log(0.9), math.log(1.1)))
+        expected["m1"] = rng.uniform(0.8, 1.2)
+        while True:
+            m2 = rng.normal(1.0, 0.1)
+            if m2 >= 0.5:
+                break
+        expected["m2"] = m2
+        expected["payload"] = (0.0, 0.1, 0.2)[rng.choice(3, p=[0.25, 0.25, 0.5])]
+        assert values == pytest.approx(expected, rel=0, abs=0)
+        assert noise_seed == int(rng.integers(0, 2**31))
+    # Independent of N and of which samples are computed.
+    bigger = sw.load_sweep(write(tmp_path, SMALL), {"samples": 1000})
+    assert bigger.draw(5) == plan.draw(5)
+    assert bigger.draw(999)[0] != plan.draw(5)[0]
+
+
+def test_grid_is_the_full_product_cycled(tmp_path):
+    text = SMALL.replace(
+        'm1 = { dist = "uniform", low = 0.8, high = 1.2 }',
+        'm1 = { dist = "grid", values = [0.9, 1.0, 1.1] }',
+    )
+    plan = sw.load_sweep(write(tmp_path, text), {"samples": 12})
+    points = [(plan.draw(i)[0]["k"], plan.draw(i)[0]["m1"]) for i in range(12)]
+    product = [(k, m) for m in (0.9, 1.0, 1.1) for k in (50.0, 5000.0)]
+    assert points == product + product
+
+
+def test_a_row_equals_a_direct_run_of_its_drawn_scenario(tmp_path):
+    """The sweep's plumbing (shared plant, reused controllers) changes nothing."""
+    plan = sw.load_sweep(write(tmp_path, SMALL))
+    result = sw.run_chunk(plan, 1)  # samples 3, 4, 5: not the first of its chunk
+    row = dict(zip(plan.columns, result.rows[5], strict=True))  # sample 5, fcm
+    assert (row["sample"], row["controller"]) == (5, "fcm")
+    v = plan.draw(5)[0]
+    s = load_scenario(
+        BASE,
+        {
+            "duration": 0.5,
+            "reference": {
+                "joint1": {"kind": "step", "final": 1.0},
+                "joint2": {"kind": "step", "final": 0.5},
+            },
+            "plant": {
+                "scale": {"m1": v["m1"], "m2": v["m2"], "l2": v["l2"]},
+                "payload": v["payload"],
+                "flexibility": {"k": v["k"]},
+            },
+            "controller": {"kind": "fcm_ctc", "rule_base": "paper"},
+        },
+    )
+    m = measure(s, run_scenario(s))
+    assert row["status"] == m.status == "ok"
+    got, want = [], []
+    for j in (1, 2):
+        got += [row[f"joint{j}_{f}"] for f in (*sw.STEP_FIELDS, "iae", "torque_peak")]
+        want += [getattr(m.step[j - 1], f) for f in sw.STEP_FIELDS]
+        want += [m.errors.iae[j - 1], m.torque.peak[j - 1]]
+    assert np.isfinite(want).sum() >= 10
+    assert np.array_equal(got, want, equal_nan=True)  # bit for bit
+
+
+# ----------------------------------------------------------------------------- executors
+
+
+def test_inprocess_process_and_dask_give_identical_results(tmp_path):
+    pytest.importorskip("dask.distributed")
+    plan = sw.load_sweep(write(tmp_path, SMALL))
+    outs = {}
+    for kind in ("inprocess", "process", "dask"):
+        outcome = sw.run_sweep(plan, tmp_path / kind, executor=kind, workers=2, plots=False)
+        assert outcome.computed and not outcome.reused
+        outs[kind] = outcome
+    assert outs["process"].workers == outs["dask"].workers == 2
+    ref = outs["inprocess"]
+    assert len(ref.results) == plan.samples * 2
+    assert set(ref.results.columns["status"]) == {"ok"}
+    for kind in ("process", "dask"):
+        columns_equal(ref.results, outs[kind].results)
+        assert chunk_bytes(tmp_path / kind) == chunk_bytes(tmp_path / "inprocess")
+        assert (tmp_path / kind / "summary.csv").read_bytes() == (
+            tmp_path / "inprocess" / "summary.csv"
+        ).read_bytes()
+    # The process pool really ran in other processes.
+    pids = {line.split("pid=")[1].split()[0] for line in (tmp_path / "process" / "computed.log")
+            .read_text().splitlines()}  # fmt: skip
+    assert str(os.getpid()) not in pids
+
+
+def test_dask_on_a_running_scheduler(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    plan = sw.load_sweep(write(tmp_path, SMALL), {"samples": 4})
+    ref = sw.run_sweep(plan, tmp_path / "ref", executor="inprocess", plots=False)
+    with distributed.LocalCluster(
+        n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None
+    ) as cluster:
+        outcome = sw.run_sweep(
+            plan, tmp_path / "dask", scheduler=cluster.scheduler_address, plots=False
+        )
+    columns_equal(ref.results, outcome.results)
+
+
+# ----------------------------------------------------------------------------- resumption
+
+# Enough work (~3 s on one core) that the signal lands well before the end even on a
+# loaded machine; chunks of one sample, so there are many of them.
+KILL = f"""
+scenario = "{BASE}"
+samples = 80
+seed = 3
+chunk_size = 1
+
+[overrides]
+duration = 2.0
+
+[reference.joint1]
+kind = "step"
+final = 1.0
+
+[parameters]
+m2 = {{ dist = "uniform", low = 0.5, high = 1.5 }}
+
+[controllers.ctc]
+kind = "ctc"
+
+[controllers.stiff]
+kind = "ctc"
+kp = 25.0
+kd = 10.0
+"""
+
+
+@pytest.fixture(scope="module")
+def uninterrupted(tmp_path_factory) -> Path:
+    """The kill test's sweep, run in one go."""
+    tmp = tmp_path_factory.mktemp("uninterrupted")
+    plan = sw.load_sweep(write(tmp, KILL))
+    sw.run_sweep(plan, tmp / "out", executor="process", workers=2, plots=False)
+    return tmp / "out"
+
+
+def interrupt_once(cmd: list[str], out: Path, signum: int) -> subprocess.CompletedProcess:
+    """Start the sweep, send ``signum`` once 3 chunks exist; return how it ended."""
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 60
+    while len(list((out / "chunks").glob("chunk_*.csv"))) < 3:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "no chunks written"
+        time.sleep(0.01)
+    os.kill(proc.pid, signum)
+    stdout, stderr = proc.communicate(timeout=60)
+    return subprocess.CompletedProcess(cmd, proc.returncode, stdout, stderr)
+
+
+@pytest.mark.parametrize(
+    ("signum", "executor"), [(signal.SIGINT, "inprocess"), (signal.SIGTERM, "process")]
+)
+def test_killed_sweep_resumes_without_recomputing(tmp_path, signum, executor, uninterrupted):
+    path = write(tmp_path, KILL)
+    for attempt in range(3):
+        out = tmp_path / f"out{attempt}"
+        cmd = [sys.executable, "-m", "twolink.sweep", str(path), "--out", str(out)]
+        cmd += ["--executor", executor, "--workers", "2", "--no-plots", "--no-progress"]
+        ended = interrupt_once(cmd, out, signum)
+        # On a starved machine the whole sweep can finish before the signal lands; that
+        # run tests nothing, so start over (the signal handling itself is asserted below).
+        if not (ended.returncode == 0 and "0 reused" in ended.stdout):
+            break
+    assert ended.returncode == 128 + signum, (ended.stdout, ended.stderr)
+    assert "run the same command again" in ended.stderr
+    assert signal.Signals(signum).name in ended.stderr
+
+    plan = sw.load_sweep(path)
+    kept = chunk_bytes(out)
+    kept_ids = sorted(int(name[6:11]) for name in kept)
+    assert 3 <= len(kept) < plan.n_chunks, "the sweep should have been stopped halfway"
+    assert sorted(log_chunks(out)) == kept_ids  # every chunk file is logged, and only those
+    assert not (out / "results.csv").exists() and not (out / "results.parquet").exists()
+    stamps = {p.name: p.stat().st_mtime_ns for p in (out / "chunks").glob("chunk_*.csv")}
+
+    rerun = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert rerun.returncode == 0, rerun.stderr
+    assert f"{plan.n_chunks - len(kept)} chunks computed, {len(kept)} reused" in rerun.stdout
+    log = log_chunks(out)
+    assert sorted(log) == list(range(plan.n_chunks))  # each chunk computed exactly once
+    for name, data in kept.items():
+        assert (out / "chunks" / name).read_bytes() == data
+        assert (out / "chunks" / name).stat().st_mtime_ns == stamps[name]
+
+    columns_equal(sw.load_results(uninterrupted), sw.load_results(out))
+    assert chunk_bytes(out) == chunk_bytes(uninterrupted)
+
+
+def test_rerun_of_a_finished_sweep_computes_nothing_and_more_samples_extend_it(tmp_path):
+    path = write(tmp_path, SMALL)
+    plan = sw.load_sweep(path, {"samples": 4})
+    first = sw.run_sweep(plan, tmp_path / "out", executor="inprocess", plots=False)
+    assert first.computed == (0, 1) and first.reused == ()
+    again = sw.run_sweep(plan, tmp_path / "out", executor="inprocess", plots=False)
+    assert again.computed == () and again.reused == (0, 1)
+    columns_equal(first.results, again.results)
+    # Sample 3 sits alone in chunk 1 at N = 4: that chunk is redone, chunk 0 is kept.
+    more = sw.load_sweep(path, {"samples": 8})
+    grown = sw.run_sweep(more, tmp_path / "out", executor="inprocess", plots=False)
+    assert grown.computed == (1, 2) and grown.reused == (0,)
+    whole = sw.run_sweep(more, tmp_path / "whole", executor="inprocess", plots=False)
+    columns_equal(whole.results, grown.results)
+
+
+def test_a_changed_sweep_file_into_the_same_folder_is_refused(tmp_path):
+    path = write(tmp_path, SMALL.replace("samples = 8", "samples = 3"))
+    out = tmp_path / "out"
+    runner = CliRunner()
+    args = [str(path), "--out", str(out), "--executor", "inprocess", "--no-plots"]
+    assert runner.invoke(sw.sweep_command, args).exit_code == 0
+    path.write_text(path.read_text().replace("seed = 7", "seed = 8"))
+    result = runner.invoke(sw.sweep_command, args)
+    assert result.exit_code == 2
+    assert "holds results of a different sweep" in result.output
+    assert "--fresh" in result.output
+    result = runner.invoke(sw.sweep_command, [*args, "--fresh"])
+    assert result.exit_code == 0, result.output
+    assert "1 chunks computed, 0 reused" in result.output
+
+
+# ----------------------------------------------------------------------------- bad files
+
+BAD_CASES = {
+    "uniform low > high": (
+        'm1 = { dist = "uniform", low = 0.8, high = 1.2 }',
+        'm1 = { dist = "uniform", low = 1.2, high = 0.8 }',
+        "parameters.m1.high: must be >= low (1.2): the distribution is empty",
+    ),
+    "empty choice": (
+        "values = [0.0, 0.1, 0.2], weights = [1, 1, 2]",
+        "values = []",
+        "parameters.payload.values: must be a non-empty list",
+    ),
+    "negative mass bound": (
+        'm1 = { dist = "uniform", low = 0.8, high = 1.2 }',
+        'm1 = { dist = "uniform", low = -0.1, high = 1.2 }',
+        "parameters.m1.low: must be > 0 for parameter 'm1', got -0.1",
+    ),
+    "negative length bound": (
+        'l2 = { dist = "loguniform", low = 0.9, high = 1.1 }',
+        'l2 = { dist = "grid", values = [1.0, -1.0] }',
+        "parameters.l2.values: must be > 0 for parameter 'l2', got -1.0",
+    ),
+    "negative stiffness": (
+        'k = { dist = "grid", values = [50.0, 5000.0] }',
+        'k = { dist = "uniform", low = -5.0, high = 50.0 }',
+        "parameters.k.low: must be > 0 for parameter 'k', got -5.0",
+    ),
+    "normal mass without truncation": (
+        "std = 0.1, low = 0.5 }",
+        "std = 0.1 }",
+        "parameters.m2.low: missing: a normal draw of 'm2' can be negative",
+    ),
+    "unknown executor": ("[controllers.ctc]", '[execution]\nexecutor = "mpi"\n\n[controllers.ctc]',
+                         "execution.executor: must be one of"),  # fmt: skip
+    "unknown top-level key": ("seed = 7", "seed = 7\nsample = 3", "sample: unknown key"),
+    "unknown distribution key": ("low = 0.8, high", "lo = 0.8, high",
+                                 "parameters.m1.lo: unknown key"),  # fmt: skip
+    "unknown parameter": ("[parameters]", "[parameters]\nmass = 1.0",
+                          "parameters.mass: unknown parameter"),  # fmt: skip
+    "unknown distribution": ('dist = "uniform"', 'dist = "beta"',
+                             "parameters.m1.dist: must be one of"),  # fmt: skip
+    "n < 1": ("samples = 8", "samples = 0", "samples: must be an integer >= 1, got 0"),
+    "no controllers": ('[controllers.ctc]\nkind = "ctc"\n\n[controllers.fcm]\nkind = "fcm_ctc"\n'
+                       'rule_base = "paper"', "", "controllers: missing"),  # fmt: skip
+    "bad controller gain": ('kind = "ctc"', 'kind = "ctc"\nkp = -1.0',
+                            "controllers.ctc.kp: must be >= 0.0, got -1"),  # fmt: skip
+    "bad override": ("duration = 0.5", "duration = -0.5", "overrides.duration: must be > 0"),
+    "k and k1 together": ("[parameters]", '[parameters]\nk1 = { dist = "grid", values = [1.0] }',
+                          "parameters.k1: conflicts with 'k'"),  # fmt: skip
+    "missing base scenario": (f'scenario = "{BASE}"', 'scenario = "nope.toml"',
+                              "nope.toml: no such file"),  # fmt: skip
+}  # fmt: skip
+
+
+@pytest.mark.parametrize("case", sorted(BAD_CASES))
+def test_invalid_sweep_files_exit_2_naming_file_and_key(tmp_path, case):
+    old, new, message = BAD_CASES[case]
+    assert old in SMALL
+    path = write(tmp_path, SMALL.replace(old, new, 1))
+    with pytest.raises(ConfigError) as err:
+        sw.load_sweep(path)
+    assert str(err.value).startswith(f"{path}: ")
+    assert message in str(err.value)
+    result = CliRunner().invoke(sw.sweep_command, [str(path), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2
+    assert f"error: {path}: " in result.output and message in result.output
+    assert not (tmp_path / "o").exists()
+
+
+def test_bad_command_line_options_exit_2(tmp_path):
+    path = write(tmp_path, SMALL)
+    runner = CliRunner()
+    for args in (["--executor", "mpi"], ["--workers", "0"], ["--samples", "0"],
+                 ["--executor", "process", "--scheduler", "tcp://127.0.0.1:1"]):  # fmt: skip
+        result = runner.invoke(sw.sweep_command, [str(path), "--out", str(tmp_path / "o"), *args])
+        assert result.exit_code == 2, (args, result.output)
+    assert not (tmp_path / "o").exists()
+
+
+# ----------------------------------------------------------------------------- failures
+
+
+def test_raising_and_diverging_samples_are_recorded_and_the_sweep_goes_on(tmp_path, monkeypatch):
+    text = SMALL.replace(
+        '[controllers.fcm]\nkind = "fcm_ctc"\nrule_base = "paper"',
+        # ZOH at 1 kHz with natural frequency 3000 rad/s: the discrete loop is unstable.
+        '[controllers.wild]\nkind = "ctc"\nkp = 1e7\nkd = 10.0',
+    )
+    plan = sw.load_sweep(write(tmp_path, text))
+    real = sw.build_plant
+
+    def build_plant(s):
+        if abs(s.plant.scale["m1"] - plan.draw(4)[0]["m1"]) < 1e-15:
+            raise RuntimeError("boom on sample 4")
+        return real(s)
+
+    monkeypatch.setattr(sw, "build_plant", build_plant)
+    outcome = sw.run_sweep(plan, tmp_path / "out", executor="inprocess", plots=True)
+    r = outcome.results
+    assert len(r) == 2 * plan.samples and list(r.columns["sample"]) == [
+        i for i in range(plan.samples) for _ in range(2)
+    ]
+    status, message = r.columns["status"], r.columns["message"]
+    failed = r.columns["sample"] == 4
+    assert set(status[failed]) == {"error"}
+    assert all(m == "RuntimeError: boom on sample 4" for m in message[failed])
+    assert np.isnan(r.columns["joint1_overshoot"][failed]).all()
+    wild = r.select("wild") & ~failed
+    assert set(status[wild]) == {"diverged"}
+    assert all("out of bounds" in m for m in message[wild])
+    ctc = r.select("ctc") & ~failed
+    assert set(status[ctc]) == {"ok"} and set(message[ctc]) == {""}
+    assert outcome.summary["ctc"]["success_rate"] == (plan.samples - 1) / plan.samples
+    assert outcome.summary["wild"]["diverged"] == plan.samples - 1
+    assert outcome.summary["wild"]["error"] == 1
+    assert (tmp_path / "out" / "plots" / "metrics.png").stat().st_size > 0
+
+
+# ----------------------------------------------------------------------------- outputs
+
+
+def test_summary_matches_the_table_it_summarises(tmp_path):
+    plan = sw.load_sweep(write(tmp_path, SMALL))
+    outcome = sw.run_sweep(plan, tmp_path / "out", executor="inprocess", plots=False)
+    with open(tmp_path / "out" / "summary.csv", newline="") as fh:
+        summary = {row["controller"]: row for row in csv.DictReader(fh)}
+    for c in ("ctc", "fcm"):
+        ok = outcome.results.select(c, ok_only=True)
+        for j in (1, 2):
+            x = outcome.results.columns[f"joint{j}_overshoot"][ok]
+            assert float(summary[c][f"joint{j}_overshoot_mean"]) == pytest.approx(x.mean())
+            assert float(summary[c][f"joint{j}_overshoot_p95"]) == pytest.approx(
+                np.percentile(x, 95)
+            )
+        assert float(summary[c]["success_rate"]) == 1.0
+
+
+def test_table_is_csv_without_pyarrow_and_reads_back_the_same(tmp_path, monkeypatch):
+    plan = sw.load_sweep(write(tmp_path, SMALL), {"samples": 3})
+    with_arrow = sw.run_sweep(plan, tmp_path / "a", executor="inprocess", plots=False)
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_pyarrow(name, *args, **kwargs):
+        if name.startswith("pyarrow"):
+            raise ImportError("no pyarrow here")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_pyarrow)
+    without = sw.run_sweep(plan, tmp_path / "b", executor="inprocess", plots=False)
+    assert without.table.name == "results.csv"
+    columns_equal(without.results, sw.load_results(tmp_path / "b"))
+    monkeypatch.undo()
+    try:
+        import pyarrow  # noqa: F401
+    except ImportError:
+        assert with_arrow.table.name == "results.csv"
+    else:
+        assert with_arrow.table.name == "results.parquet"
+    columns_equal(with_arrow.results, sw.load_results(tmp_path / "a"))
+    columns_equal(without.results, with_arrow.results)
+
+
+def test_shipped_sweep_files_load_and_run(tmp_path):
+    for name in ("robustness", "flexible_stiffness"):
+        plan = sw.load_sweep(REPO / "runs" / "sweeps" / f"{name}.toml")
+        assert plan.controllers == (
+            ("ctc", {"kind": "ctc"}),
+            ("fcm_ctc", {"kind": "fcm_ctc", "rule_base": "paper"}),
+        )
+        assert plan.joints == (1, 2)
+        short = sw.load_sweep(
+            REPO / "runs" / "sweeps" / f"{name}.toml",
+            {"samples": 1, "overrides": {"duration": 0.3}},
+        )
+        outcome = sw.run_sweep(short, tmp_path / name, executor="inprocess", plots=False)
+        assert set(outcome.results.columns["status"]) == {"ok"}
+    flex = sw.load_sweep(REPO / "runs" / "sweeps" / "flexible_stiffness.toml")
+    stiffness = [flex.draw(i)[0]["k"] for i in range(flex.samples)]
+    assert stiffness == sorted(stiffness, reverse=True) and stiffness[0] / stiffness[-1] > 1e4
+
+
+def fake_results(k: list[float], ess: list[float], status: list[str]) -> sw.SweepResults:
+    n = len(k)
+    cols = {
+        "sample": np.arange(n),
+        "controller": np.array(["a", "b"] * (n // 2), dtype=object),
+        "k": np.array(k, dtype=float),
+        "status": np.array(status, dtype=object),
+    }
+    for f in sw.METRIC_COLUMNS:
+        cols[f] = np.full(n, 0.5)
+    cols["joint1_steady_state_error"] = np.array(ess, dtype=float)
+    return sw.SweepResults(cols, ("a", "b"), ("k",), (1,))
+
+
+def test_flexible_study_table_bins_by_stiffness():
+    k = [10.0, 10.0, 10.0, 10.0, 1.0, 1.0]
+    ess = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
+    status = ["ok", "ok", "ok", "diverged", "ok", "ok"]
+    table = sw.flexible_study_table(fake_results(k, ess, status)).splitlines()
+    assert table[0].startswith("| stiffness [N·m/rad] | controller | runs | ok | θ1 median ess")
+    rows = [[c.strip() for c in line.strip("|").split("|")] for line in table[2:]]
+    # stiff to soft; a: ess 0.1, 0.3 at k=10 -> median 0.2; b: 0.2 ok, 0.4 diverged
+    assert [r[:5] for r in rows] == [
+        ["10", "a", "2", "100 %", "0.2"],
+        ["10", "b", "2", "50 %", "0.2"],
+        ["1", "a", "1", "100 %", "0.5"],
+        ["1", "b", "1", "100 %", "0.6"],
+    ]
+    many = fake_results(list(np.geomspace(1, 1000, 40)), [0.1] * 40, ["ok"] * 40)
+    binned = sw.flexible_study_table(many, bins=3).splitlines()[2:]
+    assert len(binned) == 3 * 2 and binned[0].startswith("| 100 – 1000 | a | 7 |")
+
+
+def test_flexible_study_figure_plots_every_controller():
+    fig = sw.flexible_study_figure(
+        fake_results([10.0, 10.0, 1.0, 1.0], [0.1, 0.2, 0.3, 0.4], ["ok"] * 4)
+    )
+    visible = [ax for ax in fig.axes if ax.get_visible()]
+    assert len(visible) == 1 + 3  # success rate, ess, Mp, Ts of joint 1
+    assert all(ax.get_xscale() == "log" for ax in visible)
+    assert [t.get_text() for t in visible[0].get_legend().get_texts()] == ["a", "b"]
+
+
+def test_dask_executor_without_dask_says_how_to_get_it(tmp_path, monkeypatch):
+    import builtins
+
+    real_import = builtins.__import__
+
+    def no_dask(name, *args, **kwargs):
+        if name == "dask" or name.startswith("dask."):
+            raise ImportError("No module named 'dask'")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", no_dask)
+    path = write(tmp_path, SMALL.replace("samples = 8", "samples = 2"))
+    result = CliRunner().invoke(
+        sw.sweep_command, [str(path), "--out", str(tmp_path / "o"), "--executor", "dask"]
+    )
+    assert result.exit_code == 1
+    assert "pip install 'twolink[dask]'" in result.output
