@@ -38,6 +38,9 @@ def test_every_paper_table_is_in_the_report_beside_the_papers_values(reproductio
         len(manifest.experiments) * len(manifest.controllers) * len(manifest.variants)
     )
     assert (reproduction.out / "figures" / "design_phase_plane.png").stat().st_size > 10_000
+    # beyond the paper: the flexible-joint stiffness study, table and figure
+    assert "## Beyond the paper: flexible joints from stiff to soft" in report
+    assert (reproduction.out / "figures" / "flexible_study.png").is_file()
 
 
 def test_report_metrics_equal_step_metrics_of_the_saved_trajectories(reproduction):

@@ -168,8 +168,12 @@ def read_toml(path: str | Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
     return merge(read_toml(path.parent / base, (*_seen, path.resolve())), data)
 
 
-class _Table:
-    """Reads one TOML table, checking types; ``done()`` rejects keys nobody read."""
+class TomlTable:
+    """Reads one TOML table, checking types; ``done()`` rejects keys nobody read.
+
+    Every error names the file and the dotted key. Shared by all the project's TOML
+    readers (scenarios, designs, reproduction manifests, sweeps).
+    """
 
     def __init__(self, data: Any, where: str, file: str):
         self.where, self.file = where, file
@@ -230,9 +234,9 @@ class _Table:
             self.fail(key, f"must be an integer >= 0, got {value!r}")
         return value
 
-    def table(self, key: str) -> _Table:
+    def table(self, key: str) -> TomlTable:
         where = f"{self.where}.{key}" if self.where else key
-        return _Table(self.raw(key, {}), where, self.file)
+        return TomlTable(self.raw(key, {}), where, self.file)
 
     def done(self) -> None:
         unknown = sorted(set(self.data) - self.read)
@@ -240,7 +244,7 @@ class _Table:
             self.fail(unknown[0], f"unknown key (known here: {sorted(self.read)})")
 
 
-def _arm(t: _Table) -> ArmParams:
+def _arm(t: TomlTable) -> ArmParams:
     d = ArmParams()
     arm = ArmParams(
         m1=t.number("m1", d.m1, positive=True),
@@ -253,7 +257,7 @@ def _arm(t: _Table) -> ArmParams:
     return arm
 
 
-def _plant(t: _Table) -> PlantConfig:
+def _plant(t: TomlTable) -> PlantConfig:
     scale_t = t.table("scale")
     scale = {}
     for key in list(scale_t.data):
@@ -280,7 +284,7 @@ def _plant(t: _Table) -> PlantConfig:
     return plant
 
 
-def _controller(t: _Table) -> ControllerConfig:
+def _controller(t: TomlTable) -> ControllerConfig:
     d = ControllerConfig()
     f = t.table("fuzzy")
     fd = FuzzyConfig()
@@ -303,7 +307,7 @@ def _controller(t: _Table) -> ControllerConfig:
     return ctrl
 
 
-def _reference(t: _Table) -> ArmReference:
+def _reference(t: TomlTable) -> ArmReference:
     joints = []
     for name in ("joint1", "joint2"):
         j = t.table(name)
@@ -321,7 +325,7 @@ def _reference(t: _Table) -> ArmReference:
 
 def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
     """Validate plain data (as read from TOML) into a :class:`Scenario`."""
-    top = _Table(data, "", source)
+    top = TomlTable(data, "", source)
     if "reference" not in data:
         top.fail("reference", "missing: a scenario needs [reference.joint1] and .joint2")
     initial = top.table("initial")

@@ -157,8 +157,8 @@ def commentary(rows, manifest: Manifest, variant: str = "rigid") -> list[str]:
         'mislabelled, so we print "—" for the paper\'s ess there.',
         "- **Flexible joints**: the paper's model is rigid despite its title. On our "
         "Spong-model arm (K = 500 N·m/rad) both controllers, still using the rigid model, "
-        "behave much as on the rigid arm; the stiffness sweep (docs/sweeps.md) shows "
-        "where they degrade.",
+        "behave much as on the rigid arm; the stiffness sweep above shows where they "
+        "degrade as the joints soften.",
     ]
 
 

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from twolink.config import ConfigError, _Table, load_scenario, merge, read_toml
+from twolink.config import ConfigError, TomlTable, load_scenario, merge, read_toml
 from twolink.experiment import build_controller, measure, run_scenario, write_run
 from twolink.sim import Trajectory
 
@@ -64,6 +64,7 @@ class Variant:
 class Manifest:
     path: Path
     design: Path
+    flexible_study: Path | None
     controllers: dict[str, dict[str, Any]]
     variants: tuple[Variant, ...]
     experiments: tuple[Experiment, ...]
@@ -72,8 +73,12 @@ class Manifest:
 def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     """Read and validate a reproduction manifest; errors name the file and the key."""
     path = Path(path)
-    top = _Table(read_toml(path), "", str(path))
+    top = TomlTable(read_toml(path), "", str(path))
     design = path.parent / top.string("design", "design.toml")
+    study = top.raw("flexible_study")
+    if study is not None and not isinstance(study, str):
+        top.fail("flexible_study", f"must be a sweep file path, got {study!r}")
+    flexible_study = path.parent / study if study else None
     controllers = top.raw("controllers", {})
     if not isinstance(controllers, dict) or not controllers:
         top.fail("controllers", "needs at least one [controllers.NAME] table")
@@ -82,7 +87,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
             top.fail(f"controllers.{name}", "must be a table of [controller] keys")
     variants = []
     for name, body in top.raw("variants", {"rigid": {}}).items():
-        v = _Table(body, f"variants.{name}", str(path))
+        v = TomlTable(body, f"variants.{name}", str(path))
         overrides = v.raw("overrides", {})
         if not isinstance(overrides, dict):
             v.fail("overrides", "must be a table of scenario keys")
@@ -93,7 +98,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     if not isinstance(raw, list) or not raw:
         top.fail("experiment", "needs at least one [[experiment]]")
     for i, body in enumerate(raw):
-        e = _Table(body, f"experiment[{i}]", str(path))
+        e = TomlTable(body, f"experiment[{i}]", str(path))
         table = e.raw("table")
         figure = e.raw("figure")
         if not isinstance(table, int | None) or not isinstance(figure, int | None):
@@ -118,7 +123,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         )
         e.done()
     top.done()
-    return Manifest(path, design, controllers, tuple(variants), tuple(experiments))
+    return Manifest(path, design, flexible_study, controllers, tuple(variants), tuple(experiments))
 
 
 @dataclass(frozen=True)
@@ -248,6 +253,31 @@ SETTINGS = {
 }
 
 
+def flexible_study(sweep_file: Path, out: Path, workers: int | None) -> list[str]:
+    """Run the stiffness sweep into ``out/flexible_study``; its report section."""
+    from twolink import plots, sweep
+
+    plan = sweep.load_sweep(sweep_file)
+    outcome = sweep.run_sweep(
+        plan, out / "flexible_study", workers=workers, plots=False, fresh=False
+    )
+    plots.save_figure(
+        sweep.flexible_study_figure(outcome.results), out / "figures/flexible_study.png"
+    )
+    return [
+        "",
+        "## Beyond the paper: flexible joints from stiff to soft",
+        "",
+        f"CTC and FCM-CTC, both using the rigid model, on Spong's flexible-joint arm with "
+        f"the joint stiffness K swept from stiff to soft ({sweep_file.name}; θ1 and θ2 "
+        "step together). Medians per stiffness:",
+        "",
+        sweep.flexible_study_table(outcome.results),
+        "",
+        "![flexible study](figures/flexible_study.png)",
+    ]
+
+
 @dataclass(frozen=True)
 class Reproduction:
     """What a reproduction produced: where, the metric rows, and whether it re-designed."""
@@ -333,6 +363,8 @@ def reproduce(
         "",
         "![control surfaces](figures/control_surfaces.png)",
     ]
+    if manifest.flexible_study is not None:
+        design_section += flexible_study(manifest.flexible_study, out, workers)
     atomic_write_text(
         out / "report.md", report.render(rows, manifest, SETTINGS, figures, design_section)
     )

@@ -71,7 +71,7 @@ from typing import TYPE_CHECKING, Any
 import click
 import numpy as np
 
-from twolink.config import ConfigError, _Table, merge, read_toml, scenario_from_dict
+from twolink.config import ConfigError, TomlTable, merge, read_toml, scenario_from_dict
 from twolink.executors import (
     EXECUTORS,
     ExecutorError,
@@ -329,7 +329,7 @@ def _strip_source(exc: ConfigError, source: str) -> str:
     return message[len(source) + 2 :] if message.startswith(f"{source}: ") else message
 
 
-def _check_value(t: _Table, key: str, value: Any, domain: str) -> float:
+def _check_value(t: TomlTable, key: str, value: Any, domain: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         t.fail(key, f"must be a number, got {value!r}")
     if not math.isfinite(value):
@@ -341,7 +341,7 @@ def _check_value(t: _Table, key: str, value: Any, domain: str) -> float:
     return float(value)
 
 
-def _number_list(t: _Table, key: str, domain: str) -> tuple[float, ...]:
+def _number_list(t: TomlTable, key: str, domain: str) -> tuple[float, ...]:
     values = t.raw(key)
     if values is None:
         t.fail(key, "missing: a list of numbers")
@@ -351,7 +351,7 @@ def _number_list(t: _Table, key: str, domain: str) -> tuple[float, ...]:
 
 
 def _parameter(name: str, data: Any, file: str) -> Parameter:
-    t = _Table(data, f"parameters.{name}", file)
+    t = TomlTable(data, f"parameters.{name}", file)
     domain = PARAMETERS[name]
     dist = t.raw("dist")
     if dist is None:
@@ -456,7 +456,7 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         raise ConfigError(f"{file}: not valid TOML: {exc}") from None
     if overrides:
         data = merge(data, dict(overrides))
-    top = _Table(data, "", file)
+    top = TomlTable(data, "", file)
     name = top.string("name", path.stem)
     if not NAME_RE.match(name):
         top.fail("name", f"must be letters, digits, '_', '-', '.' (a folder name), got {name!r}")
