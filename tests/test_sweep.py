@@ -486,7 +486,7 @@ def test_shipped_sweep_files_load_and_run(tmp_path):
         plan = sw.load_sweep(REPO / "runs" / "sweeps" / f"{name}.toml")
         assert plan.controllers == (
             ("ctc", {"kind": "ctc"}),
-            ("fcm_ctc", {"kind": "fcm_ctc", "rule_base": "paper"}),
+            ("fcm_ctc", {"kind": "fcm_ctc", "rule_base": "designed"}),
         )
         assert plan.joints == (1, 2)
         short = sw.load_sweep(
