@@ -76,6 +76,17 @@ def test_checked_in_mjcf_has_the_same_dynamics_as_the_spec():
     np.testing.assert_allclose(from_file.bias(), from_spec.bias(), rtol=1e-6)
 
 
+def test_analytic_energy_equals_mujocos():
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        p = ArmParams(*rng.uniform(0.2, 3.0, 4), g=rng.uniform(0, 20))
+        q, qd = rng.uniform(-np.pi, np.pi, 2), rng.uniform(-5, 5, 2)
+        plant = Plant.build(p)
+        plant.set_state(q, qd)
+        kinetic, potential = dynamics.energy(p, q, qd)
+        np.testing.assert_allclose(plant.energy(), (kinetic, potential), rtol=1e-12, atol=1e-12)
+
+
 def test_payload_adds_a_point_mass_at_the_tip():
     p = ArmParams()
     q = np.array([0.2, 0.3])

@@ -265,7 +265,11 @@ class Plant:
         return self.data.qacc.copy()
 
     def energy(self) -> tuple[float, float]:
-        """MuJoCo's kinetic and potential energy (needs the energy flag, set here)."""
-        self.model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_ENERGY
-        mujoco.mj_forward(self.model, self.data)
+        """MuJoCo's kinetic and potential energy at the current state [J].
+
+        Computed on demand (``mj_energyPos``/``mj_energyVel``) rather than by enabling
+        the energy flag, which would cost every ``mj_step``.
+        """
+        mujoco.mj_energyPos(self.model, self.data)
+        mujoco.mj_energyVel(self.model, self.data)
         return float(self.data.energy[1]), float(self.data.energy[0])

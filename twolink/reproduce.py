@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -213,23 +213,22 @@ def run_all(
     trace: bool = True,
     progress: Callable[[], None] | None = None,
 ) -> list[dict[str, Any]]:
-    """Run every spec (in a process pool when ``workers`` > 1); rows in spec order."""
+    """Run every spec on the project's executors (a process pool unless ``workers`` is 1).
+
+    Returns the metric rows in spec order; ``progress`` is called as each run finishes.
+    """
+    from twolink.executors import open_executor
+
     workers = workers or min(len(specs), os.cpu_count() or 1)
-    if workers <= 1:
-        rows = []
-        for spec in specs:
-            rows.append(_execute(spec, out, trace))
+    kind = "inprocess" if workers <= 1 else "process"
+    with open_executor(kind, None if kind == "inprocess" else workers) as pool:
+        futures = {pool.submit(_execute, spec, out, trace): i for i, spec in enumerate(specs)}
+        rows: list[dict[str, Any]] = [{}] * len(specs)
+        for fut in as_completed(futures):
+            rows[futures[fut]] = fut.result()
             if progress:
                 progress()
-        return rows
-    with ProcessPoolExecutor(workers) as pool:
-        futures = [pool.submit(_execute, spec, out, trace) for spec in specs]
-        rows = []
-        for fut in futures:
-            rows.append(fut.result())
-            if progress:
-                progress()
-        return rows
+    return rows
 
 
 def load_trajectory(out: Path, spec: RunSpec) -> Trajectory:
