@@ -206,3 +206,11 @@ def test_build_controller_gives_ctc_with_the_nominal_model():
     c = build_controller(s)
     assert isinstance(c, ComputedTorque) and c.model == s.arm
     assert s.plant_params.m1 == 2 * s.arm.m1
+
+
+def test_every_shipped_scenario_file_loads_and_builds():
+    special = {"reproduce.toml", "design.toml"}
+    files = [p for p in RUNS.rglob("*.toml") if p.name not in special and "sweeps" not in p.parts]
+    assert len(files) >= 11
+    for path in files:
+        build_controller(load_scenario(path))
