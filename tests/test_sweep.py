@@ -182,6 +182,7 @@ def test_inprocess_process_and_dask_give_identical_results(tmp_path):
 
 def test_dask_on_a_running_scheduler(tmp_path):
     from dask import distributed
+
     plan = sw.load_sweep(write(tmp_path, SMALL), {"samples": 4})
     ref = sw.run_sweep(plan, tmp_path / "ref", executor="inprocess", plots=False)
     with distributed.LocalCluster(
