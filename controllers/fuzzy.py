@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 import tomllib
 import types
 from bisect import bisect_left, bisect_right
@@ -45,7 +44,7 @@ from typing import Any, Literal, NamedTuple
 import numpy as np
 import skfuzzy
 
-from twolink.io import atomic_write_text
+from twolink.io import atomic_write_text, toml_key, toml_string, toml_table, toml_value
 
 __all__ = [
     "LABELS_7",
@@ -421,66 +420,6 @@ def load_rule_base(path: str | os.PathLike[str]) -> RuleBase:
     return RuleBase(tuple(rules), _freeze(metadata), mirror)
 
 
-_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
-
-
-def _toml_key(key: Any) -> str:
-    if not isinstance(key, str):
-        raise TypeError(f"TOML keys must be strings, got {key!r}")
-    return key if _BARE_KEY.match(key) else _toml_string(key)
-
-
-def _toml_string(text: str) -> str:
-    """A TOML basic string: escape quote, backslash and control characters; UTF-8 otherwise."""
-    out = []
-    for ch in text:
-        if ch in ('"', "\\"):
-            out.append("\\" + ch)
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            out.append(f"\\u{ord(ch):04X}")
-        else:
-            out.append(ch)
-    return '"' + "".join(out) + '"'
-
-
-def _toml_value(value: Any) -> str:
-    if isinstance(value, np.generic):
-        value = value.item()
-    elif isinstance(value, np.ndarray):
-        value = value.tolist()
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return _toml_string(value)
-    if isinstance(value, Mapping):
-        items = ", ".join(f"{_toml_key(k)} = {_toml_value(v)}" for k, v in value.items())
-        return "{" + items + "}" if items else "{}"
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    raise TypeError(f"cannot write {type(value).__name__} value {value!r} to TOML")
-
-
-def _toml_table(lines: list[str], name: str, table: Mapping[str, Any]) -> None:
-    lines.append(f"[{name}]")
-    subtables = []
-    for key, value in table.items():
-        if isinstance(value, Mapping):
-            subtables.append((key, value))
-        else:
-            lines.append(f"{_toml_key(key)} = {_toml_value(value)}")
-    lines.append("")
-    for key, value in subtables:
-        _toml_table(lines, f"{name}.{_toml_key(key)}", value)
-
-
 def save_rule_base(
     path: str | os.PathLike[str],
     rules: RuleBase | Iterable[Rule | Sequence[str]],
@@ -526,7 +465,7 @@ def save_rule_base(
         raise ValueError("a rule base needs at least one rule")
     lines = [
         "# Fuzzy rule base for controllers.fuzzy (read with controllers.fuzzy.load_rule_base).",
-        f"mirror_inputs = {_toml_value(mirror_inputs)}",
+        f"mirror_inputs = {toml_value(mirror_inputs)}",
         "",
     ]
     for name, table in metadata.items():
@@ -534,14 +473,14 @@ def save_rule_base(
             raise ValueError(f"metadata table name {name!r} is reserved")
         if not isinstance(table, Mapping):
             raise TypeError(f"metadata[{name!r}] must be a mapping (a TOML table)")
-        _toml_table(lines, _toml_key(name), table)
+        toml_table(lines, toml_key(name), table)
     for r in rule_list:
         e, de = (_mirror(r.e, "rule e"), _mirror(r.de, "rule de")) if mirror_inputs else (r.e, r.de)
         lines += [
             "[[rule]]",
-            f"e = {_toml_string(e)}",
-            f"de = {_toml_string(de)}",
-            f"u = {_toml_string(r.u)}",
+            f"e = {toml_string(e)}",
+            f"de = {toml_string(de)}",
+            f"u = {toml_string(r.u)}",
             "",
         ]
     atomic_write_text(path, "\n".join(lines))

@@ -15,7 +15,7 @@ import numpy as np
 from controllers.base import Controller
 from controllers.ctc import ComputedTorque
 from twolink.config import Scenario
-from twolink.io import atomic_write_json, atomic_write_text
+from twolink.io import atomic_write_json, atomic_write_text, to_toml
 from twolink.metrics import error_measures, metrics_dict, step_metrics, torque_measures
 from twolink.plant import Plant
 from twolink.sim import Trajectory, simulate
@@ -124,35 +124,6 @@ def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
         status=traj.status,
         message=traj.message,
     )
-
-
-def to_toml(data: dict[str, Any]) -> str:
-    """Plain data as TOML (the subset configs use: tables, numbers, strings, lists)."""
-
-    def value(v: Any) -> str:
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, float):
-            return {float("inf"): "inf", float("-inf"): "-inf"}.get(v, repr(v))
-        if isinstance(v, int):
-            return str(v)
-        if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-        if isinstance(v, list | tuple):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        if isinstance(v, dict):
-            return "{ " + ", ".join(f"{k} = {value(x)}" for k, x in v.items()) + " }"
-        raise TypeError(f"cannot write {v!r} as TOML")
-
-    def table(d: dict[str, Any], prefix: str) -> list[str]:
-        nested = {k: v for k, v in d.items() if isinstance(v, dict) and v}
-        lines = [f"[{prefix}]"] if prefix else []
-        lines += [f"{k} = {value(v)}" for k, v in d.items() if k not in nested]
-        for k, v in nested.items():
-            lines += ["", *table(v, f"{prefix}.{k}" if prefix else k)]
-        return lines
-
-    return "\n".join(table(data, "")) + "\n"
 
 
 def write_run(

@@ -1,17 +1,23 @@
-"""Atomic file output: write to a temporary file beside the target, then rename.
+"""File output: atomic writes (temporary file beside the target, then rename) and TOML.
 
-A crash or Ctrl-C mid-write leaves either the old file or none, never half a file.
+A crash or Ctrl-C mid-write leaves either the old file or none, never half a file. The
+standard library reads TOML (tomllib) but does not write it; the small writer here is
+shared by the resolved run configs and the rule-base files.
 """
 
 from __future__ import annotations
 
 import json
+import math
 import os
+import re
 import tempfile
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Any
+
+import numpy as np
 
 
 @contextmanager
@@ -49,11 +55,6 @@ def atomic_write_text(path: str | os.PathLike, text: str) -> None:
     _write_with(path, "w", lambda fh: fh.write(text))
 
 
-def atomic_write_bytes(path: str | os.PathLike, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically."""
-    _write_with(path, "wb", lambda fh: fh.write(data))
-
-
 def atomic_write_json(path: str | os.PathLike, obj: Any) -> None:
     """Write ``obj`` as indented JSON (NaN written as null) atomically."""
     atomic_write_text(path, json.dumps(_nan_to_none(obj), indent=2, sort_keys=False) + "\n")
@@ -68,3 +69,78 @@ def _nan_to_none(obj: Any) -> Any:
     if isinstance(obj, list | tuple):
         return [_nan_to_none(v) for v in obj]
     return obj
+
+
+_BARE_KEY = re.compile(r"^[A-Za-z0-9_-]+$")
+
+
+def toml_key(key: Any) -> str:
+    """A TOML key: bare when it can be, quoted otherwise."""
+    if not isinstance(key, str):
+        raise TypeError(f"TOML keys must be strings, got {key!r}")
+    return key if _BARE_KEY.match(key) else toml_string(key)
+
+
+def toml_string(text: str) -> str:
+    """A TOML basic string: escape quote, backslash and control characters; UTF-8 otherwise."""
+    out = []
+    for ch in text:
+        if ch in ('"', "\\"):
+            out.append("\\" + ch)
+        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
+            out.append(f"\\u{ord(ch):04X}")
+        else:
+            out.append(ch)
+    return '"' + "".join(out) + '"'
+
+
+def toml_value(value: Any) -> str:
+    """A TOML value (numbers, strings, booleans, lists, inline tables; numpy values too)."""
+    if isinstance(value, np.generic):
+        value = value.item()
+    elif isinstance(value, np.ndarray):
+        value = value.tolist()
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return toml_string(value)
+    if isinstance(value, Mapping):
+        items = ", ".join(f"{toml_key(k)} = {toml_value(v)}" for k, v in value.items())
+        return "{" + items + "}" if items else "{}"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    raise TypeError(f"cannot write {type(value).__name__} value {value!r} to TOML")
+
+
+def toml_table(lines: list[str], name: str, table: Mapping[str, Any]) -> None:
+    """Append ``[name]`` with its values, then its sub-tables, to ``lines``."""
+    lines.append(f"[{name}]")
+    subtables = []
+    for key, value in table.items():
+        if isinstance(value, Mapping):
+            subtables.append((key, value))
+        else:
+            lines.append(f"{toml_key(key)} = {toml_value(value)}")
+    lines.append("")
+    for key, value in subtables:
+        toml_table(lines, f"{name}.{toml_key(key)}", value)
+
+
+def to_toml(data: Mapping[str, Any]) -> str:
+    """A TOML document: top-level values first, then one ``[table]`` per nested mapping."""
+    lines = [
+        f"{toml_key(k)} = {toml_value(v)}" for k, v in data.items() if not isinstance(v, Mapping)
+    ]
+    lines.append("")
+    for key, value in data.items():
+        if isinstance(value, Mapping):
+            toml_table(lines, toml_key(key), value)
+    return "\n".join(lines)

@@ -248,10 +248,6 @@ class Plant:
         """Coriolis, centrifugal and gravity forces (``qfrc_bias``): H + G."""
         return self.data.qfrc_bias.copy()
 
-    def passive(self) -> np.ndarray:
-        """Spring and damper forces (``qfrc_passive``); zero on the rigid arm."""
-        return self.data.qfrc_passive.copy()
-
     def inverse(self, qacc) -> np.ndarray:
         """Joint forces that produce ``qacc`` at the current state (``mj_inverse``)."""
         self.data.qacc[:] = qacc

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from twolink.config import ConfigError, TomlTable, load_scenario, merge, read_toml
+from twolink.config import TomlTable, load_scenario, merge, read_toml
 from twolink.experiment import build_controller, measure, run_scenario, write_run
 from twolink.sim import Trajectory
 
@@ -386,15 +386,3 @@ def reproduce(
             every=COMBINED_TRACE_EVERY,
         )
     return Reproduction(out, rows, designed, rule_base)
-
-
-__all__ = [
-    "ConfigError",
-    "DEFAULT_MANIFEST",
-    "Experiment",
-    "Manifest",
-    "RunSpec",
-    "load_manifest",
-    "plan",
-    "run_all",
-]
