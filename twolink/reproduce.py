@@ -222,12 +222,16 @@ def run_all(
     workers = workers or min(len(specs), os.cpu_count() or 1)
     kind = "inprocess" if workers <= 1 else "process"
     with open_executor(kind, None if kind == "inprocess" else workers) as pool:
-        futures = {pool.submit(_execute, spec, out, trace): i for i, spec in enumerate(specs)}
-        rows: list[dict[str, Any]] = [{}] * len(specs)
-        for fut in as_completed(futures):
-            rows[futures[fut]] = fut.result()
-            if progress:
-                progress()
+        try:
+            futures = {pool.submit(_execute, spec, out, trace): i for i, spec in enumerate(specs)}
+            rows: list[dict[str, Any]] = [{}] * len(specs)
+            for fut in as_completed(futures):
+                rows[futures[fut]] = fut.result()
+                if progress:
+                    progress()
+        except KeyboardInterrupt:
+            pool.abort()  # stop now, not after the queued runs; written files are whole
+            raise
     return rows
 
 
