@@ -104,7 +104,9 @@ def _pairs(rows, manifest: Manifest, variant: str, key: str, a: str = "FCM", b: 
     ]
 
 
-def commentary(rows, manifest: Manifest, variant: str = "rigid") -> list[str]:
+def commentary(
+    rows, manifest: Manifest, settings: dict[str, Any], variant: str = "rigid"
+) -> list[str]:
     """What holds of the paper's claims in our runs, and why the numbers differ."""
     mp = _pairs(rows, manifest, variant, "Mp")
     tr = [
@@ -126,8 +128,8 @@ def commentary(rows, manifest: Manifest, variant: str = "rigid") -> list[str]:
         "",
         f"- **Overshoot ({mp_verdict}).** FCM's overshoot is lower than CTC's in {lower_mp} of "
         f"{len(mp)} experiments on the {variant} arm. The rules our design keeps along the "
-        "approach to the target output NS (brake), which adds damping, as the paper's "
-        "FCM rows show (Mp 0 in its Table 2).",
+        "approach to the target (the design section above) mostly brake, adding damping, "
+        "as the paper's FCM rows show (Mp 0 in its Table 2).",
         f"- **Speed ({speed_verdict}; the paper's Table 2 has FCM slower too).** FCM "
         f"rises more slowly than CTC in {slower} of {len(tr)} experiments where both rise "
         "times exist. The same braking rules slow the approach. The paper's own Table 2 "
@@ -138,14 +140,14 @@ def commentary(rows, manifest: Manifest, variant: str = "rigid") -> list[str]:
         '0.21-0.22 rad "without uncertainties" implies a model mismatch it does not '
         "describe. FCM cannot improve on a zero error; its small residual ess is the "
         "slower approach still converging at t = 10 s.",
-        "- **Steady-state error with uncertainty.** With the plant 20 % heavier and under "
-        "10 % more gravity than the model, CTC's error settles where M̂ Kp e balances the "
-        "gravity mismatch (tested against that prediction). Here: "
+        "- **Steady-state error with uncertainty.** With "
+        + settings.get("uncertainty", "a plant that differs from the model")
+        + ", CTC's error settles where M̂ Kp e balances the gravity mismatch (tested "
+        "against that prediction). Here: "
         + "; ".join(f"{e.key} CTC {fmt(b)} vs FCM {fmt(a)} rad" for e, a, b in perturbed)
-        + ". The fuzzy term is PD-like (no integral action) and the designed rule base "
-        "keeps Z,Z→Z near the origin, so it reduces ess only by the extra gain of rules "
-        "that still fire at the final error; the paper's much larger reductions are not "
-        "reproduced.",
+        + ". The fuzzy term is PD-like (no integral action), so it reduces ess only by the "
+        "extra gain of rules that still fire at the final error; the paper's much larger "
+        "reductions are not reproduced.",
         "- **The paper's uncertainty tables equal its nominal ones** (Tables 3 = 4, 5 = 6, "
         "7 = 8, digit for digit), so they carry no evidence about robustness. Ours differ. "
         "For distributions rather than one perturbation, see `twolink sweep`.",
@@ -156,7 +158,8 @@ def commentary(rows, manifest: Manifest, variant: str = "rigid") -> list[str]:
         "undershoot, or a sign convention it does not state) and their ess column is "
         'mislabelled, so we print "—" for the paper\'s ess there.',
         "- **Flexible joints**: the paper's model is rigid despite its title. On our "
-        "Spong-model arm (K = 500 N·m/rad) both controllers, still using the rigid model, "
+        "Spong-model arm (" + settings.get("flexible joints", "") + ") both controllers, "
+        "still using the rigid model, "
         "behave much as on the rigid arm; the stiffness sweep above shows where they "
         "degrade as the joints soften.",
     ]
@@ -209,5 +212,5 @@ def render(
             if fig:
                 out += ["", f"![{label}, {variant.title}]({fig})"]
     out += list(extra_sections)
-    out += commentary(rows, manifest)
+    out += commentary(rows, manifest, dict(settings))
     return "\n".join(out) + "\n"

@@ -239,21 +239,79 @@ def load_trajectory(out: Path, spec: RunSpec) -> Trajectory:
     return Trajectory.load(out / spec.folder / "trajectory.npz")
 
 
-SETTINGS = {
-    "arm": "two uniform rods, m1 = m2 = 1 kg, L1 = L2 = 1 m, g = 9.81 m/s² (runs/paper/base.toml)",
-    "CTC gains": "Kp = 4 s⁻², Kd = 2.4 s⁻¹ per joint: ωn = 2 rad/s, ζ = 0.6, for responses on "
-    "the paper's seconds time scale",
-    "references": "steps of 1 rad; ramps to 1 rad in 2 s, then hold; the other joint holds at 0",
-    "uncertainty": "the plant's masses ×1.2 and gravity ×1.1 against the controller's nominal "
-    "model (runs/paper/*_uncertain.toml)",
-    "fuzzy term": "normalised universes [-1, 1], 7 triangular labels, min/max Mamdani, centroid; "
-    "ke = 1 /rad, kde = 1 s/rad, ku = 4 rad/s²; added inside the CTC bracket (docs/control.md)",
-    "no rule fires": "zero fuzzy correction: the CTC term alone acts",
-    "FCM design": "c = 5, m = 2, ε = 1e-5, seed 0, on the 7x7 fuzzy-CTC's θ1 and θ2 step runs "
-    "(runs/paper/design.toml)",
-    "simulation": "10 s, RK4 at 1 ms, control at 1 kHz with zero-order hold",
-    "ess": "|target − θ| at the last sample (t = 10 s)",
-}
+def describe_choices(specs: list[RunSpec], design_config: Any) -> dict[str, str]:
+    """What the paper leaves open, as this reproduction actually set it (from its files).
+
+    Read from the loaded scenarios, so the report cannot drift from what was run.
+    """
+    scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
+    first = next(iter(scenarios.values()))
+    a, c = first.arm, first.controller
+    wn = [math.sqrt(k) for k in c.kp]
+    zeta = [kd / (2 * w) if w else math.nan for kd, w in zip(c.kd, wn, strict=True)]
+    references = sorted(
+        {
+            f"θ{sp.experiment.joint} {type(ref).__name__.lower()} "
+            + (
+                f"{ref.initial:g}→{ref.final:g} rad"
+                + (f" in {ref.duration:g} s" if hasattr(ref, "duration") else "")
+            )
+            for sp in specs
+            for ref in [
+                (scenarios[sp.folder].reference.joint1, scenarios[sp.folder].reference.joint2)[
+                    sp.experiment.joint - 1
+                ]
+            ]
+        }
+    )
+    scales = sorted(
+        {
+            ", ".join(f"{k} ×{v:g}" for k, v in sorted(sc.plant.scale.items()))
+            for sc in scenarios.values()
+            if sc.plant.scale
+        }
+    )
+    fuzzy = next((sc.controller for sc in scenarios.values() if sc.controller.kind != "ctc"), None)
+    flex = sorted(
+        {
+            f"K = {sc.plant.flexibility.k} N·m/rad, D = {sc.plant.flexibility.d} N·m·s/rad, "
+            f"J = {sc.plant.flexibility.j} kg·m²"
+            for sc in scenarios.values()
+            if sc.plant.flexibility is not None
+        }
+    )
+    choices = {
+        "arm": f"two uniform rods, m1 = {a.m1:g} kg, m2 = {a.m2:g} kg, L1 = {a.l1:g} m, "
+        f"L2 = {a.l2:g} m, g = {a.g:g} m/s² (runs/paper/base.toml)",
+        "CTC gains": f"Kp = {c.kp} s⁻², Kd = {c.kd} s⁻¹: ωn = {wn[0]:.3g} rad/s, "
+        f"ζ = {zeta[0]:.3g}, for responses on the paper's seconds time scale",
+        "references": "; ".join(references) + "; the other joint holds at its start",
+        "uncertainty": "the plant's "
+        + "; ".join(scales)
+        + " against the controller's nominal model (runs/paper/*_uncertain.toml)",
+    }
+    if fuzzy is not None:
+        f = fuzzy.fuzzy
+        choices["fuzzy term"] = (
+            "normalised universes [-1, 1], 7 triangular labels, min/max Mamdani, centroid; "
+            f"ke = {f.ke:g} /rad, kde = {f.kde:g} s/rad, ku = {f.ku:g} rad/s², mode "
+            f"{f.mode!r}: inside the CTC bracket (docs/control.md)"
+        )
+        choices["no rule fires"] = "zero fuzzy correction: the CTC term alone acts"
+    choices["FCM design"] = (
+        f"c = {design_config.clusters}, m = {design_config.fuzzifier:g}, "
+        f"ε = {design_config.tolerance:g}, seed {design_config.seed}, on the 7x7 "
+        f"fuzzy-CTC's runs of {', '.join(s.name for s in design_config.scenarios)} "
+        "(runs/paper/design.toml)"
+    )
+    if flex:
+        choices["flexible joints"] = "; ".join(flex)
+    choices["simulation"] = (
+        f"{first.duration:g} s, RK4 at {first.timestep * 1e3:g} ms, control every "
+        f"{first.control_dt * 1e3:g} ms with zero-order hold"
+    )
+    choices["ess"] = f"|target − θ| at the last sample (t = {first.duration:g} s)"
+    return choices
 
 
 def flexible_study(sweep_file: Path, out: Path, workers: int | None) -> list[str]:
@@ -369,7 +427,8 @@ def reproduce(
     if manifest.flexible_study is not None:
         design_section += flexible_study(manifest.flexible_study, out, workers)
     atomic_write_text(
-        out / "report.md", report.render(rows, manifest, SETTINGS, figures, design_section)
+        out / "report.md",
+        report.render(rows, manifest, describe_choices(specs, config), figures, design_section),
     )
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
     atomic_write_json(out / "metrics.json", rows)
