@@ -62,8 +62,6 @@ class FuzzyComputedTorque(ComputedTorque):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
-        self._e = np.zeros(2)
-        self._de = np.zeros(2)
 
     def correction(self, e: np.ndarray, de: np.ndarray) -> np.ndarray:
         """The fuzzy term ``ku * f(ke e, kde de)`` [rad/s^2], vectorised (for analysis)."""
@@ -75,7 +73,5 @@ class FuzzyComputedTorque(ComputedTorque):
             v1 += self.kp[0] * e1 + self.kd[0] * de1
             v2 += self.kp[1] * e2 + self.kd[1] * de2
         ke, kde = self.ke, self.kde
-        self._e[0], self._e[1] = ke * e1, ke * e2
-        self._de[0], self._de[1] = kde * de1, kde * de2
-        u1, u2 = self.engine(self._e, self._de)
+        u1, u2 = self.engine.evaluate_floats((ke * e1, ke * e2), (kde * de1, kde * de2))
         return self.torque(q, qd, v1 + self.ku * u1, v2 + self.ku * u2)

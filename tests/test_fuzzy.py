@@ -604,3 +604,15 @@ def test_7x7_surface_is_odd_and_monotone_where_the_table_does_not_saturate(pd7):
     assert float(pd7(0.0, 0.0)) == pytest.approx(0.0, abs=1e-15)
     # Sign convention: positive error (theta below target) gives a positive push.
     assert float(pd7(0.5, 0.0)) > 0 and float(pd7(0.0, 0.5)) > 0
+
+
+@pytest.mark.parametrize("defuzz", ["centroid", "bisector"])
+def test_float_path_of_the_control_loop_equals_the_array_path(defuzz):
+    # centroid takes the closed-form pure-Python path, bisector the numpy one
+    rng = np.random.default_rng(11)
+    for engine in (default_fuzzy_pd(defuzz=defuzz), paper_fuzzy_pd(defuzz=defuzz)):
+        for _ in range(500):
+            e, de = rng.uniform(-1.3, 1.3, 2), rng.uniform(-1.3, 1.3, 2)
+            out = engine.evaluate_floats(e.tolist(), de.tolist())
+            assert all(isinstance(x, float) for x in out)
+            assert out == engine(e, de).tolist()
