@@ -214,3 +214,21 @@ def test_every_shipped_scenario_file_loads_and_builds():
     assert len(files) >= 11
     for path in files:
         build_controller(load_scenario(path))
+
+
+def test_fcm_ctc_reads_a_rule_base_file_next_to_the_scenario(tmp_path):
+    from controllers.fuzzy import Rule, save_rule_base
+
+    rules = [Rule("PB", "Z", "PB"), Rule("NB", "Z", "NB")]
+    save_rule_base(tmp_path / "mine.toml", rules)
+    path = tmp_path / "s.toml"
+    path.write_text(
+        f'extends = "{RUNS / "theta1_step.toml"}"\n'
+        '[controller]\nkind = "fcm_ctc"\nrule_base = "mine.toml"\n'
+    )
+    assert build_controller(load_scenario(path)).engine.rules == tuple(rules)
+    # a broken rule base is bad input: exit 2 with the file named
+    (tmp_path / "mine.toml").write_text('[[rule]]\ne = "PB"\nde = "Z"\nu = "HUGE"\n')
+    result = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2
+    assert "HUGE" in result.output and "Traceback" not in result.output
