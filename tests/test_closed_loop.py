@@ -132,7 +132,7 @@ def test_resolved_config_reloads_to_the_same_scenario(tmp_path):
         {"plant": {"scale": {"m2": 1.3}, "flexibility": {"k": [300, 400]}}, "duration": 0.5},
     )
     traj = run_scenario(s)
-    out = write_run(tmp_path / "run", s, traj, measure(s, traj), plots=False)
+    out = write_run(tmp_path / "run", s, traj, measure(s, traj), plots=False, trace=False)
     again = load_scenario(out / "config.toml")
     assert again.to_dict() == s.to_dict()
 
@@ -149,6 +149,7 @@ def test_twolink_run_writes_one_folder(tmp_path):
         "errors.png",
         "metrics.json",
         "torques.png",
+        "trace.rrd",
         "trajectory.npz",
     ]
     assert "joint 1: Tp" in result.output

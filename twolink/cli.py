@@ -70,7 +70,8 @@ def _fail_input(message: str) -> None:
     help="Output folder [default: results/<scenario name>].",
 )
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
-def run(scenario: Path, out: Path | None, no_plots: bool) -> None:
+@click.option("--no-trace", is_flag=True, help="Skip the rerun recording (trace.rrd).")
+def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> None:
     """Run one scenario file and write its results folder.
 
     Exit 0 when the run completes, 1 when it diverged (what was computed is kept),
@@ -89,7 +90,13 @@ def run(scenario: Path, out: Path | None, no_plots: bool) -> None:
     traj = run_scenario(s, controller)
     metrics = measure(s, traj)
     folder = write_run(
-        out or Path("results") / Path(scenario).stem, s, traj, metrics, plots=not no_plots
+        out or Path("results") / Path(scenario).stem,
+        s,
+        traj,
+        metrics,
+        plots=not no_plots,
+        trace=not no_trace,
+        controller=controller,
     )
     for j, m in enumerate(metrics.step, start=1):
         if m is not None:

@@ -126,10 +126,40 @@ def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
     )
 
 
+TRACE_EVERY = 5  # recordings at 200 Hz: smooth to watch; trajectory.npz keeps every sample
+
+
+def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) -> dict[str, Any]:
+    """Phase-plane extras of a fuzzy run for its recording: the engine's normalised view,
+    the fired rule at each sample and, if given, FCM cluster centres. Empty for CTC."""
+    engine = getattr(controller, "engine", None)
+    if engine is None:
+        return {}
+    from twolink.design import fired_rule_labels
+
+    ke, kde = controller.ke, controller.kde
+    extras: dict[str, Any] = {
+        "phase_scale": (ke, kde),
+        "fired_rules": fired_rule_labels(engine, ke * traj.e, kde * traj.de),
+    }
+    if len(centres):
+        extras["centres"] = np.array(centres, dtype=float)
+    return extras
+
+
 def write_run(
-    out: str | Path, s: Scenario, traj: Trajectory, metrics: RunMetrics, plots: bool = True
+    out: str | Path,
+    s: Scenario,
+    traj: Trajectory,
+    metrics: RunMetrics,
+    plots: bool = True,
+    trace: bool = True,
+    controller: Controller | None = None,
+    centres: Any = (),
+    prefix: str = "run",
 ) -> Path:
-    """Write one run's folder: config.toml, trajectory.npz, metrics.json and PNG plots."""
+    """Write one run's folder: config.toml, trajectory.npz, metrics.json, PNG plots and a
+    rerun recording ``trace.rrd`` (of the run under ``prefix``), each file atomically."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "config.toml", to_toml(s.to_dict()))
@@ -139,4 +169,11 @@ def write_run(
         from twolink.plots import save_run_plots
 
         save_run_plots(out, traj, title=s.name)
+    if trace:
+        from twolink import tracing
+
+        extras = trace_extras(controller, traj, centres) if controller is not None else {}
+        tracing.write_recording(
+            out / "trace.rrd", [(prefix, traj, s.plant_params, extras)], every=TRACE_EVERY
+        )
     return out

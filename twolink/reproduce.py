@@ -19,8 +19,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from twolink.config import TomlTable, load_scenario, merge, read_toml
 from twolink.experiment import build_controller, measure, run_scenario, write_run
 from twolink.sim import Trajectory
@@ -163,15 +161,17 @@ def _execute(spec: RunSpec, out: Path, trace: bool) -> dict[str, Any]:
     controller = build_controller(scenario)
     traj = run_scenario(scenario, controller)
     metrics = measure(scenario, traj)
-    folder = write_run(out / spec.folder, scenario, traj, metrics, plots=False)
-    if trace:
-        from twolink import tracing
-
-        tracing.write_recording(
-            folder / "trace.rrd",
-            [(spec.folder, traj, scenario.plant_params, trace_extras(spec, controller, traj))],
-            every=TRACE_EVERY,
-        )
+    write_run(
+        out / spec.folder,
+        scenario,
+        traj,
+        metrics,
+        plots=False,
+        trace=trace,
+        controller=controller,
+        centres=spec.centres,
+        prefix=spec.folder,
+    )
     joint = metrics.step[spec.experiment.joint - 1]
     row = {
         "variant": spec.variant.name,
@@ -185,25 +185,7 @@ def _execute(spec: RunSpec, out: Path, trace: bool) -> dict[str, Any]:
     return row
 
 
-TRACE_EVERY = 5  # recordings at 200 Hz: smooth to watch; trajectory.npz keeps every sample
-COMBINED_TRACE_EVERY = 10
-
-
-def trace_extras(spec: RunSpec, controller: Any, traj: Trajectory) -> dict[str, Any]:
-    """Phase-plane extras of a fuzzy run: the engine's view, FCM centres, fired rules."""
-    engine = getattr(controller, "engine", None)
-    if engine is None:
-        return {}
-    from twolink.design import fired_rule_labels
-
-    scale = (controller.ke, controller.kde)
-    extras: dict[str, Any] = {
-        "phase_scale": scale,
-        "fired_rules": fired_rule_labels(engine, scale[0] * traj.e, scale[1] * traj.de),
-    }
-    if spec.centres:
-        extras["centres"] = np.array(spec.centres)
-    return extras
+COMBINED_TRACE_EVERY = 10  # the whole reproduction at 100 Hz: 32 runs in one file
 
 
 def run_all(
