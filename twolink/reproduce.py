@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from twolink.config import TomlTable, load_scenario, merge, read_toml
+from twolink.config import Scenario, TomlTable, load_scenario, merge, read_toml
 from twolink.experiment import build_controller, measure, run_scenario, write_run
 from twolink.sim import Trajectory
 
@@ -221,12 +221,14 @@ def load_trajectory(out: Path, spec: RunSpec) -> Trajectory:
     return Trajectory.load(out / spec.folder / "trajectory.npz")
 
 
-def describe_choices(specs: list[RunSpec], design_config: Any) -> dict[str, str]:
+def describe_choices(
+    specs: list[RunSpec], scenarios: dict[str, Scenario], design_config: Any
+) -> dict[str, str]:
     """What the paper leaves open, as this reproduction actually set it (from its files).
 
-    Read from the loaded scenarios, so the report cannot drift from what was run.
+    Read from the loaded scenarios (``scenarios[spec.folder]``), so the report cannot
+    drift from what was run.
     """
-    scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
     first = next(iter(scenarios.values()))
     a, c = first.arm, first.controller
     wn = [math.sqrt(k) for k in c.kp]
@@ -355,12 +357,16 @@ def reproduce(
     with tqdm(total=len(specs), desc="experiments", unit="run", disable=not progress) as bar:
         rows = run_all(specs, out, workers, trace, progress=bar.update)
 
+    # Read each run back once: figures, the report's choices and the combined recording.
+    trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
+    scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
+
     # Figures: responses per experiment, and the design's evidence.
     figures: dict[str, str] = {}
     for variant in manifest.variants:
         for exp in manifest.experiments:
             trajs = {
-                sp.controller: load_trajectory(out, sp)
+                sp.controller: trajectories[sp.folder]
                 for sp in specs
                 if sp.experiment is exp and sp.variant is variant
             }
@@ -372,13 +378,14 @@ def reproduce(
             )
             figures[f"{variant.name}/{exp.key}"] = name
     designed_engine = result.engine.with_rules(result.rules)
+    paper_engine = fuzzy.paper_fuzzy_pd()
     plots.save_figure(plots.phase_plane_figure(result), out / "figures/design_phase_plane.png")
     plots.save_figure(plots.membership_figure(result.engine), out / "figures/membership.png")
     plots.save_figure(
         plots.control_surface_figure(
             {
                 "7x7 heuristic": result.engine,
-                "paper Table 1": fuzzy.paper_fuzzy_pd(),
+                "paper Table 1": paper_engine,
                 "FCM-designed": designed_engine,
             }
         ),
@@ -395,7 +402,7 @@ def reproduce(
         "| kept by our design (e, ė → u) | paper's Table 1 (e, ė → u) |",
         "|---|---|",
     ]
-    paper_rules = fuzzy.paper_fuzzy_pd().rules
+    paper_rules = paper_engine.rules
     for k in range(max(len(result.rules), len(paper_rules))):
         ours = " ".join(result.rules[k]) if k < len(result.rules) else ""
         theirs = " ".join(paper_rules[k]) if k < len(paper_rules) else ""
@@ -410,7 +417,9 @@ def reproduce(
         design_section += flexible_study(manifest.flexible_study, out, workers)
     atomic_write_text(
         out / "report.md",
-        report.render(rows, manifest, describe_choices(specs, config), figures, design_section),
+        report.render(
+            rows, manifest, describe_choices(specs, scenarios, config), figures, design_section
+        ),
     )
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
     atomic_write_json(out / "metrics.json", rows)
@@ -420,12 +429,7 @@ def reproduce(
         tracing.write_recording(
             out / "reproduction.rrd",
             [
-                (
-                    sp.folder,
-                    load_trajectory(out, sp),
-                    load_scenario(sp.experiment.scenario, sp.overrides).plant_params,
-                    {},
-                )
+                (sp.folder, trajectories[sp.folder], scenarios[sp.folder].plant_params, {})
                 for sp in specs
             ],
             every=COMBINED_TRACE_EVERY,
