@@ -25,7 +25,7 @@ Schema (all keys optional except the reference)::
     [controller]
     kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules)
     kp = [4, 4]  kd = [2.4, 2.4]  torque_limit = 1e3
-    rule_base = "paper"      # fcm_ctc: "paper", "designed", or a TOML path
+    rule_base = "paper"      # fcm_ctc: "paper", "designed", "default" (7x7) or a TOML path
     fuzzy = { ke = 1.0, kde = 1.0, ku = 4.0, mode = "add" }
     [reference.joint1]
     kind = "step"  initial = 0.0  final = 1.0

@@ -41,12 +41,8 @@ def resolve_rule_base(name: str, relative_to: str | Path = ".") -> Path:
     return path if path.is_absolute() else Path(relative_to).parent / path
 
 
-def build_controller(s: Scenario, rule_base: Any = None) -> Controller:
-    """The scenario's controller, modelled on the nominal arm.
-
-    ``rule_base`` overrides the scenario's rule base for "fcm_ctc" (a path or an
-    engine), e.g. with a freshly designed one.
-    """
+def build_controller(s: Scenario) -> Controller:
+    """The scenario's controller, modelled on the nominal arm."""
     c = s.controller
     common = dict(model=s.arm, reference=s.reference, kp=c.kp, kd=c.kd, torque_limit=c.torque_limit)
     if c.kind == "ctc":
@@ -57,12 +53,8 @@ def build_controller(s: Scenario, rule_base: Any = None) -> Controller:
     if c.kind == "fuzzy_ctc":
         engine = fuzzy.default_fuzzy_pd()
     else:
-        source = rule_base if rule_base is not None else resolve_rule_base(c.rule_base, s.source)
-        engine = (
-            source
-            if callable(source)
-            else fuzzy.default_fuzzy_pd().with_rules(fuzzy.load_rule_base(source))
-        )
+        rules = fuzzy.load_rule_base(resolve_rule_base(c.rule_base, s.source))
+        engine = fuzzy.default_fuzzy_pd().with_rules(rules)
     f = c.fuzzy
     return FuzzyComputedTorque(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku, mode=f.mode)
 
