@@ -21,8 +21,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
 from controllers.ctc import ComputedTorque
 
 MODES = ("add", "replace")
@@ -62,10 +60,6 @@ class FuzzyComputedTorque(ComputedTorque):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
-
-    def correction(self, e: np.ndarray, de: np.ndarray) -> np.ndarray:
-        """The fuzzy term ``ku * f(ke e, kde de)`` [rad/s^2], vectorised (for analysis)."""
-        return self.ku * np.asarray(self.engine(self.ke * np.asarray(e), self.kde * np.asarray(de)))
 
     def __call__(self, t: float, q: Sequence[float], qd: Sequence[float]) -> tuple[float, float]:
         v1, v2, e1, e2, de1, de2 = self.errors(t, q, qd)
