@@ -13,8 +13,9 @@ from pathlib import Path
 import pytest
 
 from twolink.config import load_scenario
+from twolink.manifest import METRIC_FIELDS, load_manifest
 from twolink.metrics import step_metrics
-from twolink.reproduce import METRIC_FIELDS, load_manifest, reproduce
+from twolink.reproduce import reproduce
 from twolink.sim import Trajectory
 
 

@@ -12,12 +12,15 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 from click.testing import CliRunner
 
 from twolink import sweep as sw
+from twolink.cli import main as cli_main
 from twolink.config import ConfigError, load_scenario
 from twolink.experiment import measure, run_scenario
+from twolink.sweep import execution
 
 REPO = Path(__file__).resolve().parents[1]
 BASE = REPO / "runs" / "paper" / "base.toml"
@@ -63,18 +66,23 @@ def write(tmp_path: Path, text: str, name: str = "sweep.toml") -> Path:
     return path
 
 
-def columns_equal(a: sw.SweepResults, b: sw.SweepResults) -> None:
+def columns_equal(a: pd.DataFrame, b: pd.DataFrame) -> None:
     assert list(a.columns) == list(b.columns)
+    assert a.attrs == b.attrs
     for name in a.columns:
-        x, y = a.columns[name], b.columns[name]
-        if x.dtype == object:
-            assert list(x) == list(y), name
-        else:
+        x, y = a[name].to_numpy(), b[name].to_numpy()
+        if x.dtype.kind in "fi":
             assert np.array_equal(x, y, equal_nan=True), name
+        else:
+            assert list(x) == list(y), name
 
 
 def chunk_bytes(out: Path) -> dict[str, bytes]:
-    return {p.name: p.read_bytes() for p in sorted((out / "chunks").glob("chunk_*.csv"))}
+    return {p.name: p.read_bytes() for p in sorted((out / "chunks").glob("chunk_*.parquet"))}
+
+
+def sweep_command(args: list[str]):
+    return CliRunner().invoke(cli_main, ["sweep", *args])
 
 
 def log_chunks(out: Path) -> list[int]:
@@ -167,7 +175,7 @@ def test_inprocess_process_and_dask_give_identical_results(tmp_path):
     assert outs["process"].workers == outs["dask"].workers == 2
     ref = outs["inprocess"]
     assert len(ref.results) == plan.samples * 2
-    assert set(ref.results.columns["status"]) == {"ok"}
+    assert set(ref.results["status"]) == {"ok"}
     for kind in ("process", "dask"):
         columns_equal(ref.results, outs[kind].results)
         assert chunk_bytes(tmp_path / kind) == chunk_bytes(tmp_path / "inprocess")
@@ -237,7 +245,7 @@ def interrupt_once(cmd: list[str], out: Path, signum: int) -> subprocess.Complet
     """Start the sweep, send ``signum`` once 3 chunks exist; return how it ended."""
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
-    while len(list((out / "chunks").glob("chunk_*.csv"))) < 3:
+    while len(list((out / "chunks").glob("chunk_*.parquet"))) < 3:
         assert proc.poll() is None, proc.communicate()
         assert time.monotonic() < deadline, "no chunks written"
         time.sleep(0.01)
@@ -253,7 +261,7 @@ def test_killed_sweep_resumes_without_recomputing(tmp_path, signum, executor, un
     path = write(tmp_path, KILL)
     for attempt in range(3):
         out = tmp_path / f"out{attempt}"
-        cmd = [sys.executable, "-m", "twolink.sweep", str(path), "--out", str(out)]
+        cmd = [sys.executable, "-m", "twolink", "sweep", str(path), "--out", str(out)]
         cmd += ["--executor", executor, "--workers", "2", "--no-plots", "--no-progress"]
         ended = interrupt_once(cmd, out, signum)
         # On a starved machine the whole sweep can finish before the signal lands; that
@@ -270,7 +278,7 @@ def test_killed_sweep_resumes_without_recomputing(tmp_path, signum, executor, un
     assert 3 <= len(kept) < plan.n_chunks, "the sweep should have been stopped halfway"
     assert sorted(log_chunks(out)) == kept_ids  # every chunk file is logged, and only those
     assert not (out / "results.csv").exists() and not (out / "results.parquet").exists()
-    stamps = {p.name: p.stat().st_mtime_ns for p in (out / "chunks").glob("chunk_*.csv")}
+    stamps = {p.name: p.stat().st_mtime_ns for p in (out / "chunks").glob("chunk_*.parquet")}
 
     rerun = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
     assert rerun.returncode == 0, rerun.stderr
@@ -304,15 +312,14 @@ def test_rerun_of_a_finished_sweep_computes_nothing_and_more_samples_extend_it(t
 def test_a_changed_sweep_file_into_the_same_folder_is_refused(tmp_path):
     path = write(tmp_path, SMALL.replace("samples = 8", "samples = 3"))
     out = tmp_path / "out"
-    runner = CliRunner()
     args = [str(path), "--out", str(out), "--executor", "inprocess", "--no-plots"]
-    assert runner.invoke(sw.sweep_command, args).exit_code == 0
+    assert sweep_command(args).exit_code == 0
     path.write_text(path.read_text().replace("seed = 7", "seed = 8"))
-    result = runner.invoke(sw.sweep_command, args)
+    result = sweep_command(args)
     assert result.exit_code == 2
     assert "holds results of a different sweep" in result.output
     assert "--fresh" in result.output
-    result = runner.invoke(sw.sweep_command, [*args, "--fresh"])
+    result = sweep_command([*args, "--fresh"])
     assert result.exit_code == 0, result.output
     assert "1 chunks computed, 0 reused" in result.output
 
@@ -381,7 +388,7 @@ def test_invalid_sweep_files_exit_2_naming_file_and_key(tmp_path, case):
         sw.load_sweep(path)
     assert str(err.value).startswith(f"{path}: ")
     assert message in str(err.value)
-    result = CliRunner().invoke(sw.sweep_command, [str(path), "--out", str(tmp_path / "o")])
+    result = sweep_command([str(path), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2
     assert f"error: {path}: " in result.output and message in result.output
     assert not (tmp_path / "o").exists()
@@ -389,10 +396,9 @@ def test_invalid_sweep_files_exit_2_naming_file_and_key(tmp_path, case):
 
 def test_bad_command_line_options_exit_2(tmp_path):
     path = write(tmp_path, SMALL)
-    runner = CliRunner()
     for args in (["--executor", "mpi"], ["--workers", "0"], ["--samples", "0"],
                  ["--executor", "process", "--scheduler", "tcp://127.0.0.1:1"]):  # fmt: skip
-        result = runner.invoke(sw.sweep_command, [str(path), "--out", str(tmp_path / "o"), *args])
+        result = sweep_command([str(path), "--out", str(tmp_path / "o"), *args])
         assert result.exit_code == 2, (args, result.output)
     assert not (tmp_path / "o").exists()
 
@@ -407,28 +413,28 @@ def test_raising_and_diverging_samples_are_recorded_and_the_sweep_goes_on(tmp_pa
         '[controllers.wild]\nkind = "ctc"\nkp = 1e7\nkd = 10.0',
     )
     plan = sw.load_sweep(write(tmp_path, text))
-    real = sw.build_plant
+    real = execution.build_plant
 
     def build_plant(s):
         if abs(s.plant.scale["m1"] - plan.draw(4)[0]["m1"]) < 1e-15:
             raise RuntimeError("boom on sample 4")
         return real(s)
 
-    monkeypatch.setattr(sw, "build_plant", build_plant)
+    monkeypatch.setattr(execution, "build_plant", build_plant)
     outcome = sw.run_sweep(plan, tmp_path / "out", executor="inprocess", plots=True)
     r = outcome.results
-    assert len(r) == 2 * plan.samples and list(r.columns["sample"]) == [
+    assert len(r) == 2 * plan.samples and list(r["sample"]) == [
         i for i in range(plan.samples) for _ in range(2)
     ]
-    status, message = r.columns["status"], r.columns["message"]
-    failed = r.columns["sample"] == 4
+    status, message = r["status"].to_numpy(object), r["message"].to_numpy(object)
+    failed = (r["sample"] == 4).to_numpy()
     assert set(status[failed]) == {"error"}
     assert all(m == "RuntimeError: boom on sample 4" for m in message[failed])
-    assert np.isnan(r.columns["joint1_overshoot"][failed]).all()
-    wild = r.select("wild") & ~failed
+    assert np.isnan(r["joint1_overshoot"][failed]).all()
+    wild = (r["controller"] == "wild").to_numpy() & ~failed
     assert set(status[wild]) == {"diverged"}
     assert all("out of bounds" in m for m in message[wild])
-    ctc = r.select("ctc") & ~failed
+    ctc = (r["controller"] == "ctc").to_numpy() & ~failed
     assert set(status[ctc]) == {"ok"} and set(message[ctc]) == {""}
     assert outcome.summary["ctc"]["success_rate"] == (plan.samples - 1) / plan.samples
     assert outcome.summary["wild"]["diverged"] == plan.samples - 1
@@ -444,10 +450,11 @@ def test_summary_matches_the_table_it_summarises(tmp_path):
     outcome = sw.run_sweep(plan, tmp_path / "out", executor="inprocess", plots=False)
     with open(tmp_path / "out" / "summary.csv", newline="") as fh:
         summary = {row["controller"]: row for row in csv.DictReader(fh)}
+    r = outcome.results
     for c in ("ctc", "fcm"):
-        ok = outcome.results.select(c, ok_only=True)
+        ok = r[(r["controller"] == c) & (r["status"] == "ok")]
         for j in (1, 2):
-            x = outcome.results.columns[f"joint{j}_overshoot"][ok]
+            x = ok[f"joint{j}_overshoot"].to_numpy()
             assert float(summary[c][f"joint{j}_overshoot_mean"]) == pytest.approx(x.mean())
             assert float(summary[c][f"joint{j}_overshoot_p95"]) == pytest.approx(
                 np.percentile(x, 95)
@@ -455,31 +462,29 @@ def test_summary_matches_the_table_it_summarises(tmp_path):
         assert float(summary[c]["success_rate"]) == 1.0
 
 
-def test_table_is_csv_without_pyarrow_and_reads_back_the_same(tmp_path, monkeypatch):
+def test_table_is_parquet_and_reads_back_as_the_same_dataframe(tmp_path):
     plan = sw.load_sweep(write(tmp_path, SMALL), {"samples": 3})
-    with_arrow = sw.run_sweep(plan, tmp_path / "a", executor="inprocess", plots=False)
-    import builtins
-
-    real_import = builtins.__import__
-
-    def no_pyarrow(name, *args, **kwargs):
-        if name.startswith("pyarrow"):
-            raise ImportError("no pyarrow here")
-        return real_import(name, *args, **kwargs)
-
-    monkeypatch.setattr(builtins, "__import__", no_pyarrow)
-    without = sw.run_sweep(plan, tmp_path / "b", executor="inprocess", plots=False)
-    assert without.table.name == "results.csv"
-    columns_equal(without.results, sw.load_results(tmp_path / "b"))
-    monkeypatch.undo()
-    try:
-        import pyarrow  # noqa: F401
-    except ImportError:
-        assert with_arrow.table.name == "results.csv"
-    else:
-        assert with_arrow.table.name == "results.parquet"
-    columns_equal(with_arrow.results, sw.load_results(tmp_path / "a"))
-    columns_equal(without.results, with_arrow.results)
+    outcome = sw.run_sweep(plan, tmp_path / "a", executor="inprocess", plots=False)
+    assert outcome.table == tmp_path / "a" / "results.parquet"
+    assert not (tmp_path / "a" / "results.csv").exists()
+    loaded = sw.load_results(tmp_path / "a")
+    assert isinstance(loaded, pd.DataFrame)
+    assert loaded.attrs == {
+        "controllers": ["ctc", "fcm"],
+        "parameters": ["k", "l2", "m1", "m2", "payload"],
+        "joints": [1, 2],
+    }
+    assert list(loaded.columns) == list(plan.columns)
+    assert loaded["sample"].dtype == np.int64
+    columns_equal(outcome.results, loaded)
+    # A plain pandas read gives the same frame, metadata included: no twolink needed.
+    columns_equal(loaded, pd.read_parquet(tmp_path / "a" / "results.parquet"))
+    # Each row equals its chunk's row, bit for bit.
+    chunks = pd.concat(
+        [pd.read_parquet(p) for p in sorted((tmp_path / "a" / "chunks").glob("*.parquet"))],
+        ignore_index=True,
+    )
+    columns_equal(loaded, chunks)
 
 
 def test_shipped_sweep_files_load_and_run(tmp_path):
@@ -495,24 +500,26 @@ def test_shipped_sweep_files_load_and_run(tmp_path):
             {"samples": 1, "overrides": {"duration": 0.3}},
         )
         outcome = sw.run_sweep(short, tmp_path / name, executor="inprocess", plots=False)
-        assert set(outcome.results.columns["status"]) == {"ok"}
+        assert set(outcome.results["status"]) == {"ok"}
     flex = sw.load_sweep(REPO / "runs" / "sweeps" / "flexible_stiffness.toml")
     stiffness = [flex.draw(i)[0]["k"] for i in range(flex.samples)]
     assert stiffness == sorted(stiffness, reverse=True) and stiffness[0] / stiffness[-1] > 1e4
 
 
-def fake_results(k: list[float], ess: list[float], status: list[str]) -> sw.SweepResults:
+def fake_results(k: list[float], ess: list[float], status: list[str]) -> pd.DataFrame:
     n = len(k)
     cols = {
         "sample": np.arange(n),
-        "controller": np.array(["a", "b"] * (n // 2), dtype=object),
+        "controller": ["a", "b"] * (n // 2),
         "k": np.array(k, dtype=float),
-        "status": np.array(status, dtype=object),
+        **{f: np.full(n, 0.5) for f in sw.METRIC_COLUMNS},
+        "status": status,
+        "message": [""] * n,
     }
-    for f in sw.METRIC_COLUMNS:
-        cols[f] = np.full(n, 0.5)
     cols["joint1_steady_state_error"] = np.array(ess, dtype=float)
-    return sw.SweepResults(cols, ("a", "b"), ("k",), (1,))
+    df = pd.DataFrame(cols)
+    df.attrs.update(controllers=["a", "b"], parameters=["k"], joints=[1])
+    return df
 
 
 def test_flexible_study_table_bins_by_stiffness():
@@ -556,8 +563,6 @@ def test_dask_executor_without_dask_says_how_to_get_it(tmp_path, monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", no_dask)
     path = write(tmp_path, SMALL.replace("samples = 8", "samples = 2"))
-    result = CliRunner().invoke(
-        sw.sweep_command, [str(path), "--out", str(tmp_path / "o"), "--executor", "dask"]
-    )
+    result = sweep_command([str(path), "--out", str(tmp_path / "o"), "--executor", "dask"])
     assert result.exit_code == 1
     assert "pip install 'twolink[dask]'" in result.output

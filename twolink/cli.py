@@ -10,6 +10,7 @@ from pathlib import Path
 
 import click
 
+from twolink.executors import EXECUTORS
 from twolink.params import ArmParams, Flexibility
 
 
@@ -207,14 +208,95 @@ def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: b
         click.echo(f"{len(failed)} run(s) diverged: see the report", err=True)
 
 
-def _add_sweep() -> None:
-    # the sweep command lives with the sweep code (it has many options of its own)
-    from twolink.sweep import sweep_command
+@main.command("sweep")
+@click.argument("sweep_file", type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Output folder [default: results/sweeps/<sweep name>].",
+)
+@click.option(
+    "--executor",
+    type=click.Choice(EXECUTORS),
+    default=None,
+    help="Where samples run [default: the sweep file's, else process].",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Worker processes [default: all cores].",
+)
+@click.option("--scheduler", default=None, help="Dask scheduler address (implies dask).")
+@click.option("-n", "--samples", type=click.IntRange(min=1), default=None, help="Override N.")
+@click.option("--fresh", is_flag=True, help="Discard chunks already in --out.")
+@click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
+@click.option("--progress/--no-progress", default=True, show_default=True)
+def sweep_command(
+    sweep_file: Path,
+    out: Path | None,
+    executor: str | None,
+    workers: int | None,
+    scheduler: str | None,
+    samples: int | None,
+    fresh: bool,
+    no_plots: bool,
+    progress: bool,
+) -> None:
+    """Run a Monte Carlo sweep file: every controller on N drawn plants.
 
-    main.add_command(sweep_command)
+    Resumable: rerun the same command to compute only the chunks not yet in --out.
+    Exit 0 when the table is written (diverged samples are results, not failures),
+    1 when the executor fails, 2 on bad input, 130/143 when stopped by SIGINT/SIGTERM.
+    """
+    from concurrent import futures
 
+    from twolink.config import ConfigError
+    from twolink.executors import ExecutorError
+    from twolink.sweep import (
+        SweepInterrupted,
+        SweepOutputError,
+        SweepTaskError,
+        format_summary,
+        load_sweep,
+        run_sweep,
+    )
 
-_add_sweep()
+    try:
+        plan = load_sweep(sweep_file, {"samples": samples} if samples else None)
+    except ConfigError as exc:
+        _fail_input(str(exc))
+    if scheduler and executor not in (None, "dask"):
+        _fail_input(f"--scheduler needs --executor dask, not {executor}")
+    out = out or Path("results") / "sweeps" / plan.name
+    try:
+        outcome = run_sweep(
+            plan,
+            out,
+            executor=executor,
+            workers=workers,
+            scheduler=scheduler,
+            progress=progress,
+            plots=not no_plots,
+            fresh=fresh,
+        )
+    except SweepOutputError as exc:
+        _fail_input(str(exc))
+    except SweepInterrupted as exc:
+        click.echo(f"\n{exc}", err=True)
+        sys.exit(128 + exc.signum)
+    except ValueError as exc:  # inconsistent executor options
+        _fail_input(str(exc))
+    except (ExecutorError, SweepTaskError, futures.BrokenExecutor) as exc:
+        click.echo(f"error: {exc}; finished chunks are kept in {out}, rerun to resume", err=True)
+        sys.exit(1)
+    click.echo(format_summary(outcome.summary))
+    click.echo(
+        f"{plan.samples} samples x {len(plan.controllers)} controllers: "
+        f"{len(outcome.computed)} chunks computed, {len(outcome.reused)} reused, "
+        f"{outcome.wall_s:.1f} s; results in {outcome.table}"
+    )
 
 
 if __name__ == "__main__":

@@ -13,10 +13,11 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from twolink.reproduce import METRIC_KEYS, Experiment, Manifest
+from twolink.manifest import METRIC_KEYS, Experiment, Manifest
 
 # The paper's claim (section 4): FCM reduces peak, delay, rise and settling time and
-# overshoot, and steady-state error, compared with CTC.
+# overshoot, and steady-state error, compared with CTC. Which of the manifest's
+# controllers play the two roles is the manifest's ``proposed`` and ``baseline``.
 CLAIMED_BETTER = ("Tp", "Td", "Ts", "Tr", "Mp", "ess")
 UNITS = {"Tp": "s", "Td": "s", "Ts": "s", "Tr": "s", "Mp": "", "ess": "rad"}
 
@@ -56,8 +57,10 @@ def _better(a: float, b: float) -> bool | None:
     return abs(a) < abs(b)
 
 
-def claims(rows, manifest: Manifest, variant: str, a: str = "FCM", b: str = "CTC"):
-    """Per metric: in how many experiments ``a`` beats ``b`` (ours, paper), of how many."""
+def claims(rows, manifest: Manifest, variant: str):
+    """Per metric: in how many experiments the proposed controller beats the baseline
+    (ours, paper), of how many."""
+    a, b = manifest.proposed, manifest.baseline
     out = {}
     for key in CLAIMED_BETTER:
         ours = paper = ours_n = paper_n = 0
@@ -97,7 +100,9 @@ def experiment_table(rows, exp: Experiment, variant: str, controllers: Sequence[
     return "\n".join(lines)
 
 
-def _pairs(rows, manifest: Manifest, variant: str, key: str, a: str = "FCM", b: str = "CTC"):
+def _pairs(rows, manifest: Manifest, variant: str, key: str):
+    """(experiment, proposed's value, baseline's value) of metric ``key``."""
+    a, b = manifest.proposed, manifest.baseline
     return [
         (exp, _lookup(rows, variant, exp, a)[key], _lookup(rows, variant, exp, b)[key])
         for exp in manifest.experiments
@@ -108,6 +113,7 @@ def commentary(
     rows, manifest: Manifest, settings: dict[str, Any], variant: str = "rigid"
 ) -> list[str]:
     """What holds of the paper's claims in our runs, and why the numbers differ."""
+    P, B = manifest.proposed, manifest.baseline  # noqa: N806 (the two controllers' names)
     mp = _pairs(rows, manifest, variant, "Mp")
     tr = [
         (e, a, b)
@@ -126,25 +132,25 @@ def commentary(
         "",
         "## What holds, what does not, and why the numbers differ",
         "",
-        f"- **Overshoot ({mp_verdict}).** FCM's overshoot is lower than CTC's in {lower_mp} of "
+        f"- **Overshoot ({mp_verdict}).** {P}'s overshoot is lower than {B}'s in {lower_mp} of "
         f"{len(mp)} experiments on the {variant} arm. The rules our design keeps along the "
         "approach to the target (the design section above) mostly brake, adding damping, "
         "as the paper's FCM rows show (Mp 0 in its Table 2).",
-        f"- **Speed ({speed_verdict}; the paper's Table 2 has FCM slower too).** FCM "
-        f"rises more slowly than CTC in {slower} of {len(tr)} experiments where both rise "
+        f"- **Speed ({speed_verdict}; the paper's Table 2 has FCM slower too).** {P} "
+        f"rises more slowly than {B} in {slower} of {len(tr)} experiments where both rise "
         "times exist. The same braking rules slow the approach. The paper's own Table 2 "
         "has FCM slower too (Tp 9.41 vs 5.89 s, Tr 7.85 vs 5.05 s), against its text.",
-        f"- **Steady-state error without uncertainty.** Our CTC's largest ess over the "
+        f"- **Steady-state error without uncertainty.** Our {B}'s largest ess over the "
         f"nominal experiments is {fmt(worst_ctc_nominal)} rad: computed torque with an "
         "exact model and a PD law has no steady-state error, so the paper's CTC ess of "
         '0.21-0.22 rad "without uncertainties" implies a model mismatch it does not '
-        "describe. FCM cannot improve on a zero error; its small residual ess is the "
+        f"describe. {P} cannot improve on a zero error; its small residual ess is the "
         "slower approach still converging at t = 10 s.",
         "- **Steady-state error with uncertainty.** With "
         + settings.get("uncertainty", "a plant that differs from the model")
-        + ", CTC's error settles where M̂ Kp e balances the gravity mismatch (tested "
+        + f", {B}'s error settles where M̂ Kp e balances the gravity mismatch (tested "
         "against that prediction). Here: "
-        + "; ".join(f"{e.key} CTC {fmt(b)} vs FCM {fmt(a)} rad" for e, a, b in perturbed)
+        + "; ".join(f"{e.key} {B} {fmt(b)} vs {P} {fmt(a)} rad" for e, a, b in perturbed)
         + ". The fuzzy term is PD-like (no integral action), so it reduces ess only by the "
         "extra gain of rules that still fire at the final error; the paper's much larger "
         "reductions are not reproduced.",
@@ -196,8 +202,10 @@ def render(
         c = claims(rows, manifest, variant.name)
         out += [
             "The paper's text says FCM reduces peak, delay, rise and settling time and",
-            "overshoot. In how many experiments FCM's value is smaller (in magnitude) than",
-            "CTC's, in our runs and in the paper's own tables (where it gives both):",
+            f"overshoot. In how many experiments {manifest.proposed}'s value is smaller (in "
+            "magnitude) than",
+            f"{manifest.baseline}'s, in our runs and in the paper's own tables (where it gives "
+            "both):",
             "",
             "| metric | ours | paper |",
             "|---|---|---|",

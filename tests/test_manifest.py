@@ -1,0 +1,104 @@
+"""The reproduction manifest: controller names are the manifest's own, end to end."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+from twolink import report
+from twolink.config import ConfigError
+from twolink.manifest import DEFAULT_MANIFEST, METRIC_KEYS, load_manifest
+
+PAPER = DEFAULT_MANIFEST.parent
+
+
+def shipped_text() -> str:
+    """The shipped manifest without its explicit claim roles (so the defaults apply)."""
+    lines = DEFAULT_MANIFEST.read_text().splitlines(keepends=True)
+    return "".join(x for x in lines if not x.startswith(("proposed =", "baseline =")))
+
+
+def renamed_manifest(tmp_path: Path, extra: str = "", **names: str) -> Path:
+    """The shipped manifest, with absolute paths and its controllers renamed."""
+    text = shipped_text()
+    text = text.replace('scenario = "', f'scenario = "{PAPER}/')
+    text = text.replace('design = "', f'design = "{PAPER}/')
+    text = text.replace('flexible_study = "', f'flexible_study = "{PAPER}/')
+    for old, new in names.items():
+        text = text.replace(f"controllers.{old}]", f"controllers.{new}]")
+        text = text.replace(f"paper.{old} =", f"paper.{new} =")
+    path = tmp_path / "reproduce.toml"
+    path.write_text(extra + text)
+    return path
+
+
+def fake_rows(manifest):
+    """One row per run, with values that make the proposed controller win on Mp."""
+    rows = []
+    for variant in manifest.variants:
+        for exp in manifest.experiments:
+            for k, name in enumerate(manifest.controllers):
+                rows.append(
+                    {
+                        "variant": variant.name,
+                        "experiment": exp.key,
+                        "controller": name,
+                        "joint": exp.joint,
+                        "status": "ok",
+                        **{key: 1.0 + k for key in METRIC_KEYS},
+                        "Mp": 0.1 if name == manifest.proposed else 0.3,
+                    }
+                )
+    return rows
+
+
+def test_the_shipped_manifest_compares_fcm_against_ctc(tmp_path):
+    m = load_manifest()
+    assert (m.proposed, m.baseline) == ("FCM", "CTC")
+    # the same by default, from the controllers' kinds
+    implicit = load_manifest(renamed_manifest(tmp_path))
+    assert (implicit.proposed, implicit.baseline) == ("FCM", "CTC")
+
+
+def test_the_report_uses_the_manifests_own_controller_names(tmp_path):
+    path = renamed_manifest(tmp_path, CTC="pd_model", FCM="fuzzy")
+    m = load_manifest(path)
+    # the roles follow the controllers' kinds
+    assert (m.proposed, m.baseline) == ("fuzzy", "pd_model")
+    text = report.render(fake_rows(m), m, {"uncertainty": "masses x1.2"}, {})
+    assert "| pd_model | " in text and "| fuzzy | " in text
+    assert "fuzzy's overshoot is lower than pd_model's in 8 of 8 experiments" in text
+    assert "| CTC |" not in text and "| FCM |" not in text
+    # the paper's values are found under the new names
+    assert "/ 5.89 |" in text
+
+
+def test_claim_roles_can_be_named_and_are_checked_before_anything_runs(tmp_path):
+    # Two computed-torque controllers: the baseline cannot be inferred from the kinds.
+    extra = '[controllers.stiff]\nkind = "ctc"\nkp = 25.0\nkd = 10.0\n\n'
+    text = shipped_text().replace("[variants.rigid]", extra + "[variants.rigid]")
+    path = tmp_path / "two_ctc.toml"
+    path.write_text(text.replace('scenario = "', f'scenario = "{PAPER}/'))
+    with pytest.raises(ConfigError, match=r"two_ctc.toml: baseline: missing"):
+        load_manifest(path)
+    path.write_text('baseline = "stiff"\n' + path.read_text())
+    m = load_manifest(path)
+    assert (m.proposed, m.baseline) == ("FCM", "stiff")
+    rows = fake_rows(m)
+    assert "FCM's overshoot is lower than stiff's" in report.render(rows, m, {}, {})
+    for bad, message in (
+        ('proposed = "nope"', "proposed: must name a controller of this manifest"),
+        ('proposed = "CTC"\nbaseline = "CTC"', "baseline: must differ from proposed"),
+    ):
+        path.write_text(bad + "\n" + text.replace('scenario = "', f'scenario = "{PAPER}/'))
+        with pytest.raises(ConfigError, match=message):
+            load_manifest(path)
+
+
+def test_claims_count_the_proposed_controller_against_the_baseline(tmp_path):
+    m = load_manifest(renamed_manifest(tmp_path, CTC="b", FCM="a"))
+    rows = fake_rows(m)
+    counts = report.claims(rows, m, "rigid")
+    assert counts["Mp"][:2] == (len(m.experiments), len(m.experiments))  # a wins every time
+    assert counts["Tp"][:2] == (0, len(m.experiments))  # a's 2.0 never below b's 1.0
+    assert not any(math.isnan(x) for c in counts.values() for x in c)

@@ -1,0 +1,163 @@
+"""The reproduction manifest (``runs/paper/reproduce.toml``): what ``twolink reproduce``
+runs and how the report reads it.
+
+Which scenario files make which paper table, the paper's values for each, the
+controllers to compare (and which two the paper's claim is about), and the plant
+variants. Read and validated here, before anything runs, by both the reproduction and
+its report.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from twolink.config import TomlTable, read_toml
+
+DEFAULT_MANIFEST = Path(__file__).resolve().parents[1] / "runs" / "paper" / "reproduce.toml"
+METRIC_KEYS = ("Tp", "Td", "Ts", "Tr", "Mp", "ess")
+METRIC_FIELDS = {
+    "Tp": "peak_time",
+    "Td": "delay_time",
+    "Ts": "settling_time",
+    "Tr": "rise_time",
+    "Mp": "overshoot",
+    "ess": "steady_state_error",
+}
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One experiment of the paper: a scenario, the joint it reports, the paper's values."""
+
+    title: str
+    scenario: Path
+    joint: int
+    table: int | None = None
+    figure: int | None = None
+    paper: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    @property
+    def key(self) -> str:
+        return f"table{self.table}" if self.table else f"figure{self.figure}"
+
+
+@dataclass(frozen=True)
+class Variant:
+    name: str
+    title: str
+    overrides: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Manifest:
+    """A validated manifest.
+
+    Attributes
+    ----------
+    path, design, flexible_study : Path
+        The manifest, its design file and its optional stiffness-study sweep file.
+    controllers : dict
+        Name (as the report and the result folders spell it) -> ``[controller]`` keys.
+    variants, experiments : tuple
+        Plant variants, and the paper's experiments in report order.
+    proposed, baseline : str
+        The two controllers of the paper's claim ("proposed beats baseline"): names of
+        ``controllers``. The report's claims table and commentary compare these two.
+    """
+
+    path: Path
+    design: Path
+    flexible_study: Path | None
+    controllers: dict[str, dict[str, Any]]
+    variants: tuple[Variant, ...]
+    experiments: tuple[Experiment, ...]
+    proposed: str = "FCM"
+    baseline: str = "CTC"
+
+
+def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]) -> str:
+    """The controller named by ``key``; by default the one controller of ``kind``."""
+    name = top.raw(key)
+    if name is None:
+        of_kind = [n for n, c in controllers.items() if c.get("kind", "ctc") == kind]
+        if len(of_kind) != 1:
+            top.fail(
+                key,
+                f"missing: which controller of {list(controllers)} the paper's claim is "
+                f"about (no single controller of kind {kind!r} to default to)",
+            )
+        return of_kind[0]
+    if name not in controllers:
+        top.fail(key, f"must name a controller of this manifest {list(controllers)}, got {name!r}")
+    return name
+
+
+def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
+    """Read and validate a reproduction manifest; errors name the file and the key."""
+    path = Path(path)
+    top = TomlTable(read_toml(path), "", str(path))
+    design = path.parent / top.string("design", "design.toml")
+    study = top.raw("flexible_study")
+    if study is not None and not isinstance(study, str):
+        top.fail("flexible_study", f"must be a sweep file path, got {study!r}")
+    flexible_study = path.parent / study if study else None
+    controllers = top.raw("controllers", {})
+    if not isinstance(controllers, dict) or not controllers:
+        top.fail("controllers", "needs at least one [controllers.NAME] table")
+    for name, ctrl in controllers.items():
+        if not isinstance(ctrl, dict):
+            top.fail(f"controllers.{name}", "must be a table of [controller] keys")
+    variants = []
+    for name, body in top.raw("variants", {"rigid": {}}).items():
+        v = TomlTable(body, f"variants.{name}", str(path))
+        overrides = v.raw("overrides", {})
+        if not isinstance(overrides, dict):
+            v.fail("overrides", "must be a table of scenario keys")
+        variants.append(Variant(name, v.string("title", name), overrides))
+        v.done()
+    experiments = []
+    raw = top.raw("experiment", [])
+    if not isinstance(raw, list) or not raw:
+        top.fail("experiment", "needs at least one [[experiment]]")
+    for i, body in enumerate(raw):
+        e = TomlTable(body, f"experiment[{i}]", str(path))
+        table = e.raw("table")
+        figure = e.raw("figure")
+        if not isinstance(table, int | None) or not isinstance(figure, int | None):
+            e.fail("table", "table and figure must be integers")
+        if table is None and figure is None:
+            e.fail("table", "an experiment needs a table or figure number")
+        scenario = path.parent / e.string("scenario", "")
+        if not scenario.is_file():
+            e.fail("scenario", f"no such file {scenario}")
+        joint = e.integer("joint", 1)
+        if joint not in (1, 2):
+            e.fail("joint", f"must be 1 or 2, got {joint}")
+        paper = e.raw("paper", {})
+        for ctrl, values in paper.items():
+            if ctrl not in controllers:
+                e.fail(f"paper.{ctrl}", f"not a controller of this manifest {list(controllers)}")
+            unknown = set(values) - set(METRIC_KEYS)
+            if unknown:
+                e.fail(f"paper.{ctrl}", f"unknown metric(s) {sorted(unknown)}")
+        experiments.append(
+            Experiment(e.string("title", scenario.stem), scenario, joint, table, figure, paper)
+        )
+        e.done()
+    proposed = _claim_role(top, "proposed", "fcm_ctc", controllers)
+    baseline = _claim_role(top, "baseline", "ctc", controllers)
+    if proposed == baseline:
+        top.fail("baseline", f"must differ from proposed ({proposed!r})")
+    top.done()
+    return Manifest(
+        path,
+        design,
+        flexible_study,
+        controllers,
+        tuple(variants),
+        tuple(experiments),
+        proposed,
+        baseline,
+    )

@@ -1,0 +1,493 @@
+"""Computing a sweep: chunks of samples on an executor, resumable, stoppable.
+
+Each chunk's rows are written to ``chunks/chunk_NNNNN.parquet`` as soon as it finishes,
+and logged in ``computed.log``; a rerun of the same sweep into the same folder computes
+only the chunks that are missing. SIGINT and SIGTERM stop the sweep between chunk
+writes, so a chunk file and its log line are always written together.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import sys
+import time
+from collections.abc import Iterator
+from concurrent import futures
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from twolink.config import scenario_from_dict
+from twolink.executors import SweepExecutor, check_options, open_executor
+from twolink.experiment import build_controller, build_plant, measure, run_scenario
+from twolink.io import atomic_write_json, atomic_write_text
+from twolink.sweep.plan import FORMAT_VERSION, SweepPlan
+from twolink.sweep.results import (
+    METRIC_COLUMNS,
+    STATUS_ERROR,
+    STEP_FIELDS,
+    read_table,
+    results_frame,
+    summarize,
+    write_summary,
+    write_table,
+)
+
+__all__ = [
+    "ChunkResult",
+    "SweepInterrupted",
+    "SweepOutcome",
+    "SweepOutputError",
+    "SweepTaskError",
+    "run_chunk",
+    "run_sweep",
+]
+
+# ----------------------------------------------------------------------------- computing
+
+
+@dataclass(frozen=True)
+class ChunkResult:
+    """The rows of one chunk, as computed by a worker.
+
+    Attributes
+    ----------
+    chunk : int
+        Chunk index.
+    rows : tuple of tuple
+        One row per (sample, controller), in sample then controller order, with the
+        values of :attr:`SweepPlan.columns`.
+    wall_s : float
+        Seconds the worker spent on it.
+    pid : int
+        The worker's process id.
+    """
+
+    chunk: int
+    rows: tuple[tuple[Any, ...], ...]
+    wall_s: float
+    pid: int
+
+
+def _metric_values(m: Any) -> list[float]:
+    out: list[float] = []
+    for j in range(2):
+        step = m.step[j]
+        out += (
+            [math.nan] * len(STEP_FIELDS)
+            if step is None
+            else [float(getattr(step, f)) for f in STEP_FIELDS]
+        )
+        out += [
+            float(m.errors.iae[j]),
+            float(m.errors.ise[j]),
+            float(m.errors.itae[j]),
+            float(m.torque.rms[j]),
+            float(m.torque.peak[j]),
+        ]
+    return out
+
+
+def _error_text(exc: BaseException) -> str:
+    return f"{type(exc).__name__}: {exc}"
+
+
+def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
+    """Compute every (sample, controller) of one chunk.
+
+    The controllers are built once per chunk (they are modelled on the nominal arm,
+    which does not change) and the plant once per sample, shared by the controllers.
+    A sample that raises or diverges gives rows with status "error" or "diverged" and
+    the message; it never stops the chunk.
+    """
+    start = time.perf_counter()
+    nan_metrics = [math.nan] * len(METRIC_COLUMNS)
+    controllers: dict[str, Any] = {}
+    build_errors: dict[str, str] = {}
+    for name in plan.controller_names:
+        try:
+            s = scenario_from_dict(plan.controller_data(name), plan.file)
+            controllers[name] = build_controller(s)
+        except Exception as exc:  # recorded on every row of this controller
+            build_errors[name] = _error_text(exc)
+    rows: list[tuple[Any, ...]] = []
+    for i in plan.chunk_samples(chunk):
+        values, noise_seed = plan.draw(i)
+        head = list(values.values())
+        try:
+            s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
+            plant = build_plant(s)
+            sample_error = ""
+        except Exception as exc:
+            sample_error = _error_text(exc)
+        for name in plan.controller_names:
+            error = sample_error or build_errors.get(name, "")
+            if not error:
+                try:
+                    traj = run_scenario(s, controllers[name], plant)
+                except Exception as exc:
+                    error = _error_text(exc)
+                else:
+                    try:
+                        metrics = _metric_values(measure(s, traj))
+                    except Exception as exc:
+                        if traj.ok:
+                            error = _error_text(exc)
+                        else:  # diverged too early to measure anything
+                            metrics = nan_metrics
+                    if not error:
+                        rows.append((i, name, *head, *metrics, traj.status, traj.message))
+                        continue
+            rows.append((i, name, *head, *nan_metrics, STATUS_ERROR, error))
+    return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
+
+
+# ----------------------------------------------------------------------------- chunk files
+
+
+def _chunk_path(out: Path, chunk: int) -> Path:
+    return out / "chunks" / f"chunk_{chunk:05d}.parquet"
+
+
+def _chunk_frame(plan: SweepPlan, rows: Any) -> pd.DataFrame:
+    return results_frame(rows, plan.columns, plan.meta)
+
+
+def _valid_chunk(plan: SweepPlan, out: Path, chunk: int) -> pd.DataFrame | None:
+    """The chunk's rows if its file holds exactly what the plan asks for, else None."""
+    path = _chunk_path(out, chunk)
+    if not path.is_file():
+        return None
+    try:
+        df = read_table(path)
+    except (OSError, ValueError):  # pyarrow's errors for a damaged file are ValueErrors
+        return None
+    expected = [(i, c) for i in plan.chunk_samples(chunk) for c in plan.controller_names]
+    if (
+        tuple(df.columns) != plan.columns
+        or list(zip(df["sample"], df["controller"], strict=True)) != expected
+    ):
+        return None  # e.g. the last chunk of a run with fewer samples
+    return df
+
+
+# ----------------------------------------------------------------------------- running
+
+
+class SweepInterrupted(Exception):
+    """The sweep stopped on SIGINT/SIGTERM; finished chunks are kept.
+
+    Attributes
+    ----------
+    signum : int
+        The signal that stopped it.
+    done, total : int
+        Chunks on disk and chunks in the sweep.
+    """
+
+    def __init__(self, signum: int, done: int, total: int, out: Path):
+        self.signum, self.done, self.total, self.out = signum, done, total, out
+        super().__init__(
+            f"interrupted by {signal.Signals(signum).name}: {done}/{total} chunks are kept in "
+            f"{out / 'chunks'}; run the same command again to compute only the missing ones"
+        )
+
+
+class SweepOutputError(RuntimeError):
+    """The output folder holds a different sweep's chunks."""
+
+
+class SweepTaskError(RuntimeError):
+    """A chunk task failed outside the per-sample error handling (a bug or a lost worker)."""
+
+
+@dataclass(frozen=True)
+class SweepOutcome:
+    """What a finished :func:`run_sweep` did.
+
+    Attributes
+    ----------
+    out : Path
+        The output folder.
+    table : Path
+        ``results.parquet``.
+    results : pandas.DataFrame
+        The results table (see :mod:`twolink.sweep.results`).
+    summary : dict
+        :func:`summarize`'s output.
+    computed, reused : tuple of int
+        Chunks computed by this call, and chunks found on disk.
+    wall_s : float
+        Seconds from start to finished table (plots not included).
+    busy_s : float
+        Seconds the workers spent inside the computed chunks, summed over chunks.
+    workers : int
+        Size of the executor (0 when nothing was computed).
+    """
+
+    out: Path
+    table: Path
+    results: pd.DataFrame
+    summary: dict[str, Any]
+    computed: tuple[int, ...]
+    reused: tuple[int, ...]
+    wall_s: float
+    busy_s: float
+    workers: int
+
+
+def _prepare_out(plan: SweepPlan, out: Path, fresh: bool) -> None:
+    manifest_path = out / "manifest.json"
+    chunk_dir = out / "chunks"
+    has_chunks = chunk_dir.is_dir() and any(chunk_dir.glob("chunk_*.parquet"))
+    digest = None
+    if manifest_path.is_file():
+        try:
+            digest = json.loads(manifest_path.read_text()).get("digest")
+        except (OSError, ValueError):
+            digest = "unreadable"
+    foreign = (digest is not None and digest != plan.digest) or (digest is None and has_chunks)
+    if foreign and not fresh:
+        raise SweepOutputError(
+            f"{out} holds results of a different sweep (its manifest.json digest "
+            f"{str(digest)[:12]} != {plan.digest[:12]} of {plan.file}); "
+            "use another --out, or --fresh to discard them"
+        )
+    if foreign or fresh:
+        for path in chunk_dir.glob("chunk_*") if chunk_dir.is_dir() else ():
+            path.unlink()
+        (out / "computed.log").unlink(missing_ok=True)
+    out.mkdir(parents=True, exist_ok=True)
+    chunk_dir.mkdir(exist_ok=True)
+    atomic_write_json(
+        manifest_path,
+        {
+            "format": FORMAT_VERSION,
+            "digest": plan.digest,
+            "file": plan.file,
+            "file_sha256": plan.file_sha256,
+            "name": plan.name,
+            "samples": plan.samples,
+            "seed": plan.seed,
+            "chunk_size": plan.chunk_size,
+            "controllers": list(plan.controller_names),
+            "parameters": list(plan.parameter_names),
+            "joints": list(plan.joints),
+            "columns": list(plan.columns),
+        },
+    )
+    atomic_write_text(out / "sweep.toml", Path(plan.file).read_text())
+
+
+class _StopSignals:
+    """SIGINT and SIGTERM as KeyboardInterrupt, held back inside critical sections.
+
+    A handler runs in the main thread, whichever thread the signal reached, so a flag
+    (not a signal mask) is what keeps a chunk file and its log line together.
+    """
+
+    def __init__(self) -> None:
+        self.received: list[int] = []
+        self._depth = 0
+        self._pending = False
+
+    def _handler(self, signum: int, frame: Any) -> None:
+        self.received.append(signum)
+        if self._depth:
+            self._pending = True
+        else:
+            raise KeyboardInterrupt
+
+    @contextmanager
+    def installed(self) -> Iterator[None]:
+        """Install the handlers for SIGINT and SIGTERM (main thread only; else no-op)."""
+        try:
+            old = {s: signal.signal(s, self._handler) for s in (signal.SIGINT, signal.SIGTERM)}
+        except ValueError:  # not the main thread: leave signals to the caller
+            yield
+            return
+        try:
+            yield
+        finally:
+            for s, handler in old.items():
+                signal.signal(s, handler)
+
+    @contextmanager
+    def critical(self) -> Iterator[None]:
+        """Defer a stop until the block is done."""
+        self._depth += 1
+        try:
+            yield
+        finally:
+            self._depth -= 1
+        if not self._depth and self._pending:
+            self._pending = False
+            raise KeyboardInterrupt
+
+
+def run_sweep(
+    plan: SweepPlan,
+    out: str | Path,
+    executor: str | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = False,
+    plots: bool = True,
+    fresh: bool = False,
+) -> SweepOutcome:
+    """Compute the missing chunks of a sweep, then write its table, summary and plots.
+
+    Parameters
+    ----------
+    plan : SweepPlan
+        From :func:`load_sweep`.
+    out : str or Path
+        Output folder. Chunks already there (of the same sweep) are kept, not recomputed.
+    executor, workers, scheduler : optional
+        See :func:`twolink.executors.open_executor`; default: the sweep file's
+        ``[execution]`` table, else a process pool on all cores.
+    progress : bool
+        Show a tqdm progress bar over samples (on stderr).
+    plots : bool
+        Write the PNG plots.
+    fresh : bool
+        Discard chunks already in ``out`` (also those of a different sweep).
+
+    Returns
+    -------
+    SweepOutcome
+
+    Raises
+    ------
+    SweepInterrupted
+        On SIGINT or SIGTERM: running tasks are abandoned, finished chunks kept.
+    SweepOutputError
+        ``out`` holds a different sweep's chunks and ``fresh`` is false.
+    ExecutorError, ValueError
+        The executor cannot be started or its options are inconsistent.
+    """
+    from tqdm import tqdm
+
+    start = time.perf_counter()
+    out = Path(out)
+    if executor is None:
+        executor = "dask" if scheduler else plan.execution.executor
+    workers = workers or plan.execution.workers
+    if scheduler is None and executor == plan.execution.executor:
+        scheduler = plan.execution.scheduler
+    check_options(executor, workers, scheduler)
+    _prepare_out(plan, out, fresh)
+
+    frames: dict[int, pd.DataFrame] = {}
+    for c in range(plan.n_chunks):
+        frame = _valid_chunk(plan, out, c)
+        if frame is not None:
+            frames[c] = frame
+    reused = tuple(sorted(frames))
+    missing = [c for c in range(plan.n_chunks) if c not in frames]
+    computed: list[tuple[int, float]] = []  # (chunk, worker seconds)
+    stops = _StopSignals()
+    n_workers = 0
+    bar = tqdm(
+        total=plan.samples,
+        initial=sum(len(plan.chunk_samples(c)) for c in reused),
+        unit="sample",
+        disable=not progress,
+        desc=plan.name,
+        file=sys.stderr,
+    )
+    try:
+        with stops.installed():
+            try:
+                if missing:
+                    ex = open_executor(executor, workers, scheduler)
+                    n_workers = ex.workers
+                    try:
+                        _drive(plan, out, ex, missing, frames, computed, bar, stops)
+                    except BaseException:
+                        with stops.critical():
+                            ex.abort()
+                        raise
+                    ex.shutdown(wait=True)
+            except KeyboardInterrupt:
+                signum = stops.received[0] if stops.received else signal.SIGINT
+                raise SweepInterrupted(signum, len(frames), plan.n_chunks, out) from None
+    finally:
+        bar.close()
+
+    results = pd.concat([frames[c] for c in range(plan.n_chunks)], ignore_index=True)
+    results.attrs = dict(frames[0].attrs)  # concat keeps attrs only where all agree
+    table = write_table(out / "results.parquet", results)
+    (out / "results.csv").unlink(missing_ok=True)  # the table of a format-1 sweep
+    summary = summarize(results)
+    write_summary(out, summary)
+    wall_s = time.perf_counter() - start
+    if plots:
+        from twolink.sweep.figures import save_sweep_plots
+
+        save_sweep_plots(out, results)
+    return SweepOutcome(
+        out=out,
+        table=table,
+        results=results,
+        summary=summary,
+        computed=tuple(c for c, _ in computed),
+        reused=reused,
+        wall_s=wall_s,
+        busy_s=sum(w for _, w in computed),
+        workers=n_workers,
+    )
+
+
+def _drive(
+    plan: SweepPlan,
+    out: Path,
+    ex: SweepExecutor,
+    missing: list[int],
+    frames: dict[int, pd.DataFrame],
+    computed: list[tuple[int, float]],
+    bar: Any,
+    stops: _StopSignals,
+) -> None:
+    """Keep a bounded window of chunks in flight; write each chunk as it finishes."""
+    todo = iter(missing)
+    # Enough queued work that no worker waits on the client, little to cancel on Ctrl-C.
+    window = 1 if ex.name == "inprocess" else 2 * ex.workers
+    pending: set[futures.Future] = set()
+
+    def fill() -> None:
+        while len(pending) < window:
+            chunk = next(todo, None)
+            if chunk is None:
+                return
+            pending.add(ex.submit(run_chunk, plan, chunk))
+
+    fill()
+    while pending:
+        done, pending = futures.wait(pending, return_when=futures.FIRST_COMPLETED)
+        for future in done:
+            try:
+                result: ChunkResult = future.result()
+            except futures.BrokenExecutor:
+                raise
+            except Exception as exc:  # outside run_chunk's per-sample net: a real bug
+                raise SweepTaskError(f"a chunk task failed: {_error_text(exc)}") from exc
+            with stops.critical():
+                frame = _chunk_frame(plan, result.rows)
+                write_table(_chunk_path(out, result.chunk), frame)
+                with open(out / "computed.log", "a") as log:
+                    samples = plan.chunk_samples(result.chunk)
+                    log.write(
+                        f"{result.chunk} samples={samples.start}-{samples.stop - 1} "
+                        f"wall_s={result.wall_s:.3f} pid={result.pid} executor={ex.name}\n"
+                    )
+            frames[result.chunk] = frame
+            computed.append((result.chunk, result.wall_s))
+            bar.update(len(plan.chunk_samples(result.chunk)))
+        fill()

@@ -1,0 +1,203 @@
+"""A sweep's results table: its columns, Parquet files, and the summary per controller.
+
+The table is a pandas DataFrame with one row per (sample, controller): ``sample``,
+``controller``, the drawn parameters, the metrics of both joints (``joint1_overshoot``,
+...), ``status`` ("ok", "diverged" or "error") and ``message``. What it was computed from
+(the controllers in the sweep file's order, the swept parameters, the joints that move)
+travels in ``DataFrame.attrs``, which Parquet keeps, so ``pandas.read_parquet`` on a
+``results.parquet`` gives the same frame as :func:`load_results`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from twolink.io import atomic_path, atomic_write_json, atomic_write_text
+from twolink.metrics import StepMetrics
+
+__all__ = [
+    "METRIC_COLUMNS",
+    "STATUS_ERROR",
+    "STEP_FIELDS",
+    "SweepMeta",
+    "format_summary",
+    "load_results",
+    "read_table",
+    "results_frame",
+    "summarize",
+    "sweep_meta",
+    "write_summary",
+    "write_table",
+]
+
+STEP_FIELDS = tuple(f.name for f in fields(StepMetrics))
+JOINT_FIELDS = (*STEP_FIELDS, "iae", "ise", "itae", "torque_rms", "torque_peak")
+METRIC_COLUMNS = tuple(f"joint{j}_{f}" for j in (1, 2) for f in JOINT_FIELDS)
+SUMMARY_METRICS = ("steady_state_error", "overshoot", "settling_time")
+METRIC_LABELS = {
+    "steady_state_error": "ess [rad]",
+    "overshoot": "Mp [fraction]",
+    "settling_time": "Ts [s]",
+}
+STATUS_ERROR = "error"  # a sample that raised (the simulation's own are "ok", "diverged")
+_TEXT_COLUMNS = ("controller", "status", "message")
+
+
+@dataclass(frozen=True)
+class SweepMeta:
+    """What a results table was computed from (kept in ``DataFrame.attrs``).
+
+    Attributes
+    ----------
+    controllers : tuple of str
+        Controller names, in the sweep file's order.
+    parameters : tuple of str
+        Swept parameter names (columns of the table).
+    joints : tuple of int
+        Joints (1, 2) whose reference is a move, i.e. that have step metrics.
+    """
+
+    controllers: tuple[str, ...]
+    parameters: tuple[str, ...]
+    joints: tuple[int, ...]
+
+
+def results_frame(
+    rows: Iterable[Sequence[Any]], columns: Sequence[str], meta: SweepMeta
+) -> pd.DataFrame:
+    """The results table of ``rows`` (tuples in ``columns`` order), with ``meta`` attached."""
+    df = pd.DataFrame.from_records(list(rows), columns=list(columns))
+    dtypes = {c: ("int64" if c == "sample" else "float64") for c in columns}
+    for c in _TEXT_COLUMNS:
+        dtypes[c] = "str"
+    df = df.astype(dtypes)
+    df.attrs.update(
+        controllers=list(meta.controllers),
+        parameters=list(meta.parameters),
+        joints=list(meta.joints),
+    )
+    return df
+
+
+def sweep_meta(df: pd.DataFrame) -> SweepMeta:
+    """The :class:`SweepMeta` of a results table; derived from its columns when the frame
+    carries none (one built by hand)."""
+    attrs = df.attrs
+    if "controllers" in attrs:
+        return SweepMeta(
+            tuple(attrs["controllers"]), tuple(attrs["parameters"]), tuple(attrs["joints"])
+        )
+    controllers = tuple(dict.fromkeys(df["controller"]))
+    skip = {"sample", *_TEXT_COLUMNS, *METRIC_COLUMNS}
+    parameters = tuple(c for c in df.columns if c not in skip)
+    joints = tuple(j for j in (1, 2) if f"joint{j}_rise_time" in df.columns)
+    return SweepMeta(controllers, parameters, joints)
+
+
+def rows_of(df: pd.DataFrame, controller: str, ok_only: bool = False) -> np.ndarray:
+    """Boolean mask of the rows of ``controller`` (only status "ok" if ``ok_only``)."""
+    mask = (df["controller"] == controller).to_numpy(bool)
+    return mask & (df["status"] == "ok").to_numpy(bool) if ok_only else mask
+
+
+def write_table(path: Path, df: pd.DataFrame) -> Path:
+    """Write ``df`` as Parquet, atomically (a reader never sees half a file)."""
+    with atomic_path(path, suffix=".parquet") as tmp:
+        df.to_parquet(tmp, index=False)
+    return path
+
+
+def read_table(path: str | Path) -> pd.DataFrame:
+    """Read a table written by :func:`write_table` (its ``attrs`` included)."""
+    return pd.read_parquet(path)
+
+
+def load_results(out: str | Path) -> pd.DataFrame:
+    """A finished sweep's table (``results.parquet`` in its output folder) as a DataFrame.
+
+    Examples
+    --------
+    >>> df = load_results("results/sweeps/robustness")            # doctest: +SKIP
+    >>> df.groupby("controller")["joint2_steady_state_error"].median()  # doctest: +SKIP
+    """
+    return read_table(Path(out) / "results.parquet")
+
+
+def _stats(x: np.ndarray) -> dict[str, float]:
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return {"mean": math.nan, "median": math.nan, "p95": math.nan, "n": 0}
+    return {
+        "mean": float(np.mean(x)),
+        "median": float(np.median(x)),
+        "p95": float(np.percentile(x, 95)),
+        "n": int(x.size),
+    }
+
+
+def summarize(df: pd.DataFrame) -> dict[str, Any]:
+    """Per controller: counts by status, success rate, and stats of ess, Mp and Ts.
+
+    Success means status "ok" (no divergence, no error). The metric statistics (mean,
+    median, 95th percentile, and ``n`` finite values) are over the successful runs.
+    """
+    meta = sweep_meta(df)
+    status = df["status"].to_numpy(object)
+    out: dict[str, Any] = {}
+    for c in meta.controllers:
+        rows = rows_of(df, c)
+        n = int(rows.sum())
+        counts = {s: int((rows & (status == s)).sum()) for s in ("ok", "diverged", STATUS_ERROR)}
+        ok = rows_of(df, c, ok_only=True)
+        metrics = {
+            f"joint{j}_{m}": _stats(df[f"joint{j}_{m}"].to_numpy(float)[ok])
+            for j in meta.joints
+            for m in SUMMARY_METRICS
+        }
+        out[c] = {
+            "runs": n,
+            **counts,
+            "success_rate": counts["ok"] / n if n else math.nan,
+            "metrics": metrics,
+        }
+    return out
+
+
+def summary_frame(summary: Mapping[str, Any]) -> pd.DataFrame:
+    """The summary as a flat table: one row per controller, ``<metric>_<stat>`` columns."""
+    rows = []
+    for c, s in summary.items():
+        row = {k: s[k] for k in ("runs", "ok", "diverged", STATUS_ERROR, "success_rate")}
+        for metric, st in s["metrics"].items():
+            row |= {f"{metric}_{k}": st[k] for k in ("mean", "median", "p95")}
+        rows.append({"controller": c, **row})
+    return pd.DataFrame(rows)
+
+
+def write_summary(out: Path, summary: Mapping[str, Any]) -> None:
+    """``summary.json`` and the human-readable ``summary.csv`` of a sweep folder."""
+    atomic_write_json(out / "summary.json", summary)
+    atomic_write_text(out / "summary.csv", summary_frame(summary).to_csv(index=False))
+
+
+def format_summary(summary: Mapping[str, Any]) -> str:
+    """A short plain-text table of the summary (what the command prints)."""
+    lines = []
+    for c, s in summary.items():
+        lines.append(
+            f"{c}: {s['ok']}/{s['runs']} ok ({100 * s['success_rate']:.1f} %), "
+            f"{s['diverged']} diverged, {s[STATUS_ERROR]} errors"
+        )
+        for metric, st in s["metrics"].items():
+            lines.append(
+                f"    {metric:28s} mean {st['mean']:.4g}  median {st['median']:.4g}  "
+                f"p95 {st['p95']:.4g}  (n={st['n']})"
+            )
+    return "\n".join(lines)
