@@ -1,5 +1,8 @@
 """The `twolink validate`, `design` and `models` commands."""
 
+import hashlib
+from pathlib import Path
+
 from click.testing import CliRunner
 
 import twolink.validation
@@ -7,6 +10,8 @@ from controllers.fuzzy import load_rule_base
 from twolink.cli import main
 from twolink.params import ArmParams, Flexibility
 from twolink.plant import model_xml
+
+REPO = Path(__file__).resolve().parents[1]
 
 
 def test_validate_prints_the_table_and_exits_0():
@@ -42,3 +47,42 @@ def test_models_regenerates_the_mjcf_files(tmp_path):
     assert result.exit_code == 0, result.output
     assert (tmp_path / "twolink.xml").read_text() == model_xml(ArmParams())
     assert (tmp_path / "twolink_flexible.xml").read_text() == model_xml(ArmParams(), Flexibility())
+
+
+def _digests(*folders: Path) -> dict[str, str]:
+    return {
+        str(p): hashlib.sha256(p.read_bytes()).hexdigest()
+        for folder in folders
+        for p in sorted(folder.rglob("*"))
+        if p.is_file()
+    }
+
+
+def test_design_and_models_without_options_change_nothing_in_the_source_tree(tmp_path, monkeypatch):
+    shipped = (REPO / "controllers", REPO / "models", REPO / "runs")
+    before = _digests(*shipped)
+    monkeypatch.chdir(tmp_path)
+    for command in ("design", "models"):
+        result = CliRunner().invoke(main, [command])
+        assert result.exit_code == 0, result.output
+    assert _digests(*shipped) == before
+    assert len(load_rule_base(tmp_path / "results/design/rule_base.toml")) >= 1
+    assert (tmp_path / "results/models/twolink.xml").read_text() == model_xml(ArmParams())
+
+
+def test_install_takes_no_out(tmp_path):
+    for command in ("design", "models"):
+        result = CliRunner().invoke(main, [command, "--install", "--out", str(tmp_path / "x")])
+        assert result.exit_code == 2 and "--install" in result.output
+    assert not (tmp_path / "x").exists()
+
+
+def test_version_and_short_help():
+    result = CliRunner().invoke(main, ["--version"])
+    assert result.exit_code == 0 and "twolink, version" in result.output
+    result = CliRunner().invoke(main, ["--help"])
+    listed = result.output.split("Commands:")[1].strip().splitlines()
+    assert len(listed) == 6 and not [line for line in listed if line.endswith("...")]
+    for command in ("design", "models", "reproduce", "run", "sweep", "validate"):
+        help_text = CliRunner().invoke(main, [command, "--help"]).output
+        assert "Examples:" in help_text, command

@@ -77,7 +77,7 @@ def test_a_changed_design_config_is_designed_afresh(tmp_path, config, result):
 
 
 def test_shipped_designed_rule_base_is_current(result):
-    # `twolink design` on defaults wrote controllers/rulebases/designed.toml
+    # `twolink design --install` wrote controllers/rulebases/designed.toml
     shipped = load_rule_base(RULEBASE_DIR / "designed.toml")
     assert set(shipped.rules) == set(result.rules)
     assert shipped.metadata["evidence"]["digest"] == result.digest

@@ -58,7 +58,7 @@ def test_positive_torque_raises_the_link_and_gravity_pulls_down():
 
 
 def test_checked_in_mjcf_files_equal_the_generated_ones():
-    # `twolink models` regenerates them; this fails if they drift from ArmParams.
+    # `twolink models --install` regenerates them; this fails if they drift from ArmParams.
     assert (MODELS / "twolink.xml").read_text() == model_xml(ArmParams())
     assert (MODELS / "twolink_flexible.xml").read_text() == model_xml(ArmParams(), Flexibility())
     assert (MODELS / "scene.xml").read_text() == scene_xml("twolink.xml")

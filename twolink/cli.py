@@ -13,17 +13,33 @@ import click
 from twolink.executors import EXECUTORS
 from twolink.params import ArmParams, Flexibility
 
+REPO_MODELS = Path(__file__).resolve().parents[1] / "models"
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+@click.version_option(package_name="twolink", prog_name="twolink")
 def main() -> None:
-    """A two-link arm in MuJoCo with the paper's CTC and FCM fuzzy controllers."""
+    """A two-link arm in MuJoCo with the paper's CTC and FCM fuzzy controllers.
+
+    \b
+    Examples:
+      twolink reproduce                          # the paper's tables and figures
+      twolink run runs/paper/theta1_step.toml    # one scenario
+      twolink sweep runs/sweeps/robustness.toml -n 50
+    """
 
 
-@main.command()
+@main.command(short_help="Check the analytic dynamics against MuJoCo's.")
 @click.option("-n", "--samples", default=1000, show_default=True, help="Random arms and states.")
 @click.option("--seed", default=0, show_default=True, help="Seed of the random draws.")
 def validate(samples: int, seed: int) -> None:
-    """Check the analytic M, H, G against MuJoCo's own dynamics; exit 1 on any failure."""
+    """Check the analytic M, H, G against MuJoCo's own dynamics; exit 1 on any failure.
+
+    \b
+    Examples:
+      twolink validate                 # 1000 random arms
+      twolink validate -n 100 --seed 3
+    """
     from twolink.validation import format_table
     from twolink.validation import validate as run_checks
 
@@ -33,19 +49,32 @@ def validate(samples: int, seed: int) -> None:
         sys.exit(1)
 
 
-@main.command()
+@main.command(short_help="Write the arm's MJCF files.")
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
-    default=Path("models"),
-    show_default=True,
-    help="Folder for the MJCF files.",
+    default=None,
+    help="Folder for the MJCF files [default: results/models].",
 )
-def models(out: Path) -> None:
-    """Write the MJCF files of the default arm (rigid, flexible, scene) from ArmParams."""
+@click.option(
+    "--install",
+    is_flag=True,
+    help="Regenerate the repository's models/ folder instead (a test keeps it in sync).",
+)
+def models(out: Path | None, install: bool) -> None:
+    """Write the MJCF files of the default arm (rigid, flexible, scene) from ArmParams.
+
+    \b
+    Examples:
+      twolink models                 # into results/models
+      twolink models --install       # regenerate the repository's models/
+    """
     from twolink.io import atomic_write_text
     from twolink.plant import model_xml, scene_xml
 
+    if install and out is not None:
+        _fail_input("--install writes the repository's models/; it takes no --out")
+    out = REPO_MODELS if install else out or Path("results/models")
     out.mkdir(parents=True, exist_ok=True)
     files = {
         "twolink.xml": model_xml(ArmParams()),
@@ -62,7 +91,7 @@ def _fail_input(message: str) -> None:
     sys.exit(2)
 
 
-@main.command()
+@main.command(short_help="Run one scenario file.")
 @click.argument("scenario", type=click.Path(path_type=Path))
 @click.option(
     "--out",
@@ -74,6 +103,11 @@ def _fail_input(message: str) -> None:
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recording (trace.rrd).")
 def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> None:
     """Run one scenario file and write its results folder.
+
+    \b
+    Examples:
+      twolink run runs/paper/theta1_step.toml
+      twolink run runs/paper/theta1_step.toml --out /tmp/step --no-trace
 
     Exit 0 when the run completes, 1 when it diverged (what was computed is kept),
     2 on a bad scenario file.
@@ -112,7 +146,7 @@ def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> Non
         sys.exit(1)
 
 
-@main.command()
+@main.command(short_help="Design the reduced FCM rule base.")
 @click.option(
     "--config",
     "config_path",
@@ -124,7 +158,12 @@ def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> Non
     "--out",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Rule-base file to write [default: controllers/rulebases/designed.toml].",
+    help="Rule-base file to write [default: results/design/rule_base.toml].",
+)
+@click.option(
+    "--install",
+    is_flag=True,
+    help='Write the shipped rule base that `rule_base = "designed"` selects instead.',
 )
 @click.option(
     "--figure",
@@ -132,19 +171,31 @@ def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> Non
     default=None,
     help="Also save the phase-plane figure (the paper's Figure 2) here.",
 )
-def design(config_path: Path | None, out: Path | None, figure: Path | None) -> None:
-    """Design the reduced FCM rule base (the paper's steps 1-6) and write it with evidence."""
+def design(config_path: Path | None, out: Path | None, install: bool, figure: Path | None) -> None:
+    """Design the reduced FCM rule base (the paper's steps 1-6) and write it with evidence.
+
+    \b
+    Examples:
+      twolink design                       # into results/design/rule_base.toml
+      twolink design --figure phase.png    # also the paper's Figure 2
+      twolink design --install             # update controllers/rulebases/designed.toml
+    """
     from twolink.config import ConfigError
     from twolink.design import DEFAULT_DESIGN, load_design_config, write_design
     from twolink.design import design as run_design
     from twolink.experiment import RULEBASE_DIR
 
+    if install and out is not None:
+        _fail_input("--install writes the shipped designed rule base; it takes no --out")
     try:
         config = load_design_config(config_path or DEFAULT_DESIGN)
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
     result = run_design(config)
-    path = write_design(result, out or RULEBASE_DIR / "designed.toml")
+    target = (
+        RULEBASE_DIR / "designed.toml" if install else out or Path("results/design/rule_base.toml")
+    )
+    path = write_design(result, target)
     for j, i in enumerate(result.kept):
         rule = result.engine.rules[i]
         c = result.clustering.centers[j]
@@ -160,7 +211,7 @@ def design(config_path: Path | None, out: Path | None, figure: Path | None) -> N
         click.echo(f"phase plane -> {figure}")
 
 
-@main.command()
+@main.command(short_help="Reproduce the paper's tables and figures.")
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
@@ -177,7 +228,13 @@ def design(config_path: Path | None, out: Path | None, figure: Path | None) -> N
 @click.option("--workers", type=int, default=None, help="Processes [default: all cores].")
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recordings.")
 def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: bool) -> None:
-    """Reproduce the paper's Tables 2-8 and figures: report, CSV/JSON, PNGs, .rrd."""
+    """Reproduce the paper's Tables 2-8 and figures: report, CSV/JSON, PNGs, .rrd.
+
+    \b
+    Examples:
+      twolink reproduce                          # into results/reproduce
+      twolink reproduce --out /tmp/r --no-trace  # elsewhere, without recordings
+    """
     import time
 
     from twolink.config import ConfigError
@@ -208,7 +265,7 @@ def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: b
         click.echo(f"{len(failed)} run(s) diverged: see the report", err=True)
 
 
-@main.command("sweep")
+@main.command("sweep", short_help="Run a Monte Carlo sweep file.")
 @click.argument("sweep_file", type=click.Path(path_type=Path))
 @click.option(
     "--out",
@@ -245,6 +302,11 @@ def sweep_command(
     progress: bool,
 ) -> None:
     """Run a Monte Carlo sweep file: every controller on N drawn plants.
+
+    \b
+    Examples:
+      twolink sweep runs/sweeps/robustness.toml -n 50
+      twolink sweep runs/sweeps/robustness.toml --executor dask --workers 4
 
     Resumable: rerun the same command to compute only the chunks not yet in --out.
     Exit 0 when the table is written (diverged samples are results, not failures),
