@@ -152,7 +152,12 @@ def test_twolink_run_writes_one_folder(tmp_path):
         "trace.rrd",
         "trajectory.npz",
     ]
-    assert "joint 1: Tp" in result.output
+    # one line per metric key (the keys of metrics.json), undefined values as "—"
+    from twolink.vocabulary import METRICS
+
+    for m in METRICS:
+        assert m.key in result.output
+    assert "nan" not in result.output and "—" in result.output  # θ2 holds: no step metrics
 
 
 def test_twolink_run_exits_1_when_the_run_diverges(tmp_path):

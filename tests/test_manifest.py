@@ -7,7 +7,8 @@ import pytest
 
 from twolink import report
 from twolink.config import ConfigError
-from twolink.manifest import DEFAULT_MANIFEST, METRIC_KEYS, load_manifest
+from twolink.manifest import DEFAULT_MANIFEST, load_manifest
+from twolink.vocabulary import METRICS
 
 PAPER = DEFAULT_MANIFEST.parent
 
@@ -45,8 +46,8 @@ def fake_rows(manifest):
                         "controller": name,
                         "joint": exp.joint,
                         "status": "ok",
-                        **{key: 1.0 + k for key in METRIC_KEYS},
-                        "Mp": 0.1 if name == manifest.proposed else 0.3,
+                        **{m.key: 1.0 + k for m in METRICS},
+                        "overshoot_pct": 10.0 if name == manifest.proposed else 30.0,
                     }
                 )
     return rows
@@ -54,21 +55,21 @@ def fake_rows(manifest):
 
 def test_the_shipped_manifest_compares_fcm_against_ctc(tmp_path):
     m = load_manifest()
-    assert (m.proposed, m.baseline) == ("FCM", "CTC")
+    assert (m.proposed, m.baseline) == ("FCM-CTC", "CTC")
     # the same by default, from the controllers' kinds
     implicit = load_manifest(renamed_manifest(tmp_path))
-    assert (implicit.proposed, implicit.baseline) == ("FCM", "CTC")
+    assert (implicit.proposed, implicit.baseline) == ("FCM-CTC", "CTC")
 
 
 def test_the_report_uses_the_manifests_own_controller_names(tmp_path):
-    path = renamed_manifest(tmp_path, CTC="pd_model", FCM="fuzzy")
+    path = renamed_manifest(tmp_path, CTC="pd_model", **{"FCM-CTC": "fuzzy"})
     m = load_manifest(path)
     # the roles follow the controllers' kinds
     assert (m.proposed, m.baseline) == ("fuzzy", "pd_model")
     text = report.render(fake_rows(m), m, {"uncertainty": "masses x1.2"}, {})
     assert "| pd_model | " in text and "| fuzzy | " in text
     assert "fuzzy's overshoot is lower than pd_model's in 8 of 8 experiments" in text
-    assert "| CTC |" not in text and "| FCM |" not in text
+    assert "| CTC |" not in text and "| FCM-CTC |" not in text
     # the paper's values are found under the new names
     assert "/ 5.89 |" in text
 
@@ -83,9 +84,9 @@ def test_claim_roles_can_be_named_and_are_checked_before_anything_runs(tmp_path)
         load_manifest(path)
     path.write_text('baseline = "stiff"\n' + path.read_text())
     m = load_manifest(path)
-    assert (m.proposed, m.baseline) == ("FCM", "stiff")
+    assert (m.proposed, m.baseline) == ("FCM-CTC", "stiff")
     rows = fake_rows(m)
-    assert "FCM's overshoot is lower than stiff's" in report.render(rows, m, {}, {})
+    assert "FCM-CTC's overshoot is lower than stiff's" in report.render(rows, m, {}, {})
     for bad, message in (
         ('proposed = "nope"', "proposed: must name a controller of this manifest"),
         ('proposed = "CTC"\nbaseline = "CTC"', "baseline: must differ from proposed"),
@@ -96,9 +97,10 @@ def test_claim_roles_can_be_named_and_are_checked_before_anything_runs(tmp_path)
 
 
 def test_claims_count_the_proposed_controller_against_the_baseline(tmp_path):
-    m = load_manifest(renamed_manifest(tmp_path, CTC="b", FCM="a"))
+    m = load_manifest(renamed_manifest(tmp_path, CTC="b", **{"FCM-CTC": "a"}))
     rows = fake_rows(m)
     counts = report.claims(rows, m, "rigid")
-    assert counts["Mp"][:2] == (len(m.experiments), len(m.experiments))  # a wins every time
-    assert counts["Tp"][:2] == (0, len(m.experiments))  # a's 2.0 never below b's 1.0
+    n = len(m.experiments)
+    assert counts["overshoot_pct"][:2] == (n, n)  # a wins every time
+    assert counts["peak_time_s"][:2] == (0, n)  # a's 2.0 never below b's 1.0
     assert not any(math.isnan(x) for c in counts.values() for x in c)

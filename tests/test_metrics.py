@@ -330,3 +330,15 @@ def test_metrics_dict_is_strict_json() -> None:
     assert back["errors"]["iae"] == list(error_measures(t, np.stack([y, y], axis=1)).iae)
     assert back["torque"] == {"rms": [1.0, 1.0], "peak": [1.0, 1.0]}
     assert back["extra"] == {"n": 3, "arr": [1.0, None]}
+
+
+def test_docs_list_every_output_key_with_its_unit():
+    from pathlib import Path
+
+    from twolink.vocabulary import METRICS
+
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "metrics.md").read_text()
+    table = [line for line in doc.splitlines() if line.startswith("| `")]
+    listed = {line.split("|")[1].strip(" `"): line.split("|")[3].strip() for line in table}
+    for m in METRICS:
+        assert listed.get(m.key) == m.unit, m.key

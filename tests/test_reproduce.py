@@ -13,10 +13,21 @@ from pathlib import Path
 import pytest
 
 from twolink.config import load_scenario
-from twolink.manifest import METRIC_FIELDS, load_manifest
+from twolink.manifest import load_manifest
 from twolink.metrics import step_metrics
 from twolink.reproduce import reproduce
 from twolink.sim import Trajectory
+from twolink.vocabulary import STEP_KEYS, metric
+
+# StepMetrics fields in STEP_KEYS order
+STEP_FIELDS = (
+    "peak_time",
+    "delay_time",
+    "rise_time",
+    "settling_time",
+    "overshoot",
+    "steady_state_error",
+)
 
 
 @pytest.fixture(scope="module")
@@ -34,7 +45,7 @@ def test_every_paper_table_is_in_the_report_beside_the_papers_values(reproductio
     row = next(
         line for line in report.splitlines() if line.startswith("| CTC |") and "/ 5.89 |" in line
     )
-    assert "/ 0.655 |" in row and "/ 0.21 |" in row
+    assert "/ 65.5 |" in row and "/ 0.21 |" in row  # Mp in percent, beside ours
     assert len(reproduction.rows) == (
         len(manifest.experiments) * len(manifest.controllers) * len(manifest.variants)
     )
@@ -52,14 +63,15 @@ def test_report_metrics_equal_step_metrics_of_the_saved_trajectories(reproductio
         scenario = load_scenario(folder / "config.toml")
         j = row["joint"] - 1
         m = step_metrics(traj.t, traj.q[:, j], scenario.reference.final[j], y0=scenario.q0[j])
-        for key, name in METRIC_FIELDS.items():
-            expected = getattr(m, name)
+        for key, name in zip(STEP_KEYS, STEP_FIELDS, strict=True):
+            expected = getattr(m, name) * metric(key).scale
             if math.isnan(expected):
                 assert row[key] is None, (row, key)
             else:
                 assert row[key] == expected, (row, key)
         per_run = json.loads((folder / "metrics.json").read_text())
-        assert per_run[f"joint{row['joint']}"]["overshoot"] == row["Mp"]
+        assert per_run[f"joint{row['joint']}"]["overshoot_pct"] == row["overshoot_pct"]
+        assert per_run["controller"] == row["controller"]
 
 
 def _rerun(*args):
@@ -72,7 +84,7 @@ def _rerun(*args):
 def test_recordings_pass_rerun_rrd_verify(reproduction):
     files = [
         reproduction.out / "reproduction.rrd",
-        reproduction.out / "rigid" / "table2" / "FCM" / "trace.rrd",
+        reproduction.out / "rigid" / "table2" / "FCM-CTC" / "trace.rrd",
     ]
     for f in files:
         assert f.stat().st_size > 100_000
@@ -115,3 +127,28 @@ def test_interrupted_reproduction_leaves_whole_files_and_reruns_to_completion(
     rows = json.loads((out / "metrics.json").read_text())
     expected = json.loads((reproduction.out / "metrics.json").read_text())
     assert rows == expected
+
+
+def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reproduction):
+    """The same controller names and metric keys (with units) everywhere."""
+    import pandas as pd
+
+    from twolink.vocabulary import METRICS
+
+    keys = [m.key for m in METRICS]
+    names = {"CTC", "FCM-CTC"}
+    csv = pd.read_csv(reproduction.out / "metrics.csv")
+    assert list(csv.columns) == ["variant", "experiment", "controller", "joint", "status", *keys]
+    assert set(csv["controller"]) == names
+    run = json.loads(
+        (reproduction.out / "rigid" / "table2" / "FCM-CTC" / "metrics.json").read_text()
+    )
+    assert run["controller"] == "FCM-CTC"
+    assert list(run["joint1"]) == list(run["joint2"]) == keys
+    sweep = pd.read_parquet(reproduction.out / "flexible_study" / "results.parquet")
+    assert set(sweep["controller"]) == names
+    metric_columns = [c for c in sweep.columns if c.startswith("joint")]
+    assert metric_columns == [f"joint{j}_{k}" for j in (1, 2) for k in keys]
+    report = (reproduction.out / "report.md").read_text()
+    assert "| CTC |" in report and "| FCM-CTC |" in report and "| FCM |" not in report
+    assert " nan" not in report.lower()

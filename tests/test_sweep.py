@@ -21,6 +21,7 @@ from twolink.cli import main as cli_main
 from twolink.config import ConfigError, load_scenario
 from twolink.experiment import measure, run_scenario
 from twolink.sweep import execution
+from twolink.vocabulary import STEP_KEYS
 
 REPO = Path(__file__).resolve().parents[1]
 BASE = REPO / "runs" / "paper" / "base.toml"
@@ -154,8 +155,10 @@ def test_a_row_equals_a_direct_run_of_its_drawn_scenario(tmp_path):
     assert row["status"] == m.status == "ok"
     got, want = [], []
     for j in (1, 2):
-        got += [row[f"joint{j}_{f}"] for f in (*sw.STEP_FIELDS, "iae", "torque_peak")]
-        want += [getattr(m.step[j - 1], f) for f in sw.STEP_FIELDS]
+        got += [row[f"joint{j}_{key}"] for key in (*STEP_KEYS, "iae_rad_s", "torque_peak_Nm")]
+        step = m.step[j - 1]
+        want += [step.peak_time, step.delay_time, step.rise_time, step.settling_time]
+        want += [100 * step.overshoot, step.steady_state_error]  # percent in the table
         want += [m.errors.iae[j - 1], m.torque.peak[j - 1]]
     assert np.isfinite(want).sum() >= 10
     assert np.array_equal(got, want, equal_nan=True)  # bit for bit
@@ -430,7 +433,7 @@ def test_raising_and_diverging_samples_are_recorded_and_the_sweep_goes_on(tmp_pa
     failed = (r["sample"] == 4).to_numpy()
     assert set(status[failed]) == {"error"}
     assert all(m == "RuntimeError: boom on sample 4" for m in message[failed])
-    assert np.isnan(r["joint1_overshoot"][failed]).all()
+    assert np.isnan(r["joint1_overshoot_pct"][failed]).all()
     wild = (r["controller"] == "wild").to_numpy() & ~failed
     assert set(status[wild]) == {"diverged"}
     assert all("out of bounds" in m for m in message[wild])
@@ -454,9 +457,9 @@ def test_summary_matches_the_table_it_summarises(tmp_path):
     for c in ("ctc", "fcm"):
         ok = r[(r["controller"] == c) & (r["status"] == "ok")]
         for j in (1, 2):
-            x = ok[f"joint{j}_overshoot"].to_numpy()
-            assert float(summary[c][f"joint{j}_overshoot_mean"]) == pytest.approx(x.mean())
-            assert float(summary[c][f"joint{j}_overshoot_p95"]) == pytest.approx(
+            x = ok[f"joint{j}_overshoot_pct"].to_numpy()
+            assert float(summary[c][f"joint{j}_overshoot_pct_mean"]) == pytest.approx(x.mean())
+            assert float(summary[c][f"joint{j}_overshoot_pct_p95"]) == pytest.approx(
                 np.percentile(x, 95)
             )
         assert float(summary[c]["success_rate"]) == 1.0
@@ -491,8 +494,8 @@ def test_shipped_sweep_files_load_and_run(tmp_path):
     for name in ("robustness", "flexible_stiffness"):
         plan = sw.load_sweep(REPO / "runs" / "sweeps" / f"{name}.toml")
         assert plan.controllers == (
-            ("ctc", {"kind": "ctc"}),
-            ("fcm_ctc", {"kind": "fcm_ctc", "rule_base": "designed"}),
+            ("CTC", {"kind": "ctc"}),
+            ("FCM-CTC", {"kind": "fcm_ctc", "rule_base": "designed"}),
         )
         assert plan.joints == (1, 2)
         short = sw.load_sweep(
@@ -516,7 +519,7 @@ def fake_results(k: list[float], ess: list[float], status: list[str]) -> pd.Data
         "status": status,
         "message": [""] * n,
     }
-    cols["joint1_steady_state_error"] = np.array(ess, dtype=float)
+    cols["joint1_steady_state_error_rad"] = np.array(ess, dtype=float)
     df = pd.DataFrame(cols)
     df.attrs.update(controllers=["a", "b"], parameters=["k"], joints=[1])
     return df
@@ -527,7 +530,8 @@ def test_flexible_study_table_bins_by_stiffness():
     ess = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
     status = ["ok", "ok", "ok", "diverged", "ok", "ok"]
     table = sw.flexible_study_table(fake_results(k, ess, status)).splitlines()
-    assert table[0].startswith("| stiffness [N·m/rad] | controller | runs | ok | θ1 median ess")
+    head = "| stiffness [N·m/rad] | controller | runs | ok | θ1 median ess [rad]"
+    assert table[0].startswith(head)
     rows = [[c.strip() for c in line.strip("|").split("|")] for line in table[2:]]
     # stiff to soft; a: ess 0.1, 0.3 at k=10 -> median 0.2; b: 0.2 ok, 0.4 diverged
     assert [r[:5] for r in rows] == [

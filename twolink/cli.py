@@ -86,6 +86,18 @@ def models(out: Path | None, install: bool) -> None:
         click.echo(out / name)
 
 
+def format_metrics(metrics) -> str:
+    """A run's metrics as a table: one line per key (with its unit), one column per joint."""
+    from twolink.vocabulary import METRICS, format_value, joint_values
+
+    joints = [joint_values(metrics, j) for j in (1, 2)]
+    lines = [f"{'metric':24s} {'symbol':7s} {'joint 1':>10s} {'joint 2':>10s}"]
+    for m in METRICS:
+        cells = [format_value(v[m.key], 4) for v in joints]
+        lines.append(f"{m.key:24s} {m.symbol:7s} {cells[0]:>10s} {cells[1]:>10s}")
+    return "\n".join(lines)
+
+
 def _fail_input(message: str) -> None:
     click.echo(f"error: {message}", err=True)
     sys.exit(2)
@@ -133,13 +145,7 @@ def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> Non
         trace=not no_trace,
         controller=controller,
     )
-    for j, m in enumerate(metrics.step, start=1):
-        if m is not None:
-            click.echo(
-                f"joint {j}: Tp {m.peak_time:.3f} s  Td {m.delay_time:.3f} s  "
-                f"Ts {m.settling_time:.3f} s  Tr {m.rise_time:.3f} s  "
-                f"Mp {m.overshoot:.3f}  ess {m.steady_state_error:.4g}"
-            )
+    click.echo(format_metrics(metrics))
     click.echo(f"results in {folder}")
     if not traj.ok:
         click.echo(f"run diverged: {traj.message}", err=True)

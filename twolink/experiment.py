@@ -6,7 +6,7 @@ and no control law of its own.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +19,7 @@ from twolink.io import atomic_write_json, atomic_write_text, to_toml
 from twolink.metrics import error_measures, metrics_dict, step_metrics, torque_measures
 from twolink.plant import Plant
 from twolink.sim import Trajectory, simulate
+from twolink.vocabulary import CONTROLLER_LABELS, joint_values
 
 RULEBASE_DIR = Path(__file__).resolve().parents[1] / "controllers" / "rulebases"
 
@@ -92,14 +93,15 @@ class RunMetrics:
     status: str
     message: str
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self, controller: str = "") -> dict[str, Any]:
+        """``metrics.json``: status, and every metric of each joint by its key
+        (``twolink.vocabulary``); undefined values are ``null``."""
         return metrics_dict(
+            controller=controller,
             status=self.status,
             message=self.message,
-            joint1=asdict(self.step[0]) if self.step[0] else None,
-            joint2=asdict(self.step[1]) if self.step[1] else None,
-            errors=asdict(self.errors),
-            torque=asdict(self.torque),
+            joint1=joint_values(self, 1),
+            joint2=joint_values(self, 2),
         )
 
 
@@ -149,14 +151,18 @@ def write_run(
     controller: Controller | None = None,
     centres: Any = (),
     prefix: str = "run",
+    name: str | None = None,
 ) -> Path:
     """Write one run's folder: config.toml, trajectory.npz, metrics.json, PNG plots and a
-    rerun recording ``trace.rrd`` (of the run under ``prefix``), each file atomically."""
+    rerun recording ``trace.rrd`` (of the run under ``prefix``), each file atomically.
+
+    ``name`` is the controller's name in the outputs (default: its kind's label)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "config.toml", to_toml(s.to_dict()))
     traj.save(out / "trajectory.npz")
-    atomic_write_json(out / "metrics.json", metrics.to_dict())
+    name = name or CONTROLLER_LABELS[s.controller.kind]
+    atomic_write_json(out / "metrics.json", metrics.to_dict(name))
     if plots:
         from twolink.plots import save_run_plots
 

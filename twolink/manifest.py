@@ -14,17 +14,11 @@ from pathlib import Path
 from typing import Any
 
 from twolink.config import TomlTable, read_toml
+from twolink.vocabulary import STEP_KEYS, metric
 
 DEFAULT_MANIFEST = Path(__file__).resolve().parents[1] / "runs" / "paper" / "reproduce.toml"
-METRIC_KEYS = ("Tp", "Td", "Ts", "Tr", "Mp", "ess")
-METRIC_FIELDS = {
-    "Tp": "peak_time",
-    "Td": "delay_time",
-    "Ts": "settling_time",
-    "Tr": "rise_time",
-    "Mp": "overshoot",
-    "ess": "steady_state_error",
-}
+# The paper's tables name their columns by symbol; the manifest's paper values do too.
+PAPER_SYMBOLS = tuple(metric(k).symbol for k in STEP_KEYS)  # Tp, Td, Tr, Ts, Mp, ess
 
 
 @dataclass(frozen=True)
@@ -37,6 +31,13 @@ class Experiment:
     table: int | None = None
     figure: int | None = None
     paper: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def paper_value(self, controller: str, key: str) -> float | None:
+        """The paper's value of metric ``key`` for ``controller``, in the key's unit (its
+        tables give Mp as a fraction); None where the paper gives none."""
+        m = metric(key)
+        value = self.paper.get(controller, {}).get(m.symbol)
+        return None if value is None else value * m.scale
 
     @property
     def key(self) -> str:
@@ -73,7 +74,7 @@ class Manifest:
     controllers: dict[str, dict[str, Any]]
     variants: tuple[Variant, ...]
     experiments: tuple[Experiment, ...]
-    proposed: str = "FCM"
+    proposed: str = "FCM-CTC"
     baseline: str = "CTC"
 
 
@@ -139,7 +140,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         for ctrl, values in paper.items():
             if ctrl not in controllers:
                 e.fail(f"paper.{ctrl}", f"not a controller of this manifest {list(controllers)}")
-            unknown = set(values) - set(METRIC_KEYS)
+            unknown = set(values) - set(PAPER_SYMBOLS)
             if unknown:
                 e.fail(f"paper.{ctrl}", f"unknown metric(s) {sorted(unknown)}")
         experiments.append(

@@ -79,7 +79,7 @@ def save_run_plots(out: str | Path, traj: Trajectory, title: str = "") -> list[P
     return paths
 
 
-CONTROLLER_STYLES = {"CTC": ("tab:red", "-"), "FCM": ("tab:green", "-")}
+CONTROLLER_STYLES = {"CTC": ("tab:red", "-"), "FCM-CTC": ("tab:green", "-")}
 
 
 def response_figure(trajs: dict[str, Trajectory], joint: int, title: str) -> Figure:

@@ -7,40 +7,33 @@ qualitative claims hold in our runs), not written in advance.
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from collections.abc import Sequence
 from typing import Any
 
-from twolink.manifest import METRIC_KEYS, Experiment, Manifest
+import pandas as pd
+
+from twolink.manifest import Experiment, Manifest
+from twolink.vocabulary import format_value, metric
 
 # The paper's claim (section 4): FCM reduces peak, delay, rise and settling time and
 # overshoot, and steady-state error, compared with CTC. Which of the manifest's
 # controllers play the two roles is the manifest's ``proposed`` and ``baseline``.
-CLAIMED_BETTER = ("Tp", "Td", "Ts", "Tr", "Mp", "ess")
-UNITS = {"Tp": "s", "Td": "s", "Ts": "s", "Tr": "s", "Mp": "", "ess": "rad"}
-
-
-def fmt(x: Any) -> str:
-    """A number for a table: 3 significant digits, "—" for NaN / missing."""
-    if x is None or (isinstance(x, float) and math.isnan(x)):
-        return "—"
-    if isinstance(x, float):
-        return f"{x:.3g}" if abs(x) >= 1e-3 or x == 0 else f"{x:.1e}"
-    return str(x)
+# In the paper's column order (Tp, Td, Ts, Tr, Mp, ess).
+CLAIMED_BETTER = (
+    "peak_time_s",
+    "delay_time_s",
+    "settling_time_s",
+    "rise_time_s",
+    "overshoot_pct",
+    "steady_state_error_rad",
+)
+fmt = format_value
 
 
 def rows_to_csv(rows: Sequence[dict[str, Any]]) -> str:
     """All metric rows as CSV (NaN written as empty)."""
-    buf = io.StringIO()
-    writer = csv.DictWriter(buf, fieldnames=list(rows[0]), lineterminator="\n")
-    writer.writeheader()
-    for row in rows:
-        writer.writerow(
-            {k: "" if isinstance(v, float) and math.isnan(v) else v for k, v in row.items()}
-        )
-    return buf.getvalue()
+    return pd.DataFrame(rows).to_csv(index=False)
 
 
 def _lookup(rows, variant: str, exp: Experiment, controller: str) -> dict[str, Any]:
@@ -71,7 +64,7 @@ def claims(rows, manifest: Manifest, variant: str):
             if verdict is not None:
                 ours_n += 1
                 ours += verdict
-            pa, pb = exp.paper.get(a, {}).get(key), exp.paper.get(b, {}).get(key)
+            pa, pb = exp.paper_value(a, key), exp.paper_value(b, key)
             if pa is not None and pb is not None:
                 verdict = _better(pa, pb)
                 if verdict is not None:
@@ -85,17 +78,13 @@ def experiment_table(rows, exp: Experiment, variant: str, controllers: Sequence[
     """One paper table: per controller, ours and the paper's values for each metric."""
     head = (
         "| controller | "
-        + " | ".join(
-            f"{k} [{UNITS[k]}] ours / paper" if UNITS[k] else f"{k} ours / paper"
-            for k in METRIC_KEYS
-        )
+        + " | ".join(f"{metric(k).label} ours / paper" for k in CLAIMED_BETTER)
         + " | status |"
     )
-    lines = [head, "|" + "---|" * (len(METRIC_KEYS) + 2)]
+    lines = [head, "|" + "---|" * (len(CLAIMED_BETTER) + 2)]
     for ctrl in controllers:
         row = _lookup(rows, variant, exp, ctrl)
-        paper = exp.paper.get(ctrl, {})
-        cells = [f"{fmt(row[k])} / {fmt(paper.get(k))}" for k in METRIC_KEYS]
+        cells = [f"{fmt(row[k])} / {fmt(exp.paper_value(ctrl, k))}" for k in CLAIMED_BETTER]
         lines.append(f"| {ctrl} | " + " | ".join(cells) + f" | {row['status']} |")
     return "\n".join(lines)
 
@@ -114,13 +103,13 @@ def commentary(
 ) -> list[str]:
     """What holds of the paper's claims in our runs, and why the numbers differ."""
     P, B = manifest.proposed, manifest.baseline  # noqa: N806 (the two controllers' names)
-    mp = _pairs(rows, manifest, variant, "Mp")
+    mp = _pairs(rows, manifest, variant, "overshoot_pct")
     tr = [
         (e, a, b)
-        for e, a, b in _pairs(rows, manifest, variant, "Tr")
+        for e, a, b in _pairs(rows, manifest, variant, "rise_time_s")
         if not (math.isnan(a) or math.isnan(b))
     ]
-    ess = _pairs(rows, manifest, variant, "ess")
+    ess = _pairs(rows, manifest, variant, "steady_state_error_rad")
     nominal = [(e, a, b) for e, a, b in ess if "uncertain" not in e.scenario.stem]
     perturbed = [(e, a, b) for e, a, b in ess if "uncertain" in e.scenario.stem]
     lower_mp = sum(a < b for _, a, b in mp)
@@ -187,9 +176,12 @@ def render(
         "value and the paper's side by side (ours / paper). The paper omits masses, lengths,",
         "gains, membership ranges, amplitudes and the size of its uncertainties, so its",
         "numbers cannot be matched and we did not tune to match them: we reproduce the",
-        "procedure and the table structure, and report what comes out. Metric definitions:",
-        "Tr 10-90 % of the step, Td 50 %, Ts the 2 % band around the final value, Tp the",
-        "time of the peak, Mp the overshoot past the target as a fraction of the step, ess",
+        "procedure and the table structure, and report what comes out. Metrics (the paper's",
+        "symbol, then the key of metrics.csv, metrics.json and sweep tables): Tp",
+        "`peak_time_s` the time of the peak, Td `delay_time_s` 50 % of the step, Ts",
+        "`settling_time_s` the 2 % band around the final value, Tr `rise_time_s` 10-90 % of",
+        "the step, Mp `overshoot_pct` the overshoot past the target in percent of the step",
+        "(the paper's fractions are shown in percent too), ess `steady_state_error_rad`",
         '|target − θ| at the end of the run (docs/metrics.md). "—": undefined (the',
         "response never reached that level) or not given by the paper.",
         "",
@@ -211,7 +203,8 @@ def render(
             "|---|---|---|",
         ]
         for key, (ours, ours_n, paper, paper_n) in c.items():
-            out.append(f"| {key} | {ours} of {ours_n} | {paper} of {paper_n} |")
+            m = metric(key)
+            out.append(f"| {m.symbol} `{key}` | {ours} of {ours_n} | {paper} of {paper_n} |")
         for exp in manifest.experiments:
             label = f"Table {exp.table}" if exp.table else f"Figure {exp.figure}"
             out += ["", f"### {label}: {exp.title}", ""]

@@ -23,13 +23,13 @@ from twolink.config import Scenario, load_scenario, merge
 from twolink.experiment import build_controller, measure, run_scenario, write_run
 from twolink.manifest import (
     DEFAULT_MANIFEST,
-    METRIC_FIELDS,
     Experiment,
     Manifest,
     Variant,
     load_manifest,
 )
 from twolink.sim import Trajectory
+from twolink.vocabulary import joint_values
 
 
 @dataclass(frozen=True)
@@ -79,18 +79,16 @@ def _execute(spec: RunSpec, out: Path, trace: bool) -> dict[str, Any]:
         controller=controller,
         centres=spec.centres,
         prefix=spec.folder,
+        name=spec.controller,
     )
-    joint = metrics.step[spec.experiment.joint - 1]
-    row = {
+    return {
         "variant": spec.variant.name,
         "experiment": spec.experiment.key,
         "controller": spec.controller,
         "joint": spec.experiment.joint,
         "status": traj.status,
+        **joint_values(metrics, spec.experiment.joint),
     }
-    for key, name in METRIC_FIELDS.items():
-        row[key] = getattr(joint, name) if joint is not None else math.nan
-    return row
 
 
 COMBINED_TRACE_EVERY = 10  # the whole reproduction at 100 Hz: 32 runs in one file

@@ -26,7 +26,6 @@ from twolink.sweep.figures import save_sweep_plots, sweep_figures
 from twolink.sweep.plan import DISTRIBUTIONS, PARAMETERS, Parameter, SweepPlan, load_sweep
 from twolink.sweep.results import (
     METRIC_COLUMNS,
-    STEP_FIELDS,
     SweepMeta,
     format_summary,
     load_results,
@@ -39,7 +38,6 @@ __all__ = [
     "DISTRIBUTIONS",
     "METRIC_COLUMNS",
     "PARAMETERS",
-    "STEP_FIELDS",
     "ChunkResult",
     "Parameter",
     "SweepInterrupted",

@@ -31,13 +31,13 @@ from twolink.sweep.plan import FORMAT_VERSION, SweepPlan
 from twolink.sweep.results import (
     METRIC_COLUMNS,
     STATUS_ERROR,
-    STEP_FIELDS,
     read_table,
     results_frame,
     summarize,
     write_summary,
     write_table,
 )
+from twolink.vocabulary import joint_values
 
 __all__ = [
     "ChunkResult",
@@ -76,22 +76,8 @@ class ChunkResult:
 
 
 def _metric_values(m: Any) -> list[float]:
-    out: list[float] = []
-    for j in range(2):
-        step = m.step[j]
-        out += (
-            [math.nan] * len(STEP_FIELDS)
-            if step is None
-            else [float(getattr(step, f)) for f in STEP_FIELDS]
-        )
-        out += [
-            float(m.errors.iae[j]),
-            float(m.errors.ise[j]),
-            float(m.errors.itae[j]),
-            float(m.torque.rms[j]),
-            float(m.torque.peak[j]),
-        ]
-    return out
+    """A run's metrics in :data:`METRIC_COLUMNS` order."""
+    return [v for j in (1, 2) for v in joint_values(m, j).values()]
 
 
 def _error_text(exc: BaseException) -> str:

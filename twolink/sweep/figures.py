@@ -9,7 +9,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from twolink.sweep.results import METRIC_LABELS, SUMMARY_METRICS, rows_of, summarize, sweep_meta
+from twolink.sweep.results import SUMMARY_METRICS, rows_of, summarize, sweep_meta
+from twolink.vocabulary import metric
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -26,7 +27,7 @@ def pyplot() -> Any:
 
 def metric_grid(joints: tuple[int, ...]) -> list[tuple[str, str]]:
     """(column, axis label) of the summarised metrics of each moving joint."""
-    return [(f"joint{j}_{m}", f"θ{j} {METRIC_LABELS[m]}") for j in joints
+    return [(f"joint{j}_{m}", f"θ{j} {metric(m).label}") for j in joints
             for m in SUMMARY_METRICS]  # fmt: skip
 
 

@@ -1,18 +1,19 @@
 """A sweep's results table: its columns, Parquet files, and the summary per controller.
 
 The table is a pandas DataFrame with one row per (sample, controller): ``sample``,
-``controller``, the drawn parameters, the metrics of both joints (``joint1_overshoot``,
-...), ``status`` ("ok", "diverged" or "error") and ``message``. What it was computed from
-(the controllers in the sweep file's order, the swept parameters, the joints that move)
-travels in ``DataFrame.attrs``, which Parquet keeps, so ``pandas.read_parquet`` on a
-``results.parquet`` gives the same frame as :func:`load_results`.
+``controller``, the drawn parameters, the metrics of both joints (``joint1_overshoot_pct``,
+..., keys of :mod:`twolink.vocabulary`), ``status`` ("ok", "diverged" or "error") and
+``message``. What it was computed from (the controllers in the sweep file's order, the
+swept parameters, the joints that move) travels in ``DataFrame.attrs``, which Parquet
+keeps, so ``pandas.read_parquet`` on a ``results.parquet`` gives the same frame as
+:func:`load_results`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -20,12 +21,11 @@ import numpy as np
 import pandas as pd
 
 from twolink.io import atomic_path, atomic_write_json, atomic_write_text
-from twolink.metrics import StepMetrics
+from twolink.vocabulary import METRICS, format_value
 
 __all__ = [
     "METRIC_COLUMNS",
     "STATUS_ERROR",
-    "STEP_FIELDS",
     "SweepMeta",
     "format_summary",
     "load_results",
@@ -37,15 +37,8 @@ __all__ = [
     "write_table",
 ]
 
-STEP_FIELDS = tuple(f.name for f in fields(StepMetrics))
-JOINT_FIELDS = (*STEP_FIELDS, "iae", "ise", "itae", "torque_rms", "torque_peak")
-METRIC_COLUMNS = tuple(f"joint{j}_{f}" for j in (1, 2) for f in JOINT_FIELDS)
-SUMMARY_METRICS = ("steady_state_error", "overshoot", "settling_time")
-METRIC_LABELS = {
-    "steady_state_error": "ess [rad]",
-    "overshoot": "Mp [fraction]",
-    "settling_time": "Ts [s]",
-}
+METRIC_COLUMNS = tuple(f"joint{j}_{m.key}" for j in (1, 2) for m in METRICS)
+SUMMARY_METRICS = ("steady_state_error_rad", "overshoot_pct", "settling_time_s")
 STATUS_ERROR = "error"  # a sample that raised (the simulation's own are "ok", "diverged")
 _TEXT_COLUMNS = ("controller", "status", "message")
 
@@ -97,7 +90,7 @@ def sweep_meta(df: pd.DataFrame) -> SweepMeta:
     controllers = tuple(dict.fromkeys(df["controller"]))
     skip = {"sample", *_TEXT_COLUMNS, *METRIC_COLUMNS}
     parameters = tuple(c for c in df.columns if c not in skip)
-    joints = tuple(j for j in (1, 2) if f"joint{j}_rise_time" in df.columns)
+    joints = tuple(j for j in (1, 2) if f"joint{j}_rise_time_s" in df.columns)
     return SweepMeta(controllers, parameters, joints)
 
 
@@ -196,8 +189,9 @@ def format_summary(summary: Mapping[str, Any]) -> str:
             f"{s['diverged']} diverged, {s[STATUS_ERROR]} errors"
         )
         for metric, st in s["metrics"].items():
+            mean, median, p95 = (format_value(st[k], 4) for k in ("mean", "median", "p95"))
             lines.append(
-                f"    {metric:28s} mean {st['mean']:.4g}  median {st['median']:.4g}  "
-                f"p95 {st['p95']:.4g}  (n={st['n']})"
+                f"    {metric:32s} mean {mean:>9s}  median {median:>9s}  p95 {p95:>9s}  "
+                f"(n={st['n']})"
             )
     return "\n".join(lines)

@@ -11,6 +11,7 @@ import pandas as pd
 
 from twolink.sweep.figures import metric_grid, pyplot
 from twolink.sweep.results import SUMMARY_METRICS, load_results, rows_of, sweep_meta
+from twolink.vocabulary import metric
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -67,8 +68,7 @@ def flexible_study_table(
     meta = sweep_meta(r)
     k = r[parameter].to_numpy(float)
     head = ["stiffness [N·m/rad]", "controller", "runs", "ok"]
-    names = {"steady_state_error": "ess", "overshoot": "Mp", "settling_time": "Ts [s]"}
-    metrics = [(f"joint{j}_{m}", f"θ{j} median {names[m]}") for j in meta.joints
+    metrics = [(f"joint{j}_{m}", f"θ{j} median {metric(m).label}") for j in meta.joints
                for m in SUMMARY_METRICS]  # fmt: skip
     head += [label for _, label in metrics]
     lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]

@@ -1,0 +1,113 @@
+"""One vocabulary for every output: controller names and metric keys with their units.
+
+Every table, file and printout of a run's metrics uses the keys below: a run's
+``metrics.json``, the reproduction's ``metrics.csv``/``metrics.json`` and report, a
+sweep's Parquet table (``joint1_rise_time_s``, ...) and summaries, and ``twolink run``'s
+output. A key carries its unit (``_s`` seconds, ``_pct`` percent, ``_rad`` radians,
+``_Nm`` newton metres), so no header is without one. The paper's symbols (Tp, Td, Tr, Ts,
+Mp, ess) label the report's columns beside the keys. ``docs/metrics.md`` has the
+definitions.
+
+Controller names: CTC and FCM-CTC (and the other kinds' labels below) in the shipped
+manifest, sweep files, figures and docs; a manifest or sweep file may name its
+controllers otherwise, and those names are then used throughout its outputs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = [
+    "CONTROLLER_LABELS",
+    "METRICS",
+    "STEP_KEYS",
+    "Metric",
+    "format_value",
+    "joint_values",
+    "metric",
+]
+
+# Scenario ``kind`` -> the controller's name in outputs.
+CONTROLLER_LABELS = {"ctc": "CTC", "fuzzy_ctc": "fuzzy-CTC", "fcm_ctc": "FCM-CTC"}
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One metric of a joint's response.
+
+    Attributes
+    ----------
+    key : str
+        Its name in every table and file (unit included).
+    symbol : str
+        The paper's (or the literature's) symbol.
+    unit : str
+        Unit as printed.
+    source : str
+        Where the value comes from in :class:`twolink.experiment.RunMetrics`:
+        ``"step.<field>"``, ``"errors.<field>"`` or ``"torque.<field>"``.
+    scale : float
+        Factor from the source's unit to ``unit`` (100 for a fraction shown in percent).
+    """
+
+    key: str
+    symbol: str
+    unit: str
+    source: str
+    scale: float = 1.0
+
+    @property
+    def label(self) -> str:
+        """``"Tr [s]"``: symbol and unit, for table headers and axes."""
+        return f"{self.symbol} [{self.unit}]"
+
+
+METRICS: tuple[Metric, ...] = (
+    Metric("peak_time_s", "Tp", "s", "step.peak_time"),
+    Metric("delay_time_s", "Td", "s", "step.delay_time"),
+    Metric("rise_time_s", "Tr", "s", "step.rise_time"),
+    Metric("settling_time_s", "Ts", "s", "step.settling_time"),
+    Metric("overshoot_pct", "Mp", "%", "step.overshoot", 100.0),
+    Metric("steady_state_error_rad", "ess", "rad", "step.steady_state_error"),
+    Metric("iae_rad_s", "IAE", "rad·s", "errors.iae"),
+    Metric("ise_rad2_s", "ISE", "rad²·s", "errors.ise"),
+    Metric("itae_rad_s2", "ITAE", "rad·s²", "errors.itae"),
+    Metric("torque_rms_Nm", "τ rms", "N·m", "torque.rms"),
+    Metric("torque_peak_Nm", "τ peak", "N·m", "torque.peak"),
+)
+STEP_KEYS = tuple(m.key for m in METRICS if m.source.startswith("step."))
+_BY_KEY = {m.key: m for m in METRICS}
+
+
+def metric(key: str) -> Metric:
+    """The :class:`Metric` of ``key``."""
+    return _BY_KEY[key]
+
+
+def joint_values(run_metrics: Any, joint: int) -> dict[str, float]:
+    """Every metric of joint ``joint`` (1 or 2) of a run, by key, in output units.
+
+    Step metrics are NaN for a joint whose reference does not move (it has no step).
+    """
+    out = {}
+    for m in METRICS:
+        section, field = m.source.split(".")
+        if section == "step":
+            step = run_metrics.step[joint - 1]
+            value = math.nan if step is None else getattr(step, field)
+        else:
+            value = getattr(getattr(run_metrics, section), field)[joint - 1]
+        out[m.key] = float(value) * m.scale
+    return out
+
+
+def format_value(value: Any, digits: int = 3) -> str:
+    """A number for a table or a printout: ``digits`` significant digits, "—" where the
+    value is undefined (NaN or missing), never "nan"."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "—"
+    if isinstance(value, float):
+        return f"{value:.{digits}g}" if abs(value) >= 1e-3 or value == 0 else f"{value:.1e}"
+    return str(value)
