@@ -46,6 +46,7 @@ def fake_rows(manifest):
                         "controller": name,
                         "joint": exp.joint,
                         "status": "ok",
+                        "outcome": "met spec",
                         **{m.key: 1.0 + k for m in METRICS},
                         "overshoot_pct": 10.0 if name == manifest.proposed else 30.0,
                     }

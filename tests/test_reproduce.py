@@ -138,7 +138,8 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     keys = [m.key for m in METRICS]
     names = {"CTC", "FCM-CTC"}
     csv = pd.read_csv(reproduction.out / "metrics.csv")
-    assert list(csv.columns) == ["variant", "experiment", "controller", "joint", "status", *keys]
+    head = ["variant", "experiment", "controller", "joint", "status", "outcome"]
+    assert list(csv.columns) == [*head, *keys]
     assert set(csv["controller"]) == names
     run = json.loads(
         (reproduction.out / "rigid" / "table2" / "FCM-CTC" / "metrics.json").read_text()

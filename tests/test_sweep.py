@@ -67,9 +67,9 @@ def write(tmp_path: Path, text: str, name: str = "sweep.toml") -> Path:
     return path
 
 
-def columns_equal(a: pd.DataFrame, b: pd.DataFrame) -> None:
+def columns_equal(a: pd.DataFrame, b: pd.DataFrame, attrs: bool = True) -> None:
     assert list(a.columns) == list(b.columns)
-    assert a.attrs == b.attrs
+    assert a.attrs == b.attrs or not attrs
     for name in a.columns:
         x, y = a[name].to_numpy(), b[name].to_numpy()
         if x.dtype.kind in "fi":
@@ -439,7 +439,12 @@ def test_raising_and_diverging_samples_are_recorded_and_the_sweep_goes_on(tmp_pa
     assert all("out of bounds" in m for m in message[wild])
     ctc = (r["controller"] == "ctc").to_numpy() & ~failed
     assert set(status[ctc]) == {"ok"} and set(message[ctc]) == {""}
-    assert outcome.summary["ctc"]["success_rate"] == (plan.samples - 1) / plan.samples
+    # 0.5 s is too short to settle: the runs complete but are off target, not successes
+    outcomes = r["outcome"].to_numpy(object)
+    assert set(outcomes[ctc]) == {"off target"} and set(outcomes[failed]) == {"error"}
+    assert set(outcomes[wild]) == {"diverged"}
+    assert outcome.summary["ctc"]["off_target"] == plan.samples - 1
+    assert outcome.summary["ctc"]["success_rate"] == 0.0
     assert outcome.summary["wild"]["diverged"] == plan.samples - 1
     assert outcome.summary["wild"]["error"] == 1
     assert (tmp_path / "out" / "plots" / "metrics.png").stat().st_size > 0
@@ -462,7 +467,79 @@ def test_summary_matches_the_table_it_summarises(tmp_path):
             assert float(summary[c][f"joint{j}_overshoot_pct_p95"]) == pytest.approx(
                 np.percentile(x, 95)
             )
-        assert float(summary[c]["success_rate"]) == 1.0
+        mine = r[r["controller"] == c]
+        assert float(summary[c]["success_rate"]) == (mine["outcome"] == "met spec").mean()
+        counts = [int(summary[c][k]) for k in ("met_spec", "off_target", "diverged", "error")]
+        assert sum(counts) == int(summary[c]["runs"]) == plan.samples
+
+
+SPEC = f"""
+scenario = "{BASE}"
+samples = 4
+seed = 1
+chunk_size = 2
+
+[overrides]
+duration = 3.0
+
+[reference.joint1]
+kind = "step"
+final = 1.0
+
+[parameters]
+m2 = {{ dist = "uniform", low = 0.95, high = 1.05 }}
+
+[controllers.stiff]        # ωn = 5 rad/s, ζ = 1: settles in ~1.2 s, ess ~ 4e-3 rad
+kind = "ctc"
+kp = 25.0
+kd = 10.0
+
+[controllers.weak]         # ωn = 0.7 rad/s: far from the target after 3 s
+kind = "ctc"
+kp = 0.5
+kd = 1.4
+"""
+
+
+def test_runs_are_classified_against_the_spec_and_the_spec_is_the_files(tmp_path):
+    path = write(tmp_path, SPEC)
+    outcome = sw.run_sweep(sw.load_sweep(path), tmp_path / "out", executor="inprocess")
+    r = outcome.results
+    stiff, weak = r[r["controller"] == "stiff"], r[r["controller"] == "weak"]
+    assert (stiff["joint1_final_error_rad"] < 0.02).all()
+    assert set(stiff["outcome"]) == {"met spec"}
+    assert (weak["joint1_final_error_rad"] > 0.1).all() and set(weak["outcome"]) == {"off target"}
+    assert set(r["status"]) == {"ok"}  # neither diverged: "ok" alone is not success
+    assert outcome.summary["stiff"]["met_spec"] == 4 and outcome.summary["weak"]["off_target"] == 4
+    printed = sw.format_summary(outcome.summary)
+    assert "weak: 0/4 met the spec (0.0 %), 4 off target, 0 diverged" in printed
+    # A looser spec in the file reclassifies the same rows, without recomputing them.
+    worst = float(weak["joint1_final_error_rad"].max())
+    path.write_text(SPEC + f"\n[success]\nfinal_error = {worst * 1.01}\n")
+    loose = sw.run_sweep(sw.load_sweep(path), tmp_path / "out", executor="inprocess", plots=False)
+    assert loose.computed == () and loose.reused == (0, 1)
+    assert set(loose.results["outcome"]) == {"met spec"}
+    assert loose.results.attrs["success"]["final_error"] == pytest.approx(worst * 1.01)
+    path.write_text(SPEC + "\n[success]\nfinal_error = -1.0\n")
+    with pytest.raises(ConfigError, match="success.final_error: must be > 0"):
+        sw.load_sweep(path)
+
+
+def test_the_robustness_sweep_never_counts_a_run_off_target_as_a_success(tmp_path):
+    plan = sw.load_sweep(REPO / "runs" / "sweeps" / "robustness.toml", {"samples": 4})
+    outcome = sw.run_sweep(plan, tmp_path / "out", executor="inprocess", plots=False)
+    r = outcome.results
+    band = plan.success.final_error * plan.step
+    off = (r[["joint1_final_error_rad", "joint2_final_error_rad"]] > band).any(axis=1)
+    assert off.any()  # the shipped gains leave some arms sagging (issue-tracked)
+    assert not (r.loc[off, "outcome"] == "met spec").any()
+    for name, s in outcome.summary.items():
+        assert s["met_spec"] + s["off_target"] + s["diverged"] + s["error"] == s["runs"] == 4
+        assert s["met_spec"] <= int(
+            ((r["controller"] == name) & ~off & (r["status"] == "ok")).sum()
+        )
+    first = sw.format_summary(outcome.summary).splitlines()[0]
+    assert "met the spec" in first and "off target" in first and "diverged" in first
 
 
 def test_table_is_parquet_and_reads_back_as_the_same_dataframe(tmp_path):
@@ -476,18 +553,21 @@ def test_table_is_parquet_and_reads_back_as_the_same_dataframe(tmp_path):
         "controllers": ["ctc", "fcm"],
         "parameters": ["k", "l2", "m1", "m2", "payload"],
         "joints": [1, 2],
+        "success": {"final_error": 0.02, "max_overshoot_pct": 20.0, "step_rad": 1.0},
     }
-    assert list(loaded.columns) == list(plan.columns)
+    columns = list(plan.columns)
+    assert list(loaded.columns) == [*columns[:-1], "outcome", columns[-1]]
     assert loaded["sample"].dtype == np.int64
     columns_equal(outcome.results, loaded)
     # A plain pandas read gives the same frame, metadata included: no twolink needed.
     columns_equal(loaded, pd.read_parquet(tmp_path / "a" / "results.parquet"))
-    # Each row equals its chunk's row, bit for bit.
     chunks = pd.concat(
         [pd.read_parquet(p) for p in sorted((tmp_path / "a" / "chunks").glob("*.parquet"))],
         ignore_index=True,
     )
-    columns_equal(loaded, chunks)
+    # Each row equals its chunk's row, bit for bit; the outcome is added from the spec.
+    columns_equal(loaded[list(chunks.columns)], chunks, attrs=False)
+    assert list(chunks.columns) == list(plan.columns)
 
 
 def test_shipped_sweep_files_load_and_run(tmp_path):
@@ -517,6 +597,7 @@ def fake_results(k: list[float], ess: list[float], status: list[str]) -> pd.Data
         "k": np.array(k, dtype=float),
         **{f: np.full(n, 0.5) for f in sw.METRIC_COLUMNS},
         "status": status,
+        "outcome": ["met spec" if x == "ok" else "diverged" for x in status],
         "message": [""] * n,
     }
     cols["joint1_steady_state_error_rad"] = np.array(ess, dtype=float)
@@ -530,7 +611,7 @@ def test_flexible_study_table_bins_by_stiffness():
     ess = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]
     status = ["ok", "ok", "ok", "diverged", "ok", "ok"]
     table = sw.flexible_study_table(fake_results(k, ess, status)).splitlines()
-    head = "| stiffness [N·m/rad] | controller | runs | ok | θ1 median ess [rad]"
+    head = "| stiffness [N·m/rad] | controller | runs | met spec | θ1 median ess [rad]"
     assert table[0].startswith(head)
     rows = [[c.strip() for c in line.strip("|").split("|")] for line in table[2:]]
     # stiff to soft; a: ess 0.1, 0.3 at k=10 -> median 0.2; b: 0.2 ok, 0.4 diverged

@@ -145,7 +145,15 @@ def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> Non
         trace=not no_trace,
         controller=controller,
     )
+    from twolink.outcome import SuccessSpec, classify_run
+
     click.echo(format_metrics(metrics))
+    spec = SuccessSpec()
+    click.echo(
+        f"outcome: {classify_run(s, metrics, spec)} (spec: every joint within "
+        f"{100 * spec.final_error:g} % of the step at the end, overshoot at most "
+        f"{spec.max_overshoot_pct:g} %)"
+    )
     click.echo(f"results in {folder}")
     if not traj.ok:
         click.echo(f"run diverged: {traj.message}", err=True)

@@ -6,6 +6,7 @@ and no control law of its own.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,6 +18,7 @@ from controllers.ctc import ComputedTorque
 from twolink.config import Scenario
 from twolink.io import atomic_write_json, atomic_write_text, to_toml
 from twolink.metrics import error_measures, metrics_dict, step_metrics, torque_measures
+from twolink.outcome import classify_run
 from twolink.plant import Plant
 from twolink.sim import Trajectory, simulate
 from twolink.vocabulary import CONTROLLER_LABELS, joint_values
@@ -92,13 +94,15 @@ class RunMetrics:
     torque: Any
     status: str
     message: str
+    final_error: tuple[float, float] = (math.nan, math.nan)  # |θd(T) − θ(T)| per joint
 
-    def to_dict(self, controller: str = "") -> dict[str, Any]:
-        """``metrics.json``: status, and every metric of each joint by its key
-        (``twolink.vocabulary``); undefined values are ``null``."""
+    def to_dict(self, controller: str = "", outcome: str = "") -> dict[str, Any]:
+        """``metrics.json``: status, outcome (``twolink.outcome``), and every metric of
+        each joint by its key (``twolink.vocabulary``); undefined values are ``null``."""
         return metrics_dict(
             controller=controller,
             status=self.status,
+            outcome=outcome,
             message=self.message,
             joint1=joint_values(self, 1),
             joint2=joint_values(self, 2),
@@ -117,6 +121,7 @@ def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
         torque=torque_measures(traj.tau),
         status=traj.status,
         message=traj.message,
+        final_error=tuple(float(x) for x in np.abs(traj.e[-1])) if len(traj.t) else (math.nan,) * 2,
     )
 
 
@@ -162,7 +167,7 @@ def write_run(
     atomic_write_text(out / "config.toml", to_toml(s.to_dict()))
     traj.save(out / "trajectory.npz")
     name = name or CONTROLLER_LABELS[s.controller.kind]
-    atomic_write_json(out / "metrics.json", metrics.to_dict(name))
+    atomic_write_json(out / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
     if plots:
         from twolink.plots import save_run_plots
 

@@ -79,13 +79,13 @@ def experiment_table(rows, exp: Experiment, variant: str, controllers: Sequence[
     head = (
         "| controller | "
         + " | ".join(f"{metric(k).label} ours / paper" for k in CLAIMED_BETTER)
-        + " | status |"
+        + " | outcome |"
     )
     lines = [head, "|" + "---|" * (len(CLAIMED_BETTER) + 2)]
     for ctrl in controllers:
         row = _lookup(rows, variant, exp, ctrl)
         cells = [f"{fmt(row[k])} / {fmt(exp.paper_value(ctrl, k))}" for k in CLAIMED_BETTER]
-        lines.append(f"| {ctrl} | " + " | ".join(cells) + f" | {row['status']} |")
+        lines.append(f"| {ctrl} | " + " | ".join(cells) + f" | {row['outcome']} |")
     return "\n".join(lines)
 
 

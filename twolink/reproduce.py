@@ -28,6 +28,7 @@ from twolink.manifest import (
     Variant,
     load_manifest,
 )
+from twolink.outcome import classify_run
 from twolink.sim import Trajectory
 from twolink.vocabulary import joint_values
 
@@ -87,6 +88,7 @@ def _execute(spec: RunSpec, out: Path, trace: bool) -> dict[str, Any]:
         "controller": spec.controller,
         "joint": spec.experiment.joint,
         "status": traj.status,
+        "outcome": classify_run(scenario, metrics),
         **joint_values(metrics, spec.experiment.joint),
     }
 

@@ -47,7 +47,8 @@ class Metric:
         Unit as printed.
     source : str
         Where the value comes from in :class:`twolink.experiment.RunMetrics`:
-        ``"step.<field>"``, ``"errors.<field>"`` or ``"torque.<field>"``.
+        ``"step.<field>"``, ``"errors.<field>"``, ``"torque.<field>"`` (per joint) or
+        ``"final_error"``.
     scale : float
         Factor from the source's unit to ``unit`` (100 for a fraction shown in percent).
     """
@@ -71,6 +72,7 @@ METRICS: tuple[Metric, ...] = (
     Metric("settling_time_s", "Ts", "s", "step.settling_time"),
     Metric("overshoot_pct", "Mp", "%", "step.overshoot", 100.0),
     Metric("steady_state_error_rad", "ess", "rad", "step.steady_state_error"),
+    Metric("final_error_rad", "e(T)", "rad", "final_error"),
     Metric("iae_rad_s", "IAE", "rad·s", "errors.iae"),
     Metric("ise_rad2_s", "ISE", "rad²·s", "errors.ise"),
     Metric("itae_rad_s2", "ITAE", "rad·s²", "errors.itae"),
@@ -93,8 +95,10 @@ def joint_values(run_metrics: Any, joint: int) -> dict[str, float]:
     """
     out = {}
     for m in METRICS:
-        section, field = m.source.split(".")
-        if section == "step":
+        section, _, field = m.source.partition(".")
+        if not field:
+            value = getattr(run_metrics, section)[joint - 1]
+        elif section == "step":
             step = run_metrics.step[joint - 1]
             value = math.nan if step is None else getattr(step, field)
         else:

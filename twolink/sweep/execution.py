@@ -17,7 +17,7 @@ import time
 from collections.abc import Iterator
 from concurrent import futures
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +27,7 @@ from twolink.config import scenario_from_dict
 from twolink.executors import SweepExecutor, check_options, open_executor
 from twolink.experiment import build_controller, build_plant, measure, run_scenario
 from twolink.io import atomic_write_json, atomic_write_text
+from twolink.outcome import classify
 from twolink.sweep.plan import FORMAT_VERSION, SweepPlan
 from twolink.sweep.results import (
     METRIC_COLUMNS,
@@ -409,6 +410,7 @@ def run_sweep(
 
     results = pd.concat([frames[c] for c in range(plan.n_chunks)], ignore_index=True)
     results.attrs = dict(frames[0].attrs)  # concat keeps attrs only where all agree
+    _classify(plan, results)
     table = write_table(out / "results.parquet", results)
     (out / "results.csv").unlink(missing_ok=True)  # the table of a format-1 sweep
     summary = summarize(results)
@@ -429,6 +431,15 @@ def run_sweep(
         busy_s=sum(w for _, w in computed),
         workers=n_workers,
     )
+
+
+def _classify(plan: SweepPlan, results: pd.DataFrame) -> None:
+    """Add the ``outcome`` column (after ``status``): the runs against the plan's spec."""
+    final = results[[f"joint{j}_final_error_rad" for j in (1, 2)]]
+    overshoot = results[[f"joint{j}_overshoot_pct" for j in (1, 2)]]
+    outcome = classify(results["status"], final, overshoot, plan.step, plan.success)
+    results.insert(results.columns.get_loc("status") + 1, "outcome", outcome.astype(str))
+    results.attrs["success"] = {**asdict(plan.success), "step_rad": plan.step}
 
 
 def _drive(

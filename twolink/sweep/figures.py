@@ -67,7 +67,7 @@ def sweep_figures(results: pd.DataFrame) -> dict[str, Figure]:
         box.set_ylabel(label)
         for ax in (hist, box):
             ax.grid(alpha=0.3)
-    fig.suptitle("Sweep metrics over the successful runs")
+    fig.suptitle("Sweep metrics over the runs that completed (met spec or off target)")
     figs["metrics"] = fig
 
     summary = summarize(results)
@@ -77,8 +77,8 @@ def sweep_figures(results: pd.DataFrame) -> dict[str, Figure]:
     for k, r in enumerate(rates):
         ax.annotate(f"{r:.1f} %", (k, r), ha="center", va="bottom", fontsize=8)
     ax.set_ylim(0, 110)
-    ax.set_ylabel("success rate [%]")
-    ax.set_title("Runs without divergence or error")
+    ax.set_ylabel("met the spec [%]")
+    ax.set_title("Runs that met the spec")
     figs["success_rate"] = fig
 
     if meta.parameters:
@@ -104,7 +104,7 @@ def sweep_figures(results: pd.DataFrame) -> dict[str, Figure]:
                     ax.set_ylabel(label)
                 ax.grid(alpha=0.3)
         axes[0][0].legend(fontsize=8)
-        fig.suptitle("Metrics against the drawn parameters (successful runs)")
+        fig.suptitle("Metrics against the drawn parameters (runs that completed)")
         figs["metric_vs_parameter"] = fig
     return figs
 

@@ -65,6 +65,7 @@ import numpy as np
 from twolink.config import ConfigError, TomlTable, merge, read_toml, scenario_from_dict
 from twolink.executors import EXECUTORS
 from twolink.experiment import resolve_rule_base
+from twolink.outcome import SuccessSpec, largest_step
 from twolink.params import Flexibility
 from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
 
@@ -197,6 +198,8 @@ class SweepPlan:
     digest: str = ""
     file_sha256: str = ""
     joints: tuple[int, ...] = (1, 2)
+    success: SuccessSpec = field(default_factory=SuccessSpec)
+    step: float = 1.0
 
     @property
     def controller_names(self) -> tuple[str, ...]:
@@ -443,6 +446,16 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         ex.fail("scheduler", f"needs executor = 'dask', not {execution.executor!r}")
     ex.done()
 
+    st = top.table("success")
+    defaults = SuccessSpec()
+    success = SuccessSpec(
+        final_error=st.number("final_error", defaults.final_error, positive=True),
+        max_overshoot_pct=st.number(
+            "max_overshoot_pct", defaults.max_overshoot_pct, minimum=0.0, allow_inf=True
+        ),
+    )
+    st.done()
+
     # The base scenario: its own errors name its own file.
     base_path = path.parent / scenario_path
     try:
@@ -511,7 +524,10 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         for j, target in enumerate(nominal.reference.final)
         if math.isfinite(target) and target != nominal.q0[j]
     )
-    content = {k: v for k, v in data.items() if k not in ("samples", "name", "execution")}
+    # What decides the chunks' contents; the [success] spec only classifies finished rows.
+    content = {
+        k: v for k, v in data.items() if k not in ("samples", "name", "execution", "success")
+    }
     digest_source = {
         "format": FORMAT_VERSION,
         "sweep": content,
@@ -534,4 +550,6 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         digest=digest,
         file_sha256=hashlib.sha256(raw).hexdigest(),
         joints=joints,
+        success=success,
+        step=largest_step(nominal.reference, nominal.q0),
     )

@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from twolink.io import atomic_path, atomic_write_json, atomic_write_text
+from twolink.outcome import OUTCOMES
 from twolink.vocabulary import METRICS, format_value
 
 __all__ = [
@@ -40,7 +41,10 @@ __all__ = [
 METRIC_COLUMNS = tuple(f"joint{j}_{m.key}" for j in (1, 2) for m in METRICS)
 SUMMARY_METRICS = ("steady_state_error_rad", "overshoot_pct", "settling_time_s")
 STATUS_ERROR = "error"  # a sample that raised (the simulation's own are "ok", "diverged")
+# outcome (twolink.outcome) -> its count's key in the summary
+OUTCOME_KEYS = {o: o.replace(" ", "_") for o in OUTCOMES}
 _TEXT_COLUMNS = ("controller", "status", "message")
+_NOT_PARAMETERS = ("sample", "outcome", *_TEXT_COLUMNS)
 
 
 @dataclass(frozen=True)
@@ -88,7 +92,7 @@ def sweep_meta(df: pd.DataFrame) -> SweepMeta:
             tuple(attrs["controllers"]), tuple(attrs["parameters"]), tuple(attrs["joints"])
         )
     controllers = tuple(dict.fromkeys(df["controller"]))
-    skip = {"sample", *_TEXT_COLUMNS, *METRIC_COLUMNS}
+    skip = {*_NOT_PARAMETERS, *METRIC_COLUMNS}
     parameters = tuple(c for c in df.columns if c not in skip)
     joints = tuple(j for j in (1, 2) if f"joint{j}_rise_time_s" in df.columns)
     return SweepMeta(controllers, parameters, joints)
@@ -98,6 +102,11 @@ def rows_of(df: pd.DataFrame, controller: str, ok_only: bool = False) -> np.ndar
     """Boolean mask of the rows of ``controller`` (only status "ok" if ``ok_only``)."""
     mask = (df["controller"] == controller).to_numpy(bool)
     return mask & (df["status"] == "ok").to_numpy(bool) if ok_only else mask
+
+
+def met_spec(df: pd.DataFrame, controller: str) -> np.ndarray:
+    """Boolean mask of the rows of ``controller`` whose outcome is "met spec"."""
+    return rows_of(df, controller) & (df["outcome"] == "met spec").to_numpy(bool)
 
 
 def write_table(path: Path, df: pd.DataFrame) -> Path:
@@ -136,28 +145,30 @@ def _stats(x: np.ndarray) -> dict[str, float]:
 
 
 def summarize(df: pd.DataFrame) -> dict[str, Any]:
-    """Per controller: counts by status, success rate, and stats of ess, Mp and Ts.
+    """Per controller: how many runs met the spec, missed it, diverged or raised, the
+    success rate (met spec / runs), and stats of ess, Mp and Ts.
 
-    Success means status "ok" (no divergence, no error). The metric statistics (mean,
-    median, 95th percentile, and ``n`` finite values) are over the successful runs.
+    The outcomes are the table's ``outcome`` column (:mod:`twolink.outcome`). The metric
+    statistics (mean, median, 95th percentile, and ``n`` finite values) are over the runs
+    that completed (met spec or off target), so a sag shows in them.
     """
     meta = sweep_meta(df)
-    status = df["status"].to_numpy(object)
+    outcome = df["outcome"].to_numpy(object)
     out: dict[str, Any] = {}
     for c in meta.controllers:
         rows = rows_of(df, c)
         n = int(rows.sum())
-        counts = {s: int((rows & (status == s)).sum()) for s in ("ok", "diverged", STATUS_ERROR)}
-        ok = rows_of(df, c, ok_only=True)
+        counts = {key: int((rows & (outcome == o)).sum()) for o, key in OUTCOME_KEYS.items()}
+        completed = rows_of(df, c, ok_only=True)
         metrics = {
-            f"joint{j}_{m}": _stats(df[f"joint{j}_{m}"].to_numpy(float)[ok])
+            f"joint{j}_{m}": _stats(df[f"joint{j}_{m}"].to_numpy(float)[completed])
             for j in meta.joints
             for m in SUMMARY_METRICS
         }
         out[c] = {
             "runs": n,
             **counts,
-            "success_rate": counts["ok"] / n if n else math.nan,
+            "success_rate": counts["met_spec"] / n if n else math.nan,
             "metrics": metrics,
         }
     return out
@@ -167,7 +178,7 @@ def summary_frame(summary: Mapping[str, Any]) -> pd.DataFrame:
     """The summary as a flat table: one row per controller, ``<metric>_<stat>`` columns."""
     rows = []
     for c, s in summary.items():
-        row = {k: s[k] for k in ("runs", "ok", "diverged", STATUS_ERROR, "success_rate")}
+        row = {k: s[k] for k in ("runs", *OUTCOME_KEYS.values(), "success_rate")}
         for metric, st in s["metrics"].items():
             row |= {f"{metric}_{k}": st[k] for k in ("mean", "median", "p95")}
         rows.append({"controller": c, **row})
@@ -185,8 +196,8 @@ def format_summary(summary: Mapping[str, Any]) -> str:
     lines = []
     for c, s in summary.items():
         lines.append(
-            f"{c}: {s['ok']}/{s['runs']} ok ({100 * s['success_rate']:.1f} %), "
-            f"{s['diverged']} diverged, {s[STATUS_ERROR]} errors"
+            f"{c}: {s['met_spec']}/{s['runs']} met the spec ({100 * s['success_rate']:.1f} %), "
+            f"{s['off_target']} off target, {s['diverged']} diverged, {s['error']} errors"
         )
         for metric, st in s["metrics"].items():
             mean, median, p95 = (format_value(st[k], 4) for k in ("mean", "median", "p95"))

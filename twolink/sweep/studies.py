@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from twolink.sweep.figures import metric_grid, pyplot
-from twolink.sweep.results import SUMMARY_METRICS, load_results, rows_of, sweep_meta
+from twolink.sweep.results import SUMMARY_METRICS, load_results, met_spec, rows_of, sweep_meta
 from twolink.vocabulary import metric
 
 if TYPE_CHECKING:
@@ -61,13 +61,14 @@ def flexible_study_table(
     Returns
     -------
     str
-        Rows from stiff to soft; per controller the runs, the success rate and the
-        medians of ess, Mp and Ts of each moving joint over the successful runs.
+        Rows from stiff to soft; per controller the runs, the share that met the spec
+        (``twolink.outcome``) and the medians of ess, Mp and Ts of each moving joint over
+        the runs that completed.
     """
     r = _as_results(results, parameter)
     meta = sweep_meta(r)
     k = r[parameter].to_numpy(float)
-    head = ["stiffness [N·m/rad]", "controller", "runs", "ok"]
+    head = ["stiffness [N·m/rad]", "controller", "runs", "met spec"]
     metrics = [(f"joint{j}_{m}", f"θ{j} median {metric(m).label}") for j in meta.joints
                for m in SUMMARY_METRICS]  # fmt: skip
     head += [label for _, label in metrics]
@@ -79,8 +80,9 @@ def flexible_study_table(
         for c in meta.controllers:
             rows = in_bin & rows_of(r, c)
             ok = in_bin & rows_of(r, c, ok_only=True)
+            met = in_bin & met_spec(r, c)
             cells = [label, c, str(int(rows.sum()))]
-            cells.append(f"{100 * ok.sum() / rows.sum():.0f} %" if rows.sum() else "–")
+            cells.append(f"{100 * met.sum() / rows.sum():.0f} %" if rows.sum() else "–")
             for col, _ in metrics:
                 x = r[col].to_numpy(float)[ok]
                 x = x[np.isfinite(x)]
@@ -113,9 +115,9 @@ def flexible_study_figure(
         ax.set_visible(False)
     for n_c, c in enumerate(meta.controllers):
         colour = f"C{n_c}"
-        rows, ok = rows_of(r, c), rows_of(r, c, ok_only=True)
+        rows, ok, met = rows_of(r, c), rows_of(r, c, ok_only=True), met_spec(r, c)
         masks = [_in_bin(k, lo, hi, b == len(ranges) - 1) for b, (lo, hi) in enumerate(ranges)]
-        rate = [100 * (m & ok).sum() / (m & rows).sum() if (m & rows).sum() else np.nan
+        rate = [100 * (m & met).sum() / (m & rows).sum() if (m & rows).sum() else np.nan
                 for m in masks]  # fmt: skip
         axes[0].plot(centres, rate, "o-", color=colour, label=c)
         for ax, (col, label) in zip(axes[1:], grid, strict=True):
@@ -128,7 +130,7 @@ def flexible_study_figure(
                 med.append(np.median(x) if x.size else np.nan)
             ax.plot(centres, med, "-", color=colour, lw=1.5, label=c)
             ax.set_ylabel(label)
-    axes[0].set_ylabel("success rate [%]")
+    axes[0].set_ylabel("met the spec [%]")
     axes[0].set_ylim(-5, 105)
     axes[0].legend(fontsize=8)
     for ax in axes:
