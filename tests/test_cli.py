@@ -1,8 +1,13 @@
 """The `twolink validate`, `design` and `models` commands."""
 
 import hashlib
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 import twolink.validation
@@ -86,3 +91,51 @@ def test_version_and_short_help():
     for command in ("design", "models", "reproduce", "run", "sweep", "validate"):
         help_text = CliRunner().invoke(main, [command, "--help"]).output
         assert "Examples:" in help_text, command
+
+
+def test_a_file_given_to_the_wrong_command_is_named_with_the_right_one(tmp_path):
+    cases = [
+        ("run", "runs/sweeps/robustness.toml", "this is a sweep file", "twolink sweep"),
+        ("sweep", "runs/paper/theta1_step.toml", "this is a scenario file", "twolink run"),
+        ("run", "runs/paper/reproduce.toml", "this is a manifest file", "--manifest"),
+        ("sweep", "runs/paper/design.toml", "this is a design file", "twolink design --config"),
+    ]
+    for command, file, says, suggests in cases:
+        args = [command, str(REPO / file), "--out", str(tmp_path / "o")]
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code == 2, result.output
+        assert says in result.output and suggests in result.output, result.output
+    result = CliRunner().invoke(
+        main,
+        [
+            "reproduce",
+            "--manifest",
+            str(REPO / "runs/paper/theta1_step.toml"),
+            "--out",
+            str(tmp_path / "o"),
+        ],
+    )
+    assert result.exit_code == 2 and "this is a scenario file" in result.output
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("command", ["run", "reproduce"])
+def test_ctrl_c_exits_130_with_one_line_in_every_command(tmp_path, command):
+    long_run = tmp_path / "long.toml"
+    long_run.write_text(f'extends = "{REPO / "runs/paper/theta1_step.toml"}"\nduration = 600.0\n')
+    args = {
+        "run": ["run", str(long_run), "--out", str(tmp_path / "o")],
+        "reproduce": ["reproduce", "--out", str(tmp_path / "r"), "--no-trace"],
+    }[command]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twolink", *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(2.5)  # past start-up, inside the work
+    assert proc.poll() is None, proc.communicate()
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "interrupted" in stderr and "Traceback" not in stderr and "Aborted" not in stderr

@@ -649,5 +649,6 @@ def test_dask_executor_without_dask_says_how_to_get_it(tmp_path, monkeypatch):
     monkeypatch.setattr(builtins, "__import__", no_dask)
     path = write(tmp_path, SMALL.replace("samples = 8", "samples = 2"))
     result = sweep_command([str(path), "--out", str(tmp_path / "o"), "--executor", "dask"])
-    assert result.exit_code == 1
+    assert result.exit_code == 2  # checked before any work: no bar, nothing written
     assert "pip install 'twolink[dask]'" in result.output
+    assert "kept" not in result.output and not (tmp_path / "o").exists()

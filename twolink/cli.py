@@ -16,7 +16,28 @@ from twolink.params import ArmParams, Flexibility
 REPO_MODELS = Path(__file__).resolve().parents[1] / "models"
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100})
+class _Group(click.Group):
+    """Ctrl-C ends every command with exit 130 and one line, in every phase (click's own
+    handling says "Aborted!" and exits 1, which this CLI means as "a run diverged")."""
+
+    def main(self, *args, standalone_mode: bool = True, **kwargs):
+        if not standalone_mode:
+            return super().main(*args, standalone_mode=False, **kwargs)
+        try:
+            code = super().main(*args, standalone_mode=False, **kwargs)
+        except click.exceptions.Abort:
+            click.echo("interrupted: files written so far are whole; rerun to complete", err=True)
+            sys.exit(130)
+        except click.ClickException as exc:
+            exc.show()
+            sys.exit(exc.exit_code)
+        sys.exit(code if isinstance(code, int) else 0)
+
+
+@click.group(
+    cls=_Group,
+    context_settings={"help_option_names": ["-h", "--help"], "max_content_width": 100},
+)
 @click.version_option(package_name="twolink", prog_name="twolink")
 def main() -> None:
     """A two-link arm in MuJoCo with the paper's CTC and FCM fuzzy controllers.

@@ -168,6 +168,29 @@ def read_toml(path: str | Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
     return merge(read_toml(path.parent / base, (*_seen, path.resolve())), data)
 
 
+# Keys found in one kind of this project's files and in no other, and the command that
+# reads that kind: so a file given to the wrong command is named as such.
+FILE_KINDS = {
+    "scenario": (("extends", "arm", "plant", "initial", "duration"), "twolink run FILE"),
+    "sweep": (("samples", "parameters", "chunk_size"), "twolink sweep FILE"),
+    "manifest": (("experiment", "variants"), "twolink reproduce --manifest FILE"),
+    "design": (("scenarios", "clusters", "fuzzifier"), "twolink design --config FILE"),
+}
+
+
+def expect_kind(data: dict[str, Any], file: str | Path, kind: str) -> None:
+    """Raise a :class:`ConfigError` that names the right command when ``data`` (a file
+    read for ``kind``) has another kind's keys and none of its own."""
+    if any(key in data for key in FILE_KINDS[kind][0]):
+        return
+    for other, (keys, command) in FILE_KINDS.items():
+        if other != kind and any(key in data for key in keys):
+            raise ConfigError(
+                f"{file}: this is a {other} file, not a {kind} file; did you mean "
+                f"`{command.replace('FILE', str(file))}`?"
+            )
+
+
 class TomlTable:
     """Reads one TOML table, checking types; ``done()`` rejects keys nobody read.
 
@@ -360,6 +383,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
 def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> Scenario:
     """Read and validate a scenario file, with optional overrides merged on top."""
     data = read_toml(path)
+    expect_kind(data, path, "scenario")
     if overrides:
         data = merge(data, overrides)
     return scenario_from_dict(data, str(path))

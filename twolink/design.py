@@ -27,7 +27,7 @@ import numpy as np
 
 from controllers.fcm import FCMResult, fcm
 from controllers.fuzzy import MamdaniEngine, Rule, load_rule_base, save_rule_base
-from twolink.config import Scenario, TomlTable, load_scenario, read_toml
+from twolink.config import Scenario, TomlTable, expect_kind, load_scenario, read_toml
 from twolink.experiment import build_controller, run_scenario
 from twolink.io import atomic_path
 
@@ -70,7 +70,9 @@ class DesignConfig:
 def load_design_config(path: str | Path = DEFAULT_DESIGN) -> DesignConfig:
     """Read a design file; its scenarios run with its ``controller`` overrides."""
     path = Path(path)
-    t = TomlTable(read_toml(path), "", str(path))
+    data = read_toml(path)
+    expect_kind(data, path, "design")
+    t = TomlTable(data, "", str(path))
     names = t.raw("scenarios", [])
     if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
         t.fail("scenarios", "must be a non-empty list of scenario file paths")

@@ -172,13 +172,21 @@ class DaskExecutor(SweepExecutor):
 
 
 def check_options(kind: str, workers: int | None, scheduler: str | None) -> None:
-    """Raise ValueError for an unknown ``kind``, ``workers < 1`` or a misplaced scheduler."""
+    """Raise ValueError for an unknown ``kind``, ``workers < 1``, a misplaced scheduler, or
+    the dask executor without Dask installed."""
     if kind not in EXECUTORS:
         raise ValueError(f"unknown executor {kind!r}: one of {list(EXECUTORS)}")
     if workers is not None and (isinstance(workers, bool) or workers < 1):
         raise ValueError(f"workers must be >= 1, got {workers}")
     if scheduler and kind != "dask":
         raise ValueError(f"a scheduler address needs the dask executor, not {kind!r}")
+    if kind == "dask":  # before any work starts, not when the first chunk is submitted
+        try:
+            import dask.distributed  # noqa: F401
+        except ImportError as exc:
+            raise ValueError(
+                f"the dask executor needs dask.distributed: pip install 'twolink[dask]' ({exc})"
+            ) from None
 
 
 def open_executor(

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from twolink.config import TomlTable, read_toml
+from twolink.config import TomlTable, expect_kind, read_toml
 from twolink.vocabulary import STEP_KEYS, metric
 
 DEFAULT_MANIFEST = Path(__file__).resolve().parents[1] / "runs" / "paper" / "reproduce.toml"
@@ -98,7 +98,9 @@ def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]
 def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     """Read and validate a reproduction manifest; errors name the file and the key."""
     path = Path(path)
-    top = TomlTable(read_toml(path), "", str(path))
+    data = read_toml(path)
+    expect_kind(data, path, "manifest")
+    top = TomlTable(data, "", str(path))
     design = path.parent / top.string("design", "design.toml")
     study = top.raw("flexible_study")
     if study is not None and not isinstance(study, str):

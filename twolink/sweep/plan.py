@@ -62,7 +62,14 @@ from typing import Any
 
 import numpy as np
 
-from twolink.config import ConfigError, TomlTable, merge, read_toml, scenario_from_dict
+from twolink.config import (
+    ConfigError,
+    TomlTable,
+    expect_kind,
+    merge,
+    read_toml,
+    scenario_from_dict,
+)
 from twolink.executors import EXECUTORS
 from twolink.experiment import resolve_rule_base
 from twolink.outcome import SuccessSpec, largest_step
@@ -407,6 +414,7 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         data = tomllib.loads(raw.decode())
     except (ValueError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{file}: not valid TOML: {exc}") from None
+    expect_kind(data, file, "sweep")
     if overrides:
         data = merge(data, dict(overrides))
     top = TomlTable(data, "", file)
