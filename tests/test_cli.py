@@ -13,6 +13,7 @@ from click.testing import CliRunner
 import twolink.validation
 from controllers.fuzzy import load_rule_base
 from twolink.cli import main
+from twolink.config import load_scenario
 from twolink.params import ArmParams, Flexibility
 from twolink.plant import model_xml
 
@@ -139,3 +140,38 @@ def test_ctrl_c_exits_130_with_one_line_in_every_command(tmp_path, command):
     _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
     assert "interrupted" in stderr and "Traceback" not in stderr and "Aborted" not in stderr
+
+
+def test_set_overrides_keys_and_the_saved_config_records_them(tmp_path):
+    args = ["run", str(REPO / "runs/paper/theta1_step.toml"), "--out", str(tmp_path / "o")]
+    args += ["--set", "controller.kp=25", "--set", "controller.kd=10", "--set", "duration=2"]
+    result = CliRunner().invoke(main, [*args, "--no-plots", "--no-trace"])
+    assert result.exit_code == 0, result.output
+    saved = load_scenario(tmp_path / "o" / "config.toml")
+    assert saved.controller.kp == (25.0, 25.0) and saved.duration == 2.0
+    assert "outcome: met spec" in result.output  # ωn = 5, ζ = 1 settles within 2 s
+    for bad, says in (("controller.kpp=1", "controller.kpp: unknown key"), ("kp", "KEY=VALUE")):
+        result = CliRunner().invoke(main, [*args[:4], "--set", bad])
+        assert result.exit_code == 2 and says in result.output
+
+
+def test_a_results_folder_can_move_with_its_rule_base(tmp_path):
+    import shutil
+
+    from twolink.experiment import RULEBASE_DIR, build_controller, measure, run_scenario, write_run
+
+    project = tmp_path / "a"
+    project.mkdir()
+    shutil.copy(RULEBASE_DIR / "paper_table1.toml", project / "rules.toml")
+    (project / "scenario.toml").write_text(
+        f'extends = "{REPO / "runs/paper/theta1_step.toml"}"\nduration = 0.2\n'
+        '[controller]\nkind = "fcm_ctc"\nrule_base = "rules.toml"\n'
+    )
+    s = load_scenario(project / "scenario.toml")
+    traj = run_scenario(s)
+    write_run(project / "out", s, traj, measure(s, traj), plots=False, trace=False)
+    assert 'rule_base = "../rules.toml"' in (project / "out" / "config.toml").read_text()
+    rules = build_controller(s).engine.rules
+    project.rename(tmp_path / "moved")
+    again = load_scenario(tmp_path / "moved" / "out" / "config.toml")
+    assert build_controller(again).engine.rules == rules

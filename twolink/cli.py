@@ -130,11 +130,20 @@ def _fail_input(message: str) -> None:
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     default=None,
-    help="Output folder [default: results/<scenario name>].",
+    help="Output folder [default: results/<scenario file name without .toml>].",
+)
+@click.option(
+    "--set",
+    "settings",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
 )
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recording (trace.rrd).")
-def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> None:
+def run(
+    scenario: Path, out: Path | None, settings: tuple[str, ...], no_plots: bool, no_trace: bool
+) -> None:
     """Run one scenario file and write its results folder.
 
     \b
@@ -145,11 +154,11 @@ def run(scenario: Path, out: Path | None, no_plots: bool, no_trace: bool) -> Non
     Exit 0 when the run completes, 1 when it diverged (what was computed is kept),
     2 on a bad scenario file.
     """
-    from twolink.config import ConfigError, load_scenario
+    from twolink.config import ConfigError, load_scenario, parse_set
     from twolink.experiment import build_controller, measure, run_scenario, write_run
 
     try:
-        s = load_scenario(scenario)
+        s = load_scenario(scenario, parse_set(settings))
         controller = build_controller(s)
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
@@ -262,7 +271,16 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
 )
 @click.option("--workers", type=int, default=None, help="Processes [default: all cores].")
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recordings.")
-def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: bool) -> None:
+@click.option(
+    "--set",
+    "settings",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
+)
+def reproduce(
+    out: Path, manifest: Path | None, workers: int | None, no_trace: bool, settings: tuple[str, ...]
+) -> None:
     """Reproduce the paper's Tables 2-8 and figures: report, CSV/JSON, PNGs, .rrd.
 
     \b
@@ -272,13 +290,19 @@ def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: b
     """
     import time
 
-    from twolink.config import ConfigError
+    from twolink.config import ConfigError, parse_set
     from twolink.reproduce import DEFAULT_MANIFEST
     from twolink.reproduce import reproduce as run_reproduction
 
     start = time.perf_counter()
     try:
-        result = run_reproduction(manifest or DEFAULT_MANIFEST, out, workers, trace=not no_trace)
+        result = run_reproduction(
+            manifest or DEFAULT_MANIFEST,
+            out,
+            workers,
+            trace=not no_trace,
+            overrides=parse_set(settings),
+        )
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
     except KeyboardInterrupt:
@@ -325,6 +349,13 @@ def reproduce(out: Path, manifest: Path | None, workers: int | None, no_trace: b
 @click.option("--fresh", is_flag=True, help="Discard chunks already in --out.")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
 @click.option("--progress/--no-progress", default=True, show_default=True)
+@click.option(
+    "--set",
+    "settings",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
+)
 def sweep_command(
     sweep_file: Path,
     out: Path | None,
@@ -335,6 +366,7 @@ def sweep_command(
     fresh: bool,
     no_plots: bool,
     progress: bool,
+    settings: tuple[str, ...],
 ) -> None:
     """Run a Monte Carlo sweep file: every controller on N drawn plants.
 
@@ -349,7 +381,7 @@ def sweep_command(
     """
     from concurrent import futures
 
-    from twolink.config import ConfigError
+    from twolink.config import ConfigError, merge, parse_set
     from twolink.executors import ExecutorError
     from twolink.sweep import (
         SweepInterrupted,
@@ -361,7 +393,8 @@ def sweep_command(
     )
 
     try:
-        plan = load_sweep(sweep_file, {"samples": samples} if samples else None)
+        overrides = merge(parse_set(settings), {"samples": samples} if samples else {})
+        plan = load_sweep(sweep_file, overrides)
     except ConfigError as exc:
         _fail_input(str(exc))
     if scheduler and executor not in (None, "dask"):

@@ -7,6 +7,7 @@ and no control law of its own.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,6 +25,11 @@ from twolink.sim import Trajectory, simulate
 from twolink.vocabulary import CONTROLLER_LABELS, joint_values
 
 RULEBASE_DIR = Path(__file__).resolve().parents[1] / "controllers" / "rulebases"
+BUILTIN_RULE_BASES = {
+    "paper": "paper_table1.toml",
+    "designed": "designed.toml",
+    "default": "default_7x7.toml",
+}
 
 
 def build_plant(s: Scenario) -> Plant:
@@ -33,13 +39,8 @@ def build_plant(s: Scenario) -> Plant:
 
 def resolve_rule_base(name: str, relative_to: str | Path = ".") -> Path:
     """Path of a rule base: "paper", "designed", "default" or a TOML path."""
-    builtin = {
-        "paper": "paper_table1.toml",
-        "designed": "designed.toml",
-        "default": "default_7x7.toml",
-    }
-    if name in builtin:
-        return RULEBASE_DIR / builtin[name]
+    if name in BUILTIN_RULE_BASES:
+        return RULEBASE_DIR / BUILTIN_RULE_BASES[name]
     path = Path(name)
     return path if path.is_absolute() else Path(relative_to).parent / path
 
@@ -146,6 +147,17 @@ def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) ->
     return extras
 
 
+def _portable(s: Scenario, out: Path) -> dict[str, Any]:
+    """The resolved config, with a rule-base file path relative to the folder it is saved
+    in (it resolves against that folder when read back), so a results folder can move."""
+    data = s.to_dict()
+    name = data["controller"]["rule_base"]
+    if name not in BUILTIN_RULE_BASES:
+        path = resolve_rule_base(name, s.source).resolve()
+        data["controller"]["rule_base"] = os.path.relpath(path, out.resolve())
+    return data
+
+
 def write_run(
     out: str | Path,
     s: Scenario,
@@ -164,7 +176,7 @@ def write_run(
     ``name`` is the controller's name in the outputs (default: its kind's label)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "config.toml", to_toml(s.to_dict()))
+    atomic_write_text(out / "config.toml", to_toml(_portable(s, out)))
     traj.save(out / "trajectory.npz")
     name = name or CONTROLLER_LABELS[s.controller.kind]
     atomic_write_json(out / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))

@@ -48,8 +48,11 @@ class RunSpec:
         return f"{self.variant.name}/{self.experiment.key}/{self.controller}"
 
 
-def plan(manifest: Manifest, rule_base: Path, centres=()) -> list[RunSpec]:
-    """Every run of the reproduction, in report order."""
+def plan(
+    manifest: Manifest, rule_base: Path, centres=(), overrides: dict[str, Any] | None = None
+) -> list[RunSpec]:
+    """Every run of the reproduction, in report order; ``overrides`` (``--set``) are merged
+    over every run's scenario last."""
     centres = tuple(tuple(map(float, c)) for c in centres)
     specs = []
     for variant in manifest.variants:
@@ -58,9 +61,9 @@ def plan(manifest: Manifest, rule_base: Path, centres=()) -> list[RunSpec]:
                 ctrl = dict(ctrl)
                 if ctrl.get("rule_base") == "designed":
                     ctrl["rule_base"] = str(rule_base.resolve())
-                overrides = merge(variant.overrides, {"controller": ctrl})
-                fuzzy = ctrl.get("kind", "ctc") != "ctc"
-                specs.append(RunSpec(exp, variant, name, overrides, centres if fuzzy else ()))
+                run = merge(merge(variant.overrides, {"controller": ctrl}), overrides or {})
+                fuzzy = run["controller"].get("kind", "ctc") != "ctc"
+                specs.append(RunSpec(exp, variant, name, run, centres if fuzzy else ()))
     return specs
 
 
@@ -247,8 +250,12 @@ def reproduce(
     workers: int | None = None,
     trace: bool = True,
     progress: bool = True,
+    overrides: dict[str, Any] | None = None,
 ) -> Reproduction:
-    """Design (or reuse) the FCM rule base, run every experiment, write everything."""
+    """Design (or reuse) the FCM rule base, run every experiment, write everything.
+
+    ``overrides`` (the command's ``--set``) change every experiment's scenario, not the
+    design runs nor the flexible-joint study."""
     from tqdm import tqdm
 
     from controllers import fuzzy
@@ -261,13 +268,14 @@ def reproduce(
     config = load_design_config(manifest.design)
     result, designed = design_or_load(config, out / "design")
     rule_base = out / "design" / "rule_base.toml"
-    specs = plan(manifest, rule_base, result.clustering.centers)
+    specs = plan(manifest, rule_base, result.clustering.centers, overrides)
+    # Every run's scenario, validated before any runs (and read back once for the report).
+    scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
     with tqdm(total=len(specs), desc="experiments", unit="run", disable=not progress) as bar:
         rows = run_all(specs, out, workers, trace, progress=bar.update)
 
     # Read each run back once: figures, the report's choices and the combined recording.
     trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
-    scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
 
     # Figures: responses per experiment, and the design's evidence.
     figures: dict[str, str] = {}

@@ -71,7 +71,7 @@ from twolink.config import (
     scenario_from_dict,
 )
 from twolink.executors import EXECUTORS
-from twolink.experiment import resolve_rule_base
+from twolink.experiment import BUILTIN_RULE_BASES, resolve_rule_base
 from twolink.outcome import SuccessSpec, largest_step
 from twolink.params import Flexibility
 from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
@@ -368,7 +368,7 @@ def _parameter(name: str, data: Any, file: str) -> Parameter:
 
 def _absolute_rule_base(controller: dict[str, Any], relative_to: Path) -> dict[str, Any]:
     name = controller.get("rule_base")
-    if isinstance(name, str) and name not in ("paper", "designed", "default"):
+    if isinstance(name, str) and name not in BUILTIN_RULE_BASES:
         controller = {**controller, "rule_base": str(resolve_rule_base(name, relative_to))}
     return controller
 
