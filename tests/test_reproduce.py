@@ -153,3 +153,19 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     report = (reproduction.out / "report.md").read_text()
     assert "| CTC |" in report and "| FCM-CTC |" in report and "| FCM |" not in report
     assert " nan" not in report.lower()
+
+
+def test_the_command_reports_each_phase_and_its_whole_wall_time(reproduction):
+    result = subprocess.run(
+        [sys.executable, "-m", "twolink", "reproduce", "--out", str(reproduction.out)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert result.returncode == 0, result.stderr
+    phases = [line for line in result.stderr.splitlines() if line.startswith("[")]
+    assert [p.split("]")[0] for p in phases] == [f"[{k}/6" for k in range(1, 7)]
+    for name in ("design", "runs", "figures", "study", "report", "recording"):
+        assert any(name in p for p in phases), name
+    assert result.stdout.splitlines()[-1].endswith("s (wall time of the whole command)")
+    assert "met the spec" in result.stdout

@@ -311,9 +311,11 @@ def reproduce(
         )
         sys.exit(130)
     failed = [r for r in result.rows if r["status"] != "ok"]
+    counts = {o: sum(r["outcome"] == o for r in result.rows) for o in ("met spec", "off target")}
     click.echo(
-        f"{len(result.rows)} runs in {time.perf_counter() - start:.1f} s "
-        f"({'designed' if result.designed else 'reused'} rule base {result.rule_base})"
+        f"{len(result.rows)} runs ({counts['met spec']} met the spec, {counts['off target']} "
+        f"off target, {len(failed)} diverged); "
+        f"{'designed' if result.designed else 'reused'} rule base {result.rule_base}"
     )
     click.echo(f"report:     {out / 'report.md'}")
     click.echo(f"metrics:    {out / 'metrics.csv'}, {out / 'metrics.json'}")
@@ -322,6 +324,7 @@ def reproduce(
         click.echo(f"recordings: rerun {out / 'reproduction.rrd'} (one trace.rrd per run too)")
     if failed:
         click.echo(f"{len(failed)} run(s) diverged: see the report", err=True)
+    click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")
 
 
 @main.command("sweep", short_help="Run a Monte Carlo sweep file.")
@@ -379,6 +382,7 @@ def sweep_command(
     Exit 0 when the table is written (diverged samples are results, not failures),
     1 when the executor fails, 2 on bad input, 130/143 when stopped by SIGINT/SIGTERM.
     """
+    import time
     from concurrent import futures
 
     from twolink.config import ConfigError, merge, parse_set
@@ -391,6 +395,8 @@ def sweep_command(
         load_sweep,
         run_sweep,
     )
+
+    start = time.perf_counter()
 
     try:
         overrides = merge(parse_set(settings), {"samples": samples} if samples else {})
@@ -424,9 +430,10 @@ def sweep_command(
     click.echo(format_summary(outcome.summary))
     click.echo(
         f"{plan.samples} samples x {len(plan.controllers)} controllers: "
-        f"{len(outcome.computed)} chunks computed, {len(outcome.reused)} reused, "
-        f"{outcome.wall_s:.1f} s; results in {outcome.table}"
+        f"{len(outcome.computed)} chunks computed, {len(outcome.reused)} reused; "
+        f"results in {outcome.table}"
     )
+    click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")
 
 
 if __name__ == "__main__":

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 import os
+import sys
 from collections.abc import Callable
 from concurrent.futures import as_completed
 from dataclasses import dataclass
@@ -209,13 +210,15 @@ def describe_choices(
     return choices
 
 
-def flexible_study(sweep_file: Path, out: Path, workers: int | None) -> list[str]:
+def flexible_study(
+    sweep_file: Path, out: Path, workers: int | None, progress: bool = False
+) -> list[str]:
     """Run the stiffness sweep into ``out/flexible_study``; its report section."""
     from twolink import plots, sweep
 
     plan = sweep.load_sweep(sweep_file)
     outcome = sweep.run_sweep(
-        plan, out / "flexible_study", workers=workers, plots=False, fresh=False
+        plan, out / "flexible_study", workers=workers, plots=False, progress=progress
     )
     plots.save_figure(
         sweep.flexible_study_figure(outcome.results), out / "figures/flexible_study.png"
@@ -232,6 +235,18 @@ def flexible_study(sweep_file: Path, out: Path, workers: int | None) -> list[str
         "",
         "![flexible study](figures/flexible_study.png)",
     ]
+
+
+class _Phases:
+    """A status line on stderr as each phase of the reproduction starts: "[3/6] figures"."""
+
+    def __init__(self, on: bool, total: int) -> None:
+        self.on, self.total, self.done = on, total, 0
+
+    def __call__(self, what: str) -> None:
+        self.done += 1
+        if self.on:
+            print(f"[{self.done}/{self.total}] {what}", file=sys.stderr, flush=True)
 
 
 @dataclass(frozen=True)
@@ -266,18 +281,22 @@ def reproduce(
     out = Path(out)
     manifest = load_manifest(manifest_path)
     config = load_design_config(manifest.design)
+    phase = _Phases(progress, 4 + (manifest.flexible_study is not None) + trace)
+    phase("design: the FCM rule base (reused when its inputs are unchanged)")
     result, designed = design_or_load(config, out / "design")
     rule_base = out / "design" / "rule_base.toml"
     specs = plan(manifest, rule_base, result.clustering.centers, overrides)
     # Every run's scenario, validated before any runs (and read back once for the report).
     scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
-    with tqdm(total=len(specs), desc="experiments", unit="run", disable=not progress) as bar:
+    phase(f"runs: {len(specs)} experiments x controllers x variants")
+    with tqdm(total=len(specs), desc="runs", unit="run", disable=not progress) as bar:
         rows = run_all(specs, out, workers, trace, progress=bar.update)
 
     # Read each run back once: figures, the report's choices and the combined recording.
     trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
 
     # Figures: responses per experiment, and the design's evidence.
+    phase("figures: responses, phase plane, membership functions, control surfaces")
     figures: dict[str, str] = {}
     for variant in manifest.variants:
         for exp in manifest.experiments:
@@ -330,7 +349,9 @@ def reproduce(
         "![control surfaces](figures/control_surfaces.png)",
     ]
     if manifest.flexible_study is not None:
-        design_section += flexible_study(manifest.flexible_study, out, workers)
+        phase(f"study: flexible joints ({manifest.flexible_study.name})")
+        design_section += flexible_study(manifest.flexible_study, out, workers, progress)
+    phase("report: report.md, metrics.csv, metrics.json")
     atomic_write_text(
         out / "report.md",
         report.render(
@@ -342,6 +363,7 @@ def reproduce(
     if trace:
         from twolink import tracing
 
+        phase(f"recording: reproduction.rrd ({len(specs)} runs)")
         tracing.write_recording(
             out / "reproduction.rrd",
             [
