@@ -51,3 +51,21 @@ def test_import_twolink_loads_neither_mujoco_nor_matplotlib():
     code = "import sys, twolink; print('mujoco' in sys.modules, 'matplotlib' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert out.stdout.split() == ["False", "False"], out.stderr
+
+
+def test_a_trajectory_converts_to_a_dataframe_and_plots_itself():
+    arm = twolink.ArmParams()
+    ref = twolink.ArmReference(twolink.Step(0.0, 1.0), twolink.Step(0.0, 0.0))
+    traj = twolink.simulate(
+        twolink.Plant.build(arm), twolink.ComputedTorque(arm, ref, kp=25.0, kd=10.0), 0.5
+    )
+    df = traj.to_dataframe()
+    assert df.index.name == "t_s" and np.array_equal(df.index.to_numpy(), traj.t)
+    assert np.array_equal(df["theta1_rad"].to_numpy(), traj.q[:, 0])
+    assert np.array_equal(df["e2_rad"].to_numpy(), traj.e[:, 1])
+    assert np.array_equal(df["tau1_Nm"].to_numpy(), traj.tau[:, 0])
+    assert all("_" in c for c in df.columns)  # every column carries its unit
+    fig = traj.plot("θ1 step")
+    assert len(fig.axes) == 2 and fig.axes[0].get_lines()[1].get_ydata().tolist() == list(
+        traj.q[:, 0]
+    )

@@ -6,7 +6,7 @@ Uses the non-interactive Agg backend: runs are headless.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 import numpy as np
@@ -16,7 +16,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 from twolink.io import atomic_path  # noqa: E402
-from twolink.sim import Trajectory  # noqa: E402
+
+if TYPE_CHECKING:
+    from twolink.sim import Trajectory
 
 JOINT_COLOURS = ("tab:blue", "tab:orange")
 
@@ -41,19 +43,24 @@ def _per_joint(traj: Trajectory, title: str, ylabel: str, series) -> Figure:
     return fig
 
 
+def angles_figure(traj: Trajectory, title: str = "") -> Figure:
+    """Joint angles against their references, one panel per joint."""
+    note = "" if traj.ok else f" ({traj.status})"
+    return _per_joint(
+        traj,
+        f"{title}: joint angles{note}",
+        "angle [rad]",
+        lambda j: [
+            ("reference", traj.q_ref[:, j], "k--"),
+            (f"θ{j + 1}", traj.q[:, j], JOINT_COLOURS[j]),
+        ],
+    )
+
+
 def run_figures(traj: Trajectory, title: str = "") -> dict[str, Figure]:
     """Angles vs reference, errors, and torques of one run."""
-    note = "" if traj.ok else f" ({traj.status})"
     return {
-        "angles": _per_joint(
-            traj,
-            f"{title}: joint angles{note}",
-            "angle [rad]",
-            lambda j: [
-                ("reference", traj.q_ref[:, j], "k--"),
-                (f"θ{j + 1}", traj.q[:, j], JOINT_COLOURS[j]),
-            ],
-        ),
+        "angles": angles_figure(traj, title),
         "errors": _per_joint(
             traj,
             f"{title}: tracking error e = θd − θ",

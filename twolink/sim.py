@@ -11,12 +11,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from controllers.base import Controller
 from twolink.io import atomic_path
 from twolink.plant import Plant
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
 
 STATUS_OK = "ok"
 STATUS_DIVERGED = "diverged"
@@ -87,6 +92,38 @@ class Trajectory:
         kwargs["status"] = str(kwargs["status"])
         kwargs["message"] = str(kwargs["message"])
         return cls(**kwargs)
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """Every signal as a column, indexed by time ``t_s``: ``theta1_rad``,
+        ``theta1_ref_rad``, ``e1_rad``, ``tau1_Nm``, ... (units in the names, as in every
+        output's vocabulary); the flexible arm's rotor angles as ``motor1_rad``, ...
+
+        Examples
+        --------
+        >>> df = trajectory.to_dataframe()                        # doctest: +SKIP
+        >>> df[["theta1_rad", "theta1_ref_rad"]].plot()           # doctest: +SKIP
+        """
+        import pandas as pd
+
+        columns = {}
+        for j in (1, 2):
+            k = j - 1
+            columns[f"theta{j}_rad"] = self.q[:, k]
+            columns[f"theta{j}_ref_rad"] = self.q_ref[:, k]
+            columns[f"dtheta{j}_rad_s"] = self.qd[:, k]
+            columns[f"dtheta{j}_ref_rad_s"] = self.qd_ref[:, k]
+            columns[f"e{j}_rad"] = self.e[:, k]
+            columns[f"tau{j}_Nm"] = self.tau[:, k]
+            if len(self.motor_q):
+                columns[f"motor{j}_rad"] = self.motor_q[:, k]
+        return pd.DataFrame(columns, index=pd.Index(self.t, name="t_s"))
+
+    def plot(self, title: str = "") -> Figure:
+        """The joint angles against their references (matplotlib, headless); errors and
+        torques too: :func:`twolink.plots.run_figures`."""
+        from twolink.plots import angles_figure
+
+        return angles_figure(self, title)
 
     def equals(self, other: Trajectory) -> bool:
         """Bit-for-bit equality of every array and the status."""

@@ -419,6 +419,8 @@ def run_sweep(
     if plots:
         from twolink.sweep.figures import save_sweep_plots
 
+        if progress:
+            print(f"plots: {out / 'plots'}", file=sys.stderr, flush=True)
         save_sweep_plots(out, results)
     return SweepOutcome(
         out=out,

@@ -1,0 +1,124 @@
+"""The codebase's shape: no import cycles, modules of a readable size."""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+PACKAGES = ("twolink", "controllers")
+MAX_LINES = 700  # one concept, one home: a module past this holds more than one
+
+
+def module_files() -> dict[str, Path]:
+    """Dotted module name -> file, for every module of the project's packages."""
+    out = {}
+    for package in PACKAGES:
+        for path in sorted((REPO / package).rglob("*.py")):
+            parts = list(path.relative_to(REPO).with_suffix("").parts)
+            if parts[-1] == "__init__":
+                parts.pop()
+            out[".".join(parts)] = path
+    return out
+
+
+def imports_of(name: str, path: Path, modules: dict[str, Path]) -> set[str]:
+    """The project modules that ``name`` imports anywhere in its file (also inside
+    functions: a deferred import still closes a cycle), each resolved to the most
+    specific module: ``from a.b import c`` is ``a.b.c`` where that is a module."""
+    is_package = path.name == "__init__.py"
+    found = set()
+    for node in _executed_nodes(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:  # relative import
+                anchor = name.split(".")
+                anchor = anchor if is_package else anchor[:-1]
+                anchor = anchor[: len(anchor) - (node.level - 1)]
+                base = ".".join([*anchor, base] if base else anchor)
+            targets = [f"{base}.{alias.name}" for alias in node.names]
+            targets = [t if t in modules else base for t in targets]
+        else:
+            continue
+        for target in targets:
+            while target and target not in modules:
+                target = target.rpartition(".")[0]
+            if target and target != name:
+                found.add(target)
+    return found
+
+
+def _executed_nodes(tree: ast.AST):
+    """Every node, except what sits under ``if TYPE_CHECKING:`` (never imported at run
+    time, so it closes no cycle)."""
+    stack = [tree]
+    while stack:
+        node = stack.pop()
+        yield node
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and "TYPE_CHECKING" in ast.unparse(child.test):
+                stack.extend(child.orelse)
+            else:
+                stack.append(child)
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components with more than one module (Tarjan)."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    out: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                out.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+def test_the_cycle_finder_finds_a_cycle_through_a_deferred_import(tmp_path):
+    modules = {"pkg.a": tmp_path / "a.py", "pkg.b": tmp_path / "b.py", "pkg.c": tmp_path / "c.py"}
+    modules["pkg.a"].write_text("from pkg.b import thing\n")
+    modules["pkg.b"].write_text("def f():\n    from pkg import a\n")
+    modules["pkg.c"].write_text("import pkg.a\nif TYPE_CHECKING:\n    import pkg.b\n")
+    graph = {m: imports_of(m, p, modules) for m, p in modules.items()}
+    assert graph == {"pkg.a": {"pkg.b"}, "pkg.b": {"pkg.a"}, "pkg.c": {"pkg.a"}}
+    assert cycles(graph) == [["pkg.a", "pkg.b"]]
+
+
+def test_no_import_cycle_among_the_project_modules():
+    modules = module_files()
+    graph = {m: imports_of(m, p, modules) for m, p in modules.items()}
+    assert graph["twolink.experiment"] >= {"twolink.config", "twolink.plant"}  # sanity
+    assert cycles(graph) == []
+
+
+@pytest.mark.parametrize("name", sorted(module_files()))
+def test_modules_stay_readable(name):
+    lines = module_files()[name].read_text().count("\n")
+    assert lines <= MAX_LINES, f"{name} has {lines} lines: split it by concern"
