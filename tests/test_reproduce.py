@@ -8,26 +8,19 @@ import subprocess
 import sys
 import time
 import tomllib
+from dataclasses import fields
 from pathlib import Path
 
 import pytest
 
 from twolink.config import load_scenario
 from twolink.manifest import load_manifest
-from twolink.metrics import step_metrics
+from twolink.metrics import StepMetrics, step_metrics
 from twolink.reproduce import reproduce
 from twolink.sim import Trajectory
 from twolink.vocabulary import STEP_KEYS, metric
 
-# StepMetrics fields in STEP_KEYS order
-STEP_FIELDS = (
-    "peak_time",
-    "delay_time",
-    "rise_time",
-    "settling_time",
-    "overshoot",
-    "steady_state_error",
-)
+STEP_FIELDS = [f.name for f in fields(StepMetrics)]  # in STEP_KEYS order
 
 
 @pytest.fixture(scope="module")

@@ -119,6 +119,16 @@ def format_metrics(metrics) -> str:
     return "\n".join(lines)
 
 
+# --set KEY=VALUE on run, sweep and reproduce (docs/scenarios.md)
+set_option = click.option(
+    "--set",
+    "settings",
+    multiple=True,
+    metavar="KEY=VALUE",
+    help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
+)
+
+
 def _fail_input(message: str) -> None:
     click.echo(f"error: {message}", err=True)
     sys.exit(2)
@@ -132,13 +142,7 @@ def _fail_input(message: str) -> None:
     default=None,
     help="Output folder [default: results/<scenario file name without .toml>].",
 )
-@click.option(
-    "--set",
-    "settings",
-    multiple=True,
-    metavar="KEY=VALUE",
-    help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
-)
+@set_option
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recording (trace.rrd).")
 def run(
@@ -271,13 +275,7 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
 )
 @click.option("--workers", type=int, default=None, help="Processes [default: all cores].")
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recordings.")
-@click.option(
-    "--set",
-    "settings",
-    multiple=True,
-    metavar="KEY=VALUE",
-    help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
-)
+@set_option
 def reproduce(
     out: Path, manifest: Path | None, workers: int | None, no_trace: bool, settings: tuple[str, ...]
 ) -> None:
@@ -352,13 +350,7 @@ def reproduce(
 @click.option("--fresh", is_flag=True, help="Discard chunks already in --out.")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
 @click.option("--progress/--no-progress", default=True, show_default=True)
-@click.option(
-    "--set",
-    "settings",
-    multiple=True,
-    metavar="KEY=VALUE",
-    help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
-)
+@set_option
 def sweep_command(
     sweep_file: Path,
     out: Path | None,
