@@ -5,14 +5,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.fuzzy import Rule, load_rule_base
+from controllers.fuzzy import Rule, fired_rule_labels, load_rule_base
 from controllers.fuzzy_ctc import FuzzyComputedTorque
 from twolink.config import ConfigError, load_scenario
 from twolink.design import (
     DEFAULT_DESIGN,
     design,
     design_or_load,
-    fired_rule_labels,
     load_design_config,
     save_design,
 )

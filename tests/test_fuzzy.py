@@ -15,7 +15,6 @@ import skfuzzy.control.controlsystem as sk_controlsystem
 from skfuzzy import control as ctrl
 from skfuzzy.control.exceptions import EmptyMembershipError, NoTermMembershipsError
 
-from controllers import fuzzy
 from controllers.fuzzy import (
     LABELS_7,
     RULEBASE_DIR,
@@ -31,6 +30,7 @@ from controllers.fuzzy import (
     save_rule_base,
     triangular_partition,
 )
+from controllers.fuzzy import engine as fuzzy_engine
 
 pytestmark = pytest.mark.filterwarnings(
     # skfuzzy 0.5 calls np.maximum with a positional output argument.
@@ -331,7 +331,7 @@ def test_7x7_equals_skfuzzy_on_random_inputs(pd7):
     ref = skfuzzy_array(pd7, e, de)
     # Spot-check that skfuzzy's array mode is its scalar mode.
     np.testing.assert_allclose(skfuzzy_scalar(pd7, e[:5], de[:5]), ref[:5], atol=0, rtol=0)
-    assert e.size > fuzzy._SMALL_N  # the batch (numpy) path
+    assert e.size > fuzzy_engine._SMALL_N  # the batch (numpy) path
     np.testing.assert_allclose(pd7(e, de), ref, atol=TOL, rtol=0)
     # The control loop's call: both joints at once, the small-N (pure Python) path.
     pairs = np.array([pd7(e[i : i + 2], de[i : i + 2]) for i in range(0, 1500, 2)]).ravel()

@@ -143,22 +143,6 @@ class DesignResult:
         ]
 
 
-def rule_label(rule: Rule) -> str:
-    """A rule as short text: ``"PS,NM→NS"``."""
-    return f"{rule.e},{rule.de}→{rule.u}"
-
-
-def fired_rule_labels(engine: MamdaniEngine, e: np.ndarray, de: np.ndarray) -> np.ndarray:
-    """The dominant fired rule at each (e, de) (normalised inputs), as labels.
-
-    "none" where no rule fires. Shape of ``e`` and ``de`` broadcast together.
-    """
-    firing = engine.firing(e, de)
-    labels = np.array([rule_label(r) for r in engine.rules] + ["none"])
-    dominant = np.where(firing.max(axis=-1) > 0, firing.argmax(axis=-1), len(engine.rules))
-    return labels[dominant]
-
-
 def phase_plane(s: Scenario, engine_input: tuple[float, float]) -> np.ndarray:
     """(e, de) of the scenario's moving joint under its controller, normalised, clipped."""
     traj = run_scenario(s)

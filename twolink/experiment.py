@@ -135,7 +135,7 @@ def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) ->
     engine = getattr(controller, "engine", None)
     if engine is None:
         return {}
-    from twolink.design import fired_rule_labels
+    from controllers.fuzzy import fired_rule_labels
 
     ke, kde = controller.ke, controller.kde
     extras: dict[str, Any] = {
