@@ -18,6 +18,7 @@ from twolink.config import load_scenario
 from twolink.experiment import run_scenario
 from twolink.params import ArmParams
 from twolink.plant import Plant
+from twolink.sim import Trajectory
 
 ROOT = Path(__file__).resolve().parents[1]
 SCALARS = {  # entity leaf -> Trajectory attribute it holds
@@ -372,3 +373,89 @@ def test_only_the_tracing_module_imports_rerun():
             if any(n == "rerun" or n.startswith("rerun.") for n in names):
                 importers.append(path.name)
     assert set(importers) == {"tracing.py"}
+
+
+def test_the_overview_names_each_run_and_colours_it_by_controller(tmp_path, run):
+    s, traj = run
+    slower = replace(traj, q=traj.q * 0.9)
+    runs = [
+        ("rigid/table2/CTC", traj, s.arm, {}),
+        ("rigid/table2/FCM-CTC", slower, s.arm, {}),
+        ("rigid/table3/CTC", slower, s.arm, {"name": "θ1 ramp, CTC"}),
+    ]
+    out = tmp_path / "all.rrd"
+    tracing.write_recording(out, runs, groups=["CTC", "FCM-CTC", "CTC"])
+    temporal, static = read_back(out)
+    style = {}
+    for prefix, *_ in runs:
+        path = entity(tracing.OVERVIEW, "joint1", prefix)
+        style[prefix] = (
+            values(static[path], "SeriesLines:names").tolist(),
+            values(static[path], "SeriesLines:colors").tolist(),
+        )
+        # each run its own entity, holding that run's angles
+        np.testing.assert_array_equal(
+            values(temporal[path], "Scalars:scalars"),
+            dict((r[0], r[1]) for r in runs)[prefix].q[:, 0],
+        )
+    assert style["rigid/table2/CTC"][0] == ["rigid/table2/CTC (CTC)"]
+    assert style["rigid/table3/CTC"][0] == ["θ1 ramp, CTC (CTC)"]
+    colours = {p: c for p, (_, c) in style.items()}
+    assert colours["rigid/table2/CTC"] == colours["rigid/table3/CTC"]  # same controller
+    assert colours["rigid/table2/CTC"] != colours["rigid/table2/FCM-CTC"]
+    # a reference shared by two runs is drawn once
+    refs = [
+        e
+        for e in static
+        if e.startswith(f"/{tracing.OVERVIEW}/joint1/") and e.endswith("/reference")
+    ]
+    assert len(refs) == 1
+    # the overview shows them, and the viewer opens on the run's timeline
+    reader = RrdReader(out)
+    (bp,) = reader.blueprints()
+    queries, timelines = [], []
+    for ch in reader.stream(store=bp):
+        batch = ch.to_record_batch()
+        if "ViewContents:query" in batch.schema.names:
+            queries += batch.column("ViewContents:query").to_pylist()
+        if "TimePanelBlueprint:timeline" in batch.schema.names:
+            timelines += batch.column("TimePanelBlueprint:timeline").to_pylist()
+    assert [f"{tracing.OVERVIEW}/joint1/**"] in queries
+    assert timelines == [[tracing.TIMELINE]]
+    with pytest.raises(ValueError, match="2 groups for 3 runs"):
+        tracing.write_recording(tmp_path / "x.rrd", runs, groups=["CTC", "FCM-CTC"])
+
+
+def test_the_docs_recording_reader_snippet_runs_as_written(tmp_path):
+    import re
+
+    doc = (ROOT / "docs" / "tracing.md").read_text()
+    section = doc.split("## Reading one back", 1)[1]
+    code = re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    made = subprocess.run(
+        [sys.executable, "-m", "twolink", "run", str(ROOT / "runs/paper/theta1_step.toml")],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert made.returncode == 0, made.stderr
+    assert "at 200 Hz" in made.stdout and "rerun --serve-web" in made.stdout
+    result = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 0, result.stderr
+    traj = Trajectory.load(tmp_path / "results" / "theta1_step" / "trajectory.npz")
+    idx = tracing.sample_indices(len(traj.t), 5)
+    assert f"{len(idx)} samples from 0.0 to 10.0 s; final θ1 {traj.q[-1, 0]:.4f}" in result.stdout
+
+
+def test_read_recording_returns_every_series_at_the_kept_samples(tmp_path, run):
+    s, traj = run
+    out = tmp_path / "t.rrd"
+    tracing.write_recording(out, [("ctc", traj, s.arm, {})], every=3)
+    df = tracing.read_recording(out)
+    idx = tracing.sample_indices(len(traj.t), 3)
+    np.testing.assert_allclose(df.index.to_numpy(), traj.t[idx], rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(df["ctc/joint2/torque"].to_numpy(), traj.tau[idx, 1])
+    np.testing.assert_array_equal(df["ctc/joint1/error"].to_numpy(), traj.e[idx, 0])

@@ -189,6 +189,15 @@ def run(
         f"{spec.max_overshoot_pct:g} %)"
     )
     click.echo(f"results in {folder}")
+    if not no_trace:
+        from twolink.experiment import TRACE_EVERY
+
+        rate = 1.0 / (s.control_dt * TRACE_EVERY)
+        click.echo(
+            f"recording: {folder / 'trace.rrd'} at {rate:g} Hz (every {TRACE_EVERY}th sample; "
+            f"trajectory.npz has all); view it with: rerun {folder / 'trace.rrd'} "
+            "(no display: rerun --serve-web FILE)"
+        )
     if not traj.ok:
         click.echo(f"run diverged: {traj.message}", err=True)
         sys.exit(1)
@@ -319,7 +328,17 @@ def reproduce(
     click.echo(f"metrics:    {out / 'metrics.csv'}, {out / 'metrics.json'}")
     click.echo(f"figures:    {out / 'figures'}")
     if not no_trace:
-        click.echo(f"recordings: rerun {out / 'reproduction.rrd'} (one trace.rrd per run too)")
+        from twolink.experiment import TRACE_EVERY
+        from twolink.reproduce import COMBINED_TRACE_EVERY
+
+        click.echo(
+            f"recordings: {out / 'reproduction.rrd'} (every run, every {COMBINED_TRACE_EVERY}th "
+            f"sample) and a trace.rrd per run (every {TRACE_EVERY}th); trajectory.npz has all"
+        )
+        click.echo(
+            f"view:       rerun {out / 'reproduction.rrd'}   "
+            "(no display: rerun --serve-web FILE, then open http://localhost:9090)"
+        )
     if failed:
         click.echo(f"{len(failed)} run(s) diverged: see the report", err=True)
     click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")

@@ -371,5 +371,6 @@ def reproduce(
                 for sp in specs
             ],
             every=COMBINED_TRACE_EVERY,
+            groups=[sp.controller for sp in specs],
         )
     return Reproduction(out, rows, designed, rule_base)
