@@ -227,3 +227,20 @@ def test_make_reference_errors_name_the_problem() -> None:
         make_reference("quintic", initial=0.0, final=1.0)
     with pytest.raises(ValueError, match=r"Ramp\.duration"):
         make_reference("ramp", initial=0.0, final=1.0, duration=-1.0)
+
+
+def test_initial_defaults_to_zero_and_the_rest_is_required():
+    from twolink.references import Quintic, Ramp, Step
+
+    assert Step(final=1.0) == Step(0.0, 1.0)  # positional use unchanged
+    assert Ramp(final=1.0, duration=2.0) == Ramp(0.0, 1.0, 2.0)
+    assert Quintic(final=-0.5, duration=1.0)(0.0) == (0.0, 0.0, 0.0)
+    for make, message in (
+        (lambda: Step(), "Step.final is required"),
+        (lambda: Step(1.0), "Step.final is required"),
+        (lambda: Ramp(final=1.0), "Ramp.duration is required"),
+    ):
+        with pytest.raises(ValueError, match=message):
+            make()
+    with pytest.raises(ValueError, match=r"missing parameter\(s\) \['final'\]"):
+        make_reference("step", initial=0.0)

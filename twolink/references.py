@@ -48,6 +48,11 @@ class JointReference(Protocol):
     def final(self) -> float: ...
 
 
+# Default of a parameter that must be given: ``Step(final=1.0)`` needs no ``initial`` (0 by
+# default, as a scenario's start), but a step needs its ``final``.
+REQUIRED: Any = None
+
+
 def _validate_fields(obj: object, positive: tuple[str, ...] = ()) -> None:
     """Check every dataclass field is a finite real number and store it as a Python float.
 
@@ -56,6 +61,8 @@ def _validate_fields(obj: object, positive: tuple[str, ...] = ()) -> None:
     owner = type(obj).__name__
     for f in fields(obj):  # type: ignore[arg-type]
         value = getattr(obj, f.name)
+        if value is REQUIRED:
+            raise ValueError(f"{owner}.{f.name} is required, e.g. {owner}({f.name}=1.0)")
         if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
             raise ValueError(f"{owner}.{f.name} must be a real number, got {value!r}")
         value = float(value)
@@ -79,7 +86,7 @@ class Step:
 
     Parameters
     ----------
-    initial : float
+    initial : float, default 0.0
         Value before ``t0``.
     final : float
         Value from ``t0`` on (the step is right-continuous: at ``t0`` it is already ``final``).
@@ -89,8 +96,8 @@ class Step:
 
     kind: ClassVar[str] = "step"
 
-    initial: float
-    final: float
+    initial: float = 0.0
+    final: float = REQUIRED
     t0: float = 0.0
 
     def __post_init__(self) -> None:
@@ -122,7 +129,7 @@ class Ramp:
     Parameters
     ----------
     initial, final : float
-        Start and end values.
+        Start and end values; ``initial`` defaults to 0.0, ``final`` is required.
     duration : float
         Time taken to go from ``initial`` to ``final`` [s], > 0.
     t0 : float, default 0.0
@@ -131,9 +138,9 @@ class Ramp:
 
     kind: ClassVar[str] = "ramp"
 
-    initial: float
-    final: float
-    duration: float
+    initial: float = 0.0
+    final: float = REQUIRED
+    duration: float = REQUIRED
     t0: float = 0.0
 
     def __post_init__(self) -> None:
@@ -224,7 +231,7 @@ class Quintic:
     Parameters
     ----------
     initial, final : float
-        Start and end values.
+        Start and end values; ``initial`` defaults to 0.0, ``final`` is required.
     duration : float
         Duration of the move [s], > 0.
     t0 : float, default 0.0
@@ -233,9 +240,9 @@ class Quintic:
 
     kind: ClassVar[str] = "quintic"
 
-    initial: float
-    final: float
-    duration: float
+    initial: float = 0.0
+    final: float = REQUIRED
+    duration: float = REQUIRED
     t0: float = 0.0
 
     def __post_init__(self) -> None:
@@ -367,7 +374,9 @@ def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic:
     missing = [
         f.name
         for f in fields(cls)
-        if f.name not in params and f.default is MISSING and f.default_factory is MISSING
+        if f.name not in params
+        and (f.default is MISSING or f.default is REQUIRED)
+        and f.default_factory is MISSING
     ]
     if missing:
         raise ValueError(f"missing parameter(s) {missing} for reference kind {kind!r}")
