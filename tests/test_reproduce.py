@@ -85,13 +85,6 @@ def test_recordings_pass_rerun_rrd_verify(reproduction):
         assert result.returncode == 0, result.stdout + result.stderr
 
 
-def test_second_run_reuses_the_design_and_gives_identical_metrics(reproduction):
-    again = reproduce(out=reproduction.out, workers=2, trace=False, progress=False)
-    assert not again.designed
-    # JSON text, so that NaN (undefined metrics) compares equal to NaN
-    assert json.dumps(again.rows) == json.dumps(reproduction.rows)
-
-
 def _files(folder: Path) -> dict[str, int]:
     return {str(p.relative_to(folder)): p.stat().st_size for p in folder.rglob("*") if p.is_file()}
 
@@ -148,7 +141,12 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     assert " nan" not in report.lower()
 
 
-def test_the_command_reports_each_phase_and_its_whole_wall_time(reproduction):
+def test_the_command_reruns_reusing_the_design_with_identical_metrics_and_each_phase(
+    reproduction,
+):
+    """`twolink reproduce` into a finished folder: the design is reused, the metrics are
+    identical, and the command announces each phase and ends with its whole wall time."""
+    first = (reproduction.out / "metrics.json").read_text()
     result = subprocess.run(
         [sys.executable, "-m", "twolink", "reproduce", "--out", str(reproduction.out)],
         capture_output=True,
@@ -156,6 +154,8 @@ def test_the_command_reports_each_phase_and_its_whole_wall_time(reproduction):
         timeout=300,
     )
     assert result.returncode == 0, result.stderr
+    assert "reused rule base" in result.stdout
+    assert (reproduction.out / "metrics.json").read_text() == first
     phases = [line for line in result.stderr.splitlines() if line.startswith("[")]
     assert [p.split("]")[0] for p in phases] == [f"[{k}/6" for k in range(1, 7)]
     for name in ("design", "runs", "figures", "study", "report", "recording"):
