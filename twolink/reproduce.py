@@ -170,8 +170,8 @@ def describe_choices(
     fuzzy = next((sc.controller for sc in scenarios.values() if sc.controller.kind != "ctc"), None)
     flex = sorted(
         {
-            f"K = {sc.plant.flexibility.k} N·m/rad, D = {sc.plant.flexibility.d} N·m·s/rad, "
-            f"J = {sc.plant.flexibility.j} kg·m²"
+            f"k = {sc.plant.flexibility.k} N·m/rad, d = {sc.plant.flexibility.d} N·m·s/rad, "
+            f"j = {sc.plant.flexibility.j} kg·m² (the scenario keys of [plant.flexibility])"
             for sc in scenarios.values()
             if sc.plant.flexibility is not None
         }
@@ -228,7 +228,7 @@ def flexible_study(
         "## Beyond the paper: flexible joints from stiff to soft",
         "",
         f"CTC and FCM-CTC, both using the rigid model, on Spong's flexible-joint arm with "
-        f"the joint stiffness K swept from stiff to soft ({sweep_file.name}; θ1 and θ2 "
+        f"the joint stiffness k swept from stiff to soft ({sweep_file.name}; θ1 and θ2 "
         "step together). Medians per stiffness:",
         "",
         sweep.flexible_study_table(outcome.results),
