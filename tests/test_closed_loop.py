@@ -1,5 +1,6 @@
 """Closed loop: CTC against closed-form error dynamics, determinism, divergence, configs."""
 
+import json
 import math
 from pathlib import Path
 
@@ -115,7 +116,30 @@ def test_nan_torque_is_reported_not_propagated():
     p = ArmParams()
     traj = simulate(Plant.build(p), NanController(p, ArmReference(Step(0, 1), Step(0, 0))), 2.0)
     assert traj.status == "diverged" and "torque" in traj.message
-    assert traj.t[-1] == pytest.approx(0.499)
+    # The run ends at the sample where the controller asked for NaN: that request is kept
+    # (as data), never applied, so the state there is still the finite one measured.
+    assert traj.t[-1] == pytest.approx(0.5) and traj.t[-2] == pytest.approx(0.499)
+    assert math.isnan(traj.tau[-1, 0]) and np.isfinite(traj.tau[:-1]).all()
+    assert np.isfinite(traj.q).all()
+
+
+def test_a_run_that_diverges_at_once_keeps_its_one_sample(tmp_path):
+    # kp = 1e300 asks for ~1e300 N m at t = 0 (issue 13: was "t is empty", a traceback).
+    path = tmp_path / "kp.toml"
+    path.write_text(f'extends = "{RUNS / "theta1_step.toml"}"\n[controller]\nkp = 1e300\n')
+    result = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 1, result.output
+    assert "torque out of bounds at t=0.0000 s" in result.output
+    traj = Trajectory.load(tmp_path / "o" / "trajectory.npz")
+    assert len(traj.t) == 1 and traj.status == "diverged" and traj.tau[0, 0] > 1e299
+    metrics = json.loads((tmp_path / "o" / "metrics.json").read_text())
+    assert metrics["status"] == metrics["outcome"] == "diverged"
+    # a state out of bounds from the start: the one state is kept, no torque was asked
+    path.write_text(f'extends = "{RUNS / "theta1_step.toml"}"\n[initial]\nq = [1000.0, 0.0]\n')
+    result = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "p")])
+    assert result.exit_code == 1 and "state out of bounds at t=0.0000 s" in result.output
+    traj = Trajectory.load(tmp_path / "p" / "trajectory.npz")
+    assert traj.q.tolist() == [[1000.0, 0.0]] and np.isnan(traj.tau).all()
 
 
 def test_zero_order_hold_at_a_slower_control_rate():

@@ -342,3 +342,10 @@ def test_docs_list_every_output_key_with_its_unit():
     listed = {line.split("|")[1].strip(" `"): line.split("|")[3].strip() for line in table}
     for m in METRICS:
         assert listed.get(m.key) == m.unit, m.key
+
+
+def test_torque_rms_of_a_huge_demand_is_finite_and_right():
+    tau = np.array([[2.0e300, 1.0], [0.0, 1.0]])
+    m = torque_measures(tau)
+    assert m.rms[0] == pytest.approx(2.0e300 / np.sqrt(2)) and m.rms[1] == 1.0
+    assert m.peak == (2.0e300, 1.0)

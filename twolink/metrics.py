@@ -332,10 +332,15 @@ def torque_measures(tau: np.ndarray) -> TorqueMeasures:
         Fields are floats for ``tau`` of shape (N,) and tuples of k floats for (N, k).
     """
     tau = _check_signal("tau", tau)
-    return TorqueMeasures(
-        rms=_per_column(np.sqrt(np.mean(tau * tau, axis=0))),
-        peak=_per_column(np.max(np.abs(tau), axis=0)),
-    )
+    peak = np.max(np.abs(tau), axis=0)
+    with np.errstate(over="ignore"):
+        rms = np.sqrt(np.mean(tau * tau, axis=0))
+    # tau² overflows for torques past ~1e154 (a diverging controller's demand): scale there.
+    huge = np.isinf(rms) & np.isfinite(peak)
+    if np.any(huge):
+        scaled = np.sqrt(np.mean((tau / np.where(peak > 0, peak, 1.0)) ** 2, axis=0)) * peak
+        rms = np.where(huge, scaled, rms)
+    return TorqueMeasures(rms=_per_column(rms), peak=_per_column(peak))
 
 
 def to_jsonable(value: Any) -> Any:

@@ -164,7 +164,9 @@ def simulate(
     Returns
     -------
     Trajectory
-        Samples at t = 0, control_dt, ..., duration (fewer if the run diverged).
+        Samples at t = 0, control_dt, ..., duration; a run that diverged ends at the
+        sample where it did (its out-of-bounds torque, or NaN torque where the state left
+        its bounds), so even one that diverges at once has one sample.
     """
     substeps = round(control_dt / plant.dt)
     if substeps < 1 or not math.isclose(substeps * plant.dt, control_dt, rel_tol=1e-9):
@@ -195,19 +197,24 @@ def simulate(
                 f"state out of bounds at t={t:.4f} s: "
                 f"q=({q1:.4g}, {q2:.4g}), qd=({w1:.4g}, {w2:.4g})"
             )
+            if not rows:  # keep the one state there is (no torque was asked for)
+                rows.append((t, q1, q2, w1, w2, math.nan, math.nan))
+                if plant.flexible:
+                    motor.append((float(qpos[2]), float(qpos[3])))
             break
         if noise_rows is None:
             tau1, tau2 = controller(t, (q1, q2), (w1, w2))
         else:
             n1, n2 = noise_rows[k]
             tau1, tau2 = controller(t, (q1 + n1, q2 + n2), (w1, w2))
-        if not (abs(tau1) < tmax and abs(tau2) < tmax):
-            status = STATUS_DIVERGED
-            message = f"torque out of bounds at t={t:.4f} s: tau=({tau1:.4g}, {tau2:.4g})"
-            break
         rows.append((t, q1, q2, w1, w2, tau1, tau2))
         if plant.flexible:
             motor.append((float(qpos[2]), float(qpos[3])))
+        if not (abs(tau1) < tmax and abs(tau2) < tmax):
+            # Kept: the state measured and the torque the controller asked for (not applied).
+            status = STATUS_DIVERGED
+            message = f"torque out of bounds at t={t:.4f} s: tau=({tau1:.4g}, {tau2:.4g})"
+            break
         if k == n:
             break
         for _ in range(substeps):
