@@ -158,7 +158,8 @@ def test_set_overrides_keys_and_the_saved_config_records_them(tmp_path):
 def test_a_results_folder_can_move_with_its_rule_base(tmp_path):
     import shutil
 
-    from twolink.experiment import RULEBASE_DIR, build_controller, measure, run_scenario, write_run
+    from twolink.config import RULEBASE_DIR
+    from twolink.experiment import build_controller, measure, run_scenario, write_run
 
     project = tmp_path / "a"
     project.mkdir()

@@ -7,7 +7,7 @@ import pytest
 
 from controllers.fuzzy import Rule, fired_rule_labels, load_rule_base
 from controllers.fuzzy_ctc import FuzzyComputedTorque
-from twolink.config import ConfigError, load_scenario
+from twolink.config import RULEBASE_DIR, ConfigError, load_scenario
 from twolink.design import (
     DEFAULT_DESIGN,
     design,
@@ -15,7 +15,7 @@ from twolink.design import (
     load_design_config,
     save_design,
 )
-from twolink.experiment import RULEBASE_DIR, build_controller, run_scenario
+from twolink.experiment import build_controller, run_scenario
 
 PAPER = Path(__file__).resolve().parents[1] / "runs" / "paper"
 

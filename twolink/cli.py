@@ -159,19 +159,26 @@ def run(
     2 on a bad scenario file.
     """
     from twolink.config import ConfigError, load_scenario, parse_set
-    from twolink.experiment import build_controller, measure, run_scenario, write_run
+    from twolink.experiment import build_controller, build_plant, measure, run_scenario, write_run
+    from twolink.io import check_output_folder
 
+    folder = out or Path("results") / Path(scenario).stem
     try:
         s = load_scenario(scenario, parse_set(settings))
         controller = build_controller(s)
+        plant = build_plant(s)
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
-    except ValueError as exc:  # e.g. a rule base file with bad labels
+    except ValueError as exc:  # a rule base with bad labels; an arm MuJoCo refuses
         _fail_input(f"{scenario}: {exc}")
-    traj = run_scenario(s, controller)
+    try:
+        check_output_folder(folder)
+    except OSError as exc:
+        _fail_input(str(exc))
+    traj = run_scenario(s, controller, plant)
     metrics = measure(s, traj)
     folder = write_run(
-        out or Path("results") / Path(scenario).stem,
+        folder,
         s,
         traj,
         metrics,
@@ -237,10 +244,9 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
       twolink design --figure phase.png    # also the paper's Figure 2
       twolink design --install             # update controllers/rulebases/designed.toml
     """
-    from twolink.config import ConfigError
+    from twolink.config import RULEBASE_DIR, ConfigError
     from twolink.design import DEFAULT_DESIGN, load_design_config, write_design
     from twolink.design import design as run_design
-    from twolink.experiment import RULEBASE_DIR
 
     if install and out is not None:
         _fail_input("--install writes the shipped designed rule base; it takes no --out")
@@ -398,6 +404,7 @@ def sweep_command(
 
     from twolink.config import ConfigError, merge, parse_set
     from twolink.executors import ExecutorError
+    from twolink.io import check_output_folder
     from twolink.sweep import (
         SweepInterrupted,
         SweepOutputError,
@@ -417,6 +424,10 @@ def sweep_command(
     if scheduler and executor not in (None, "dask"):
         _fail_input(f"--scheduler needs --executor dask, not {executor}")
     out = out or Path("results") / "sweeps" / plan.name
+    try:
+        check_output_folder(out)
+    except OSError as exc:
+        _fail_input(str(exc))
     try:
         outcome = run_sweep(
             plan,

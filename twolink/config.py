@@ -52,6 +52,22 @@ CONTROLLER_KINDS = ("ctc", "fuzzy_ctc", "fcm_ctc")
 FUZZY_MODES = ("add", "replace")
 
 
+RULEBASE_DIR = Path(__file__).resolve().parents[1] / "controllers" / "rulebases"
+BUILTIN_RULE_BASES = {
+    "paper": "paper_table1.toml",
+    "designed": "designed.toml",
+    "default": "default_7x7.toml",
+}
+
+
+def resolve_rule_base(name: str, relative_to: str | Path = ".") -> Path:
+    """Path of a rule base: "paper", "designed", "default" or a TOML path."""
+    if name in BUILTIN_RULE_BASES:
+        return RULEBASE_DIR / BUILTIN_RULE_BASES[name]
+    path = Path(name)
+    return path if path.is_absolute() else Path(relative_to).parent / path
+
+
 class ConfigError(ValueError):
     """An invalid scenario: the message names the file and the key."""
 
@@ -171,23 +187,48 @@ def _nested(parts: list[str], value: Any) -> dict[str, Any]:
     return {parts[0]: _nested(parts[1:], value) if len(parts) > 1 else value}
 
 
-def read_toml(path: str | Path, _seen: tuple[Path, ...] = ()) -> dict[str, Any]:
-    """Read a TOML file, following ``extends`` chains; errors name the file."""
+MAX_PHYSICS_STEPS = 1e8  # per run: 1e8 MuJoCo steps take about 15 min here
+MAX_EXTENDS = 64  # a longer ``extends`` chain is a mistake, not a design
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file, following ``extends`` chains; errors name the file (and, for a
+    missing or broken base, the file and key that point to it)."""
     path = Path(path)
+    chain: list[tuple[Path, dict[str, Any]]] = []
+    while True:
+        data = _read_one(path, chain[-1][0] if chain else None)
+        chain.append((path, data))
+        base = data.pop("extends", None)
+        if base is None:
+            break
+        if not isinstance(base, str):
+            raise ConfigError(f"{path}: extends: must be a file path, got {base!r}")
+        if len(chain) > MAX_EXTENDS:
+            raise ConfigError(f"{chain[0][0]}: extends: a chain of more than {MAX_EXTENDS} files")
+        following = path.parent / base
+        seen = [p.resolve() for p, _ in chain]
+        if following.resolve() in seen:
+            raise ConfigError(f"{path}: extends: {base} extends itself (cycle through {seen})")
+        path = following
+    merged: dict[str, Any] = {}
+    for _, data in reversed(chain):
+        merged = merge(merged, data)
+    return merged
+
+
+def _read_one(path: Path, referrer: Path | None) -> dict[str, Any]:
+    where = f"{referrer}: extends: " if referrer is not None else ""
+    if path.is_dir():
+        raise ConfigError(f"{where}{path}: is a folder, not a TOML file")
     if not path.is_file():
-        raise ConfigError(f"{path}: no such file")
-    if path.resolve() in _seen:
-        raise ConfigError(f"{path}: extends itself (cycle through {[str(p) for p in _seen]})")
+        raise ConfigError(f"{where}{path}: no such file")
     try:
-        data = tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    base = data.pop("extends", None)
-    if base is None:
-        return data
-    if not isinstance(base, str):
-        raise ConfigError(f"{path}: extends: must be a file path, got {base!r}")
-    return merge(read_toml(path.parent / base, (*_seen, path.resolve())), data)
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{where}{path}: cannot be read: {exc}") from None
 
 
 # Keys found in one kind of this project's files and in no other, and the command that
@@ -257,6 +298,13 @@ class TomlTable:
     ) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             self.fail(key, f"must be a number, got {value!r}")
+        try:
+            value = float(value)
+        except OverflowError:
+            self.fail(
+                key,
+                f"must be a number a float can hold, got an integer of {len(str(value))} digits",
+            )
         if math.isnan(value) or (math.isinf(value) and not allow_inf):
             self.fail(key, f"must be finite, got {value!r}")
         if positive and not value > 0:
@@ -395,11 +443,35 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         top.fail("control_dt", f"must be a whole multiple of timestep {scenario.timestep}")
     if scenario.duration < scenario.control_dt:
         top.fail("duration", f"must be at least control_dt {scenario.control_dt}")
+    if scenario.duration / scenario.timestep > MAX_PHYSICS_STEPS:
+        top.fail(
+            "duration",
+            f"{scenario.duration:g} s at a timestep of {scenario.timestep:g} s is "
+            f"{scenario.duration / scenario.timestep:.3g} physics steps; the limit is "
+            f"{MAX_PHYSICS_STEPS:.0e} (about 15 min of computing) per run",
+        )
     try:
         scenario.plant_params  # noqa: B018 - the scaled arm must be valid too
     except ValueError as exc:
         top.fail("plant.scale", str(exc))
+    _check_rule_base(top, scenario)
     return scenario
+
+
+def _check_rule_base(top: TomlTable, s: Scenario) -> None:
+    # A rule-base file that is missing or broken is bad input, found before any run.
+    name = s.controller.rule_base
+    if s.controller.kind != "fcm_ctc" or name in BUILTIN_RULE_BASES:
+        return
+    path = resolve_rule_base(name, s.source)
+    if not path.is_file():
+        top.fail("controller.rule_base", f"no such file {path}")
+    from controllers.fuzzy import default_fuzzy_pd, load_rule_base
+
+    try:
+        default_fuzzy_pd().with_rules(load_rule_base(path))  # its labels must be the engine's
+    except (ValueError, OSError) as exc:
+        top.fail("controller.rule_base", f"{path}: {exc}")
 
 
 def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> Scenario:

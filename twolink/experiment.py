@@ -16,7 +16,7 @@ import numpy as np
 
 from controllers.base import Controller
 from controllers.ctc import ComputedTorque
-from twolink.config import Scenario
+from twolink.config import BUILTIN_RULE_BASES, Scenario, resolve_rule_base
 from twolink.io import atomic_write_json, atomic_write_text, to_toml
 from twolink.metrics import error_measures, metrics_dict, step_metrics, torque_measures
 from twolink.outcome import classify_run
@@ -24,25 +24,10 @@ from twolink.plant import Plant
 from twolink.sim import Trajectory, simulate
 from twolink.vocabulary import CONTROLLER_LABELS, joint_values
 
-RULEBASE_DIR = Path(__file__).resolve().parents[1] / "controllers" / "rulebases"
-BUILTIN_RULE_BASES = {
-    "paper": "paper_table1.toml",
-    "designed": "designed.toml",
-    "default": "default_7x7.toml",
-}
-
 
 def build_plant(s: Scenario) -> Plant:
     """The simulated arm: the nominal arm with the scenario's uncertainty."""
     return Plant.build(s.plant_params, s.plant.flexibility, s.plant.payload, s.timestep)
-
-
-def resolve_rule_base(name: str, relative_to: str | Path = ".") -> Path:
-    """Path of a rule base: "paper", "designed", "default" or a TOML path."""
-    if name in BUILTIN_RULE_BASES:
-        return RULEBASE_DIR / BUILTIN_RULE_BASES[name]
-    path = Path(name)
-    return path if path.is_absolute() else Path(relative_to).parent / path
 
 
 def build_controller(s: Scenario) -> Controller:

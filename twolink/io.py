@@ -19,6 +19,43 @@ from typing import IO, Any
 
 import numpy as np
 
+# Names from files that become folder or file names (sweep, controller and variant names):
+# one rule, so that none can reach outside the output folder ("../x", "/etc", "a/b").
+SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
+
+
+def unsafe_name_problem(name: Any) -> str | None:
+    """Why ``name`` cannot be a folder name inside an output folder, or None if it can."""
+    if not isinstance(name, str) or not SAFE_NAME.match(name) or len(name) > 100:
+        return (
+            f"must be 1-100 letters, digits, '_', '-' or '.', not starting with '.' or '-' "
+            f"(it names a folder inside --out), got {name!r}"
+        )
+    return None
+
+
+def check_output_folder(path: str | os.PathLike) -> Path:
+    """Make sure ``path`` can become the output folder, before any work starts and
+    without creating it: the folder, or its nearest existing parent, is a folder that a
+    probe file can be written to (and removed from).
+
+    Raises
+    ------
+    OSError
+        With a message that names the folder: under a file, read-only, no permission.
+    """
+    path = Path(path)
+    existing = next(p for p in (path, *path.parents) if p.exists() or p == Path(p.anchor))
+    if not existing.is_dir():
+        where = "is a file" if existing == path else f"is under {existing}, which is a file"
+        raise NotADirectoryError(f"--out {path}: {where}, not a folder")
+    try:
+        with tempfile.NamedTemporaryFile(dir=existing, prefix=".write-test-"):
+            pass
+    except OSError as exc:
+        raise OSError(f"--out {path}: cannot write in {existing} ({exc.strerror or exc})") from None
+    return path
+
 
 @contextmanager
 def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from twolink.config import TomlTable, expect_kind, read_toml
+from twolink.io import unsafe_name_problem
 from twolink.vocabulary import STEP_KEYS, metric
 
 DEFAULT_MANIFEST = Path(__file__).resolve().parents[1] / "runs" / "paper" / "reproduce.toml"
@@ -110,10 +111,14 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     if not isinstance(controllers, dict) or not controllers:
         top.fail("controllers", "needs at least one [controllers.NAME] table")
     for name, ctrl in controllers.items():
+        if problem := unsafe_name_problem(name):
+            top.fail(f"controllers.{name}", problem)
         if not isinstance(ctrl, dict):
             top.fail(f"controllers.{name}", "must be a table of [controller] keys")
     variants = []
     for name, body in top.raw("variants", {"rigid": {}}).items():
+        if problem := unsafe_name_problem(name):
+            top.fail(f"variants.{name}", problem)
         v = TomlTable(body, f"variants.{name}", str(path))
         overrides = v.raw("overrides", {})
         if not isinstance(overrides, dict):

@@ -133,8 +133,19 @@ def build_model(
     payload: float = 0.0,
     timestep: float = 1e-3,
 ) -> mujoco.MjModel:
-    """Compile the arm into a :class:`mujoco.MjModel` (see :func:`build_spec`)."""
-    return build_spec(p, flexibility, payload, timestep).compile()
+    """Compile the arm into a :class:`mujoco.MjModel` (see :func:`build_spec`).
+
+    Raises
+    ------
+    ValueError
+        MuJoCo's compiler refuses the arm (e.g. a mass or inertia below its mjMINVAL),
+        in one line that says so.
+    """
+    try:
+        return build_spec(p, flexibility, payload, timestep).compile()
+    except ValueError as exc:
+        why = " ".join(str(exc).split()).removeprefix("Error: ")
+        raise ValueError(f"MuJoCo cannot build this arm ({p}): {why}") from None
 
 
 def model_xml(p: ArmParams, flexibility: Flexibility | None = None, payload: float = 0.0) -> str:

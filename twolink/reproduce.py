@@ -276,11 +276,12 @@ def reproduce(
     from controllers import fuzzy
     from twolink import plots, report
     from twolink.design import design_or_load, load_design_config
-    from twolink.io import atomic_write_json, atomic_write_text
+    from twolink.io import atomic_write_json, atomic_write_text, check_output_folder
 
     out = Path(out)
     manifest = load_manifest(manifest_path)
     config = load_design_config(manifest.design)
+    check_output_folder(out)  # before any work: a folder that cannot be written is bad input
     phase = _Phases(progress, 4 + (manifest.flexible_study is not None) + trace)
     phase("design: the FCM rule base (reused when its inputs are unchanged)")
     result, designed = design_or_load(config, out / "design")

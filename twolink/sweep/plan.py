@@ -53,7 +53,6 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -63,15 +62,17 @@ from typing import Any
 import numpy as np
 
 from twolink.config import (
+    BUILTIN_RULE_BASES,
     ConfigError,
     TomlTable,
     expect_kind,
     merge,
     read_toml,
+    resolve_rule_base,
     scenario_from_dict,
 )
 from twolink.executors import EXECUTORS
-from twolink.experiment import BUILTIN_RULE_BASES, resolve_rule_base
+from twolink.io import unsafe_name_problem
 from twolink.outcome import SuccessSpec, largest_step
 from twolink.params import Flexibility
 from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
@@ -94,8 +95,8 @@ PARAMETERS: Mapping[str, str] = {
        for j in ("", "1", "2")},
 }  # fmt: skip
 FLEX_NAMES = frozenset(f"{p}{j}" for p in FLEX_PARAMETERS for j in ("", "1", "2"))
-NAME_RE = re.compile(r"^[A-Za-z0-9_.-]+$")
 TRUNCATION_TRIES = 10_000
+MAX_SAMPLES = 1_000_000
 
 
 # ----------------------------------------------------------------------------- the plan
@@ -419,8 +420,8 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         data = merge(data, dict(overrides))
     top = TomlTable(data, "", file)
     name = top.string("name", path.stem)
-    if not NAME_RE.match(name):
-        top.fail("name", f"must be letters, digits, '_', '-', '.' (a folder name), got {name!r}")
+    if problem := unsafe_name_problem(name):
+        top.fail("name", problem)
     scenario_path = top.raw("scenario")
     if scenario_path is None:
         top.fail("scenario", "missing: the base scenario file, relative to the sweep file")
@@ -431,6 +432,12 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         top.fail("samples", "missing: the number of samples N >= 1")
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         top.fail("samples", f"must be an integer >= 1, got {samples!r}")
+    if samples > MAX_SAMPLES:
+        top.fail(
+            "samples",
+            f"at most {MAX_SAMPLES:,} (a table of that many rows per controller is about "
+            f"1 GB; split a larger study into several sweeps), got {samples:,}",
+        )
     seed = top.integer("seed", 0)
     chunk_size = top.raw("chunk_size", 10)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
@@ -508,8 +515,8 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     for cname in ct.data:
         over = ct.raw(cname)
         where = f"controllers.{cname}"
-        if not NAME_RE.match(cname):
-            top.fail(where, "a controller name must be letters, digits, '_', '-', '.'")
+        if problem := unsafe_name_problem(cname):
+            top.fail(where, problem)
         if not isinstance(over, dict):
             top.fail(where, f"must be a table of [controller] overrides, got {over!r}")
         over = _absolute_rule_base(over, path)
