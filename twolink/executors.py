@@ -17,9 +17,13 @@ Every executor is a context manager and counts its ``workers`` (for cost account
 
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
 import signal
+import sys
+import threading
+import time
 from collections.abc import Callable
 from concurrent import futures
 from typing import Any
@@ -76,9 +80,39 @@ class InProcessExecutor(SweepExecutor):
         self._shutdown = True
 
 
-def _ignore_sigint() -> None:
+def _worker_init(parent: int) -> None:
+    """Set up a pool worker: it ignores Ctrl-C, and it dies with its parent."""
     # A terminal's Ctrl-C reaches the whole process group; only the parent should act on it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    die_with_parent(parent)
+
+
+def die_with_parent(parent: int) -> None:
+    """End this process when ``parent`` ends, however it ends (SIGTERM, SIGKILL, a crash),
+    so that no orphaned worker finishes its queue and writes after the command is gone.
+
+    Linux delivers SIGKILL on the parent's death (``prctl(PR_SET_PDEATHSIG)``); elsewhere a
+    daemon thread watches the parent id. Either way, a parent already gone ends us now.
+    """
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG = 1
+        except (OSError, AttributeError):
+            _watch_parent(parent)
+    else:
+        _watch_parent(parent)
+    if os.getppid() != parent:  # it died before the line above took effect
+        os._exit(1)
+
+
+def _watch_parent(parent: int) -> None:
+    def watch() -> None:
+        while os.getppid() == parent:
+            time.sleep(0.5)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="twolink-parent-watch", daemon=True).start()
 
 
 class ProcessExecutor(SweepExecutor):
@@ -91,7 +125,8 @@ class ProcessExecutor(SweepExecutor):
         self._pool = futures.ProcessPoolExecutor(
             max_workers=self.workers,
             mp_context=multiprocessing.get_context("spawn"),
-            initializer=_ignore_sigint,
+            initializer=_worker_init,
+            initargs=(os.getpid(),),
         )
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> futures.Future:
