@@ -262,3 +262,20 @@ def test_fcm_ctc_reads_a_rule_base_file_next_to_the_scenario(tmp_path):
     result = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2
     assert "HUGE" in result.output and "Traceback" not in result.output
+
+
+def test_a_rerun_replaces_the_folder_as_a_whole(tmp_path):
+    out = tmp_path / "run"
+    args = ["run", str(RUNS / "theta1_step.toml"), "--out", str(out), "--set", "duration=0.3"]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    assert (out / "angles.png").is_file() and (out / "trace.rrd").is_file()
+    (out / "stray.txt").write_text("from before")
+    result = CliRunner().invoke(main, [*args, "--no-plots", "--no-trace"])
+    assert result.exit_code == 0, result.output
+    # no plot, recording or stray file of the earlier run beside the new data
+    assert sorted(p.name for p in out.iterdir()) == [
+        "config.toml",
+        "metrics.json",
+        "trajectory.npz",
+    ]
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no temporaries left

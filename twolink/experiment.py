@@ -17,7 +17,7 @@ import numpy as np
 from controllers.base import Controller
 from controllers.ctc import ComputedTorque
 from twolink.config import BUILTIN_RULE_BASES, Scenario, resolve_rule_base
-from twolink.io import atomic_write_json, atomic_write_text, to_toml
+from twolink.io import atomic_folder, atomic_write_json, atomic_write_text, to_toml
 from twolink.metrics import error_measures, metrics_dict, step_metrics, torque_measures
 from twolink.outcome import classify_run
 from twolink.plant import Plant
@@ -156,24 +156,26 @@ def write_run(
     name: str | None = None,
 ) -> Path:
     """Write one run's folder: config.toml, trajectory.npz, metrics.json, PNG plots and a
-    rerun recording ``trace.rrd`` (of the run under ``prefix``), each file atomically.
+    rerun recording ``trace.rrd`` (of the run under ``prefix``).
 
-    ``name`` is the controller's name in the outputs (default: its kind's label)."""
+    The folder is written whole: into a temporary folder that then replaces ``out``, so
+    no file of an earlier run stays beside the new ones. ``name`` is the controller's name
+    in the outputs (default: its kind's label)."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "config.toml", to_toml(_portable(s, out)))
-    traj.save(out / "trajectory.npz")
     name = name or CONTROLLER_LABELS[s.controller.kind]
-    atomic_write_json(out / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
-    if plots:
-        from twolink.plots import save_run_plots
+    with atomic_folder(out) as tmp:
+        atomic_write_text(tmp / "config.toml", to_toml(_portable(s, out)))
+        traj.save(tmp / "trajectory.npz")
+        atomic_write_json(tmp / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
+        if plots:
+            from twolink.plots import save_run_plots
 
-        save_run_plots(out, traj, title=s.name)
-    if trace:
-        from twolink import tracing
+            save_run_plots(tmp, traj, title=s.name)
+        if trace:
+            from twolink import tracing
 
-        extras = trace_extras(controller, traj, centres) if controller is not None else {}
-        tracing.write_recording(
-            out / "trace.rrd", [(prefix, traj, s.plant_params, extras)], every=TRACE_EVERY
-        )
+            extras = trace_extras(controller, traj, centres) if controller is not None else {}
+            tracing.write_recording(
+                tmp / "trace.rrd", [(prefix, traj, s.plant_params, extras)], every=TRACE_EVERY
+            )
     return out
