@@ -162,3 +162,21 @@ def test_the_command_reruns_reusing_the_design_with_identical_metrics_and_each_p
         assert any(name in p for p in phases), name
     assert result.stdout.splitlines()[-1].endswith("s (wall time of the whole command)")
     assert "met the spec" in result.stdout
+
+
+def test_an_interrupted_reproduction_resumes_per_run(tmp_path, reproduction):
+    import shutil
+
+    out = tmp_path / "r"
+    shutil.copytree(reproduction.out, out)
+    runs = sorted(p.parent for p in out.rglob("trajectory.npz"))
+    stamps = {p: (p / "trajectory.npz").stat().st_mtime_ns for p in runs}
+    shutil.rmtree(runs[0])  # never finished
+    (runs[1] / "metrics.json").unlink()  # cut short
+    config = runs[2] / "config.toml"  # another scenario in the same place
+    config.write_text(config.read_text().replace("duration = 10.0", "duration = 9.0"))
+    again = reproduce(out=out, workers=2, progress=False)
+    assert not again.designed
+    recomputed = {p for p in runs if (p / "trajectory.npz").stat().st_mtime_ns != stamps.get(p)}
+    assert recomputed == set(runs[:3])
+    assert json.dumps(again.rows) == json.dumps(reproduction.rows)

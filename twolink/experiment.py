@@ -132,7 +132,7 @@ def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) ->
     return extras
 
 
-def _portable(s: Scenario, out: Path) -> dict[str, Any]:
+def portable_config(s: Scenario, out: Path) -> dict[str, Any]:
     """The resolved config, with a rule-base file path relative to the folder it is saved
     in (it resolves against that folder when read back), so a results folder can move."""
     data = s.to_dict()
@@ -164,7 +164,7 @@ def write_run(
     out = Path(out)
     name = name or CONTROLLER_LABELS[s.controller.kind]
     with atomic_folder(out) as tmp:
-        atomic_write_text(tmp / "config.toml", to_toml(_portable(s, out)))
+        atomic_write_text(tmp / "config.toml", to_toml(portable_config(s, out)))
         traj.save(tmp / "trajectory.npz")
         atomic_write_json(tmp / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
         if plots:

@@ -21,7 +21,14 @@ from pathlib import Path
 from typing import Any
 
 from twolink.config import Scenario, load_scenario, merge
-from twolink.experiment import build_controller, measure, run_scenario, write_run
+from twolink.experiment import (
+    build_controller,
+    measure,
+    portable_config,
+    run_scenario,
+    write_run,
+)
+from twolink.io import to_toml
 from twolink.manifest import (
     DEFAULT_MANIFEST,
     Experiment,
@@ -86,15 +93,38 @@ def _execute(spec: RunSpec, out: Path, trace: bool) -> dict[str, Any]:
         prefix=spec.folder,
         name=spec.controller,
     )
+    return _row(spec, scenario, traj.status, metrics)
+
+
+def _row(spec: RunSpec, scenario: Scenario, status: str, metrics: Any) -> dict[str, Any]:
+    """The metrics row of one run: the report's and metrics.csv's."""
     return {
         "variant": spec.variant.name,
         "experiment": spec.experiment.key,
         "controller": spec.controller,
         "joint": spec.experiment.joint,
-        "status": traj.status,
+        "status": status,
         "outcome": classify_run(scenario, metrics),
         **joint_values(metrics, spec.experiment.joint),
     }
+
+
+def finished_row(spec: RunSpec, scenario: Scenario, out: Path, trace: bool) -> dict | None:
+    """The row of a run already in ``out`` whole and of this very scenario (its saved
+    config.toml is the one this run would write), measured again from its saved
+    trajectory; None where the run must be computed. (Changes to the package's code are
+    not detected: use a fresh --out after changing a controller or the plant.)"""
+    folder = out / spec.folder
+    needed = ["config.toml", "trajectory.npz", "metrics.json", *(["trace.rrd"] if trace else [])]
+    if not all((folder / name).is_file() for name in needed):
+        return None
+    try:
+        if (folder / "config.toml").read_text() != to_toml(portable_config(scenario, folder)):
+            return None
+        traj = Trajectory.load(folder / "trajectory.npz")
+    except (OSError, ValueError, KeyError):  # unreadable or damaged: compute it again
+        return None
+    return _row(spec, scenario, traj.status, measure(scenario, traj))
 
 
 COMBINED_TRACE_EVERY = 10  # the whole reproduction at 100 Hz: 32 runs in one file
@@ -106,19 +136,34 @@ def run_all(
     workers: int | None = None,
     trace: bool = True,
     progress: Callable[[], None] | None = None,
+    scenarios: dict[str, Scenario] | None = None,
 ) -> list[dict[str, Any]]:
     """Run every spec on the project's executors (a process pool unless ``workers`` is 1).
 
-    Returns the metric rows in spec order; ``progress`` is called as each run finishes.
+    With ``scenarios`` (by spec folder), a run already whole in ``out`` for the same
+    scenario is reused, not computed again (:func:`finished_row`): an interrupted
+    reproduction resumes per run. Returns the metric rows in spec order; ``progress`` is
+    called as each run is done.
     """
     from twolink.executors import open_executor
 
-    workers = workers or min(len(specs), os.cpu_count() or 1)
+    rows: list[dict[str, Any]] = [{}] * len(specs)
+    todo = []
+    for i, spec in enumerate(specs):
+        row = finished_row(spec, scenarios[spec.folder], out, trace) if scenarios else None
+        if row is None:
+            todo.append(i)
+        else:
+            rows[i] = row
+            if progress:
+                progress()
+    if not todo:
+        return rows
+    workers = workers or min(len(todo), os.cpu_count() or 1)
     kind = "inprocess" if workers <= 1 else "process"
     with open_executor(kind, None if kind == "inprocess" else workers) as pool:
         try:
-            futures = {pool.submit(_execute, spec, out, trace): i for i, spec in enumerate(specs)}
-            rows: list[dict[str, Any]] = [{}] * len(specs)
+            futures = {pool.submit(_execute, specs[i], out, trace): i for i in todo}
             for fut in as_completed(futures):
                 rows[futures[fut]] = fut.result()
                 if progress:
@@ -291,7 +336,9 @@ def reproduce(
     scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
     phase(f"runs: {len(specs)} experiments x controllers x variants")
     with tqdm(total=len(specs), desc="runs", unit="run", disable=not progress) as bar:
-        rows = run_all(specs, out, workers, trace, progress=bar.update)
+        # Resume per run, unless the design was just made: the runs on its rule base are new.
+        finished = None if designed else scenarios
+        rows = run_all(specs, out, workers, trace, progress=bar.update, scenarios=finished)
 
     # Read each run back once: figures, the report's choices and the combined recording.
     trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
