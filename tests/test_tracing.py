@@ -360,9 +360,9 @@ def test_bad_prefixes_are_refused(tmp_path, run):
     assert not (tmp_path / "x.rrd").exists()
 
 
-def test_only_the_tracing_module_imports_rerun():
+def test_only_the_tracing_package_imports_rerun():
     importers = []
-    for path in sorted([*(ROOT / "twolink").glob("*.py"), *(ROOT / "controllers").glob("*.py")]):
+    for path in sorted([*(ROOT / "twolink").rglob("*.py"), *(ROOT / "controllers").rglob("*.py")]):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
             if isinstance(node, ast.Import):
                 names = [a.name for a in node.names]
@@ -371,59 +371,156 @@ def test_only_the_tracing_module_imports_rerun():
             else:
                 continue
             if any(n == "rerun" or n.startswith("rerun.") for n in names):
-                importers.append(path.name)
-    assert set(importers) == {"tracing.py"}
+                importers.append(path.relative_to(ROOT).parent.as_posix())
+    assert set(importers) == {"twolink/tracing"}
 
 
-def test_the_overview_names_each_run_and_colours_it_by_controller(tmp_path, run):
+def overview_views(path: Path) -> dict[str, dict[str, list]]:
+    """The blueprint's views by name: their contents and axis settings."""
+    reader = RrdReader(path)
+    (bp,) = reader.blueprints()
+    parts: dict[str, dict[str, list]] = {}
+    for ch in reader.stream(store=bp):
+        if not ch.entity_path.startswith("/view/"):
+            continue
+        view = ch.entity_path.split("/")[2]
+        batch = ch.to_record_batch()
+        for name in batch.schema.names:
+            if name.split(":")[0] in {"ViewBlueprint", "ViewContents", "ScalarAxis", "TimeAxis"}:
+                row = batch.column(name).to_pylist()[-1]  # a batch: one value, or the query
+                parts.setdefault(view, {})[name] = row if name.endswith(":query") else row[0]
+    return {
+        v["ViewBlueprint:display_name"]: v
+        for v in parts.values()
+        if "ViewBlueprint:display_name" in v
+    }
+
+
+def srgb(packed: int) -> tuple[int, int, int]:
+    """(r, g, b) of a colour as rerun stores it (0xRRGGBBAA)."""
+    return (packed >> 24) & 255, (packed >> 16) & 255, (packed >> 8) & 255
+
+
+OVERVIEW_RUNS = (  # prefix, controller, name
+    ("rigid/table2/CTC", "CTC", None),
+    ("rigid/table2/FCM-CTC", "FCM-CTC", None),
+    ("rigid/table3/CTC", "CTC", "θ1 ramp"),
+    ("flexible/table2/FCM-CTC", "FCM-CTC", None),
+    ("flexible/table2/CTC", "CTC", None),
+)
+
+
+@pytest.fixture(scope="module")
+def overview(tmp_path_factory, run):
+    """A recording of five runs of two controllers, three of them on one reference."""
     s, traj = run
-    slower = replace(traj, q=traj.q * 0.9)
+    trajs = [replace(traj, q=traj.q * (1 - 0.05 * k)) for k in range(len(OVERVIEW_RUNS))]
+    trajs[2] = replace(trajs[2], q_ref=traj.q_ref * 0.5 + 0.1)  # its own reference
+    trajs[3] = replace(trajs[3], q=traj.q * [[1.0, -3.0]])  # θ2 far below the others
     runs = [
-        ("rigid/table2/CTC", traj, s.arm, {}),
-        ("rigid/table2/FCM-CTC", slower, s.arm, {}),
-        ("rigid/table3/CTC", slower, s.arm, {"name": "θ1 ramp, CTC"}),
+        (prefix, t, s.arm, {"name": name} if name else {})
+        for (prefix, _, name), t in zip(OVERVIEW_RUNS, trajs, strict=True)
     ]
-    out = tmp_path / "all.rrd"
-    tracing.write_recording(out, runs, groups=["CTC", "FCM-CTC", "CTC"])
+    out = tmp_path_factory.mktemp("overview") / "all.rrd"
+    tracing.write_recording(out, runs, groups=[g for _, g, _ in OVERVIEW_RUNS])
+    return out, runs
+
+
+def test_the_overview_names_each_run_and_colours_it_by_controller(overview):
+    out, runs = overview
     temporal, static = read_back(out)
-    style = {}
-    for prefix, *_ in runs:
-        path = entity(tracing.OVERVIEW, "joint1", prefix)
-        style[prefix] = (
-            values(static[path], "SeriesLines:names").tolist(),
-            values(static[path], "SeriesLines:colors").tolist(),
+    for j in (1, 2):
+        style = {}
+        for (prefix, controller, name), (_, traj, _, _) in zip(OVERVIEW_RUNS, runs, strict=True):
+            path = entity(tracing.OVERVIEW, f"joint{j}", prefix)
+            # each run its own entity, holding that run's angles, named after the run
+            np.testing.assert_array_equal(
+                values(temporal[path], "Scalars:scalars"), traj.q[:, j - 1]
+            )
+            (label,) = values(static[path], "SeriesLines:names").tolist()
+            (colour,) = values(static[path], "SeriesLines:colors").tolist()
+            (width,) = values(static[path], "SeriesLines:widths").tolist()
+            style[prefix] = (controller, srgb(colour), width)
+            # the name says the controller: the prefix ends with it, or it is added
+            assert label == (prefix if name is None else f"{name} ({controller})")
+        # one colour family per controller (CTC the reds, FCM-CTC the greens, as in the
+        # report's figures), and within it a shade of its own per run
+        ctc = [c for g, c, _ in style.values() if g == "CTC"]
+        fcm = [c for g, c, _ in style.values() if g == "FCM-CTC"]
+        assert all(r > g and r > b for r, g, b in ctc), ctc
+        assert all(g > r and g > b for r, g, b in fcm), fcm
+        assert len(set(ctc)) == 3 and len(set(fcm)) == 2
+        # the references: grey, thinner than the runs, each distinct one once
+        refs = sorted(
+            e
+            for e in static
+            if e.startswith(f"/{tracing.OVERVIEW}/joint{j}/") and e.endswith("/reference")
         )
-        # each run its own entity, holding that run's angles
-        np.testing.assert_array_equal(
-            values(temporal[path], "Scalars:scalars"),
-            dict((r[0], r[1]) for r in runs)[prefix].q[:, 0],
-        )
-    assert style["rigid/table2/CTC"][0] == ["rigid/table2/CTC (CTC)"]
-    assert style["rigid/table3/CTC"][0] == ["θ1 ramp, CTC (CTC)"]
-    colours = {p: c for p, (_, c) in style.items()}
-    assert colours["rigid/table2/CTC"] == colours["rigid/table3/CTC"]  # same controller
-    assert colours["rigid/table2/CTC"] != colours["rigid/table2/FCM-CTC"]
-    # a reference shared by two runs is drawn once
-    refs = [
-        e
-        for e in static
-        if e.startswith(f"/{tracing.OVERVIEW}/joint1/") and e.endswith("/reference")
-    ]
-    assert len(refs) == 1
-    # the overview shows them, and the viewer opens on the run's timeline
+        assert refs == [
+            entity(tracing.OVERVIEW, f"joint{j}", p, "reference")
+            for p in ("rigid/table2/CTC", "rigid/table3/CTC")
+        ]
+        (label,) = values(static[refs[0]], "SeriesLines:names").tolist()
+        assert label == "reference of rigid/table2/CTC +3"  # three more runs share it
+        for ref in refs:
+            (colour,) = values(static[ref], "SeriesLines:colors").tolist()
+            (width,) = values(static[ref], "SeriesLines:widths").tolist()
+            assert srgb(colour) == tracing.REFERENCE_COLOR
+            assert width < min(w for *_, w in style.values())
+    with pytest.raises(ValueError, match="2 groups for 5 runs"):
+        tracing.write_recording(out.parent / "x.rrd", runs, groups=["CTC", "FCM-CTC"])
+    empty = ("empty", replace(runs[0][1], t=runs[0][1].t[:0]), runs[0][2], {})
+    with pytest.raises(ValueError, match="no samples"):  # checked before the overview
+        tracing.write_recording(out.parent / "x.rrd", [runs[0], empty])
+    assert not (out.parent / "x.rrd").exists()
+
+
+def test_the_overview_layout_lists_every_run_and_fits_every_curve(overview):
+    out, runs = overview
+    views = overview_views(out)
+    data = tracing.read_recording(out)
+    t_end = max(float(r[1].t[-1]) for r in runs)
+    for j in (1, 2):
+        (name,) = [n for n in views if n.startswith(f"θ{'₁₂'[j - 1]} of every run")]
+        view = views[name]
+        # each run's entities by name, so every run is in the plot and nothing else is
+        listed = set(view["ViewContents:query"])
+        for prefix, *_ in OVERVIEW_RUNS:
+            assert f"{tracing.OVERVIEW}/joint{j}/{prefix}" in listed
+            assert f"{tracing.OVERVIEW}/joint{j}/{prefix}/reference" in listed
+        assert len(listed) == 2 * len(OVERVIEW_RUNS)
+        # the y axis spans every curve of the plot, references included
+        curves = data[[c for c in data if c.startswith(f"{tracing.OVERVIEW}/joint{j}/")]]
+        assert curves.shape[1] == len(OVERVIEW_RUNS) + 2
+        low, high = view["ScalarAxis:range"]
+        assert low < curves.min().min() and curves.max().max() < high
+        assert high - low < 1.2 * (curves.max().max() - curves.min().min())  # and fits them
+        # the time axis goes past the runs' end: the legend (top right) covers no curve
+        assert view["TimeAxis:view_range"]["start"] == 0
+        assert view["TimeAxis:view_range"]["end"] >= 1.3 * t_end * 1e9
+    # the viewer opens on the overview, on the runs' timeline
     reader = RrdReader(out)
     (bp,) = reader.blueprints()
-    queries, timelines = [], []
+    timelines = []
     for ch in reader.stream(store=bp):
         batch = ch.to_record_batch()
-        if "ViewContents:query" in batch.schema.names:
-            queries += batch.column("ViewContents:query").to_pylist()
         if "TimePanelBlueprint:timeline" in batch.schema.names:
             timelines += batch.column("TimePanelBlueprint:timeline").to_pylist()
-    assert [f"{tracing.OVERVIEW}/joint1/**"] in queries
     assert timelines == [[tracing.TIMELINE]]
-    with pytest.raises(ValueError, match="2 groups for 3 runs"):
-        tracing.write_recording(tmp_path / "x.rrd", runs, groups=["CTC", "FCM-CTC"])
+
+
+def test_overview_colours_give_each_group_a_family_and_each_run_a_shade():
+    groups = ["CTC", "FCM-CTC", "CTC", "FCM-CTC", "CTC", "PID"]
+    colours = tracing.overview_colors(groups)
+    # the runs of a group go from the dark end of its family to the light end, in order
+    dark, light = tracing.GROUP_FAMILIES[0]
+    assert colours[0] == dark and colours[4] == light
+    assert all(min(a, b) <= m <= max(a, b) for a, m, b in zip(dark, colours[2], light, strict=True))
+    assert colours[1] == tracing.GROUP_FAMILIES[1][0] and colours[3] == tracing.GROUP_FAMILIES[1][1]
+    assert colours[5] == tracing.GROUP_FAMILIES[2][0]  # a third group, a third family
+    assert len(set(colours)) == len(groups)
+    # the same groups in the same order give the same colours (a pure function)
+    assert tracing.overview_colors(groups) == colours
 
 
 def test_the_docs_recording_reader_snippet_runs_as_written(tmp_path):

@@ -1,7 +1,7 @@
-"""Rerun recordings of finished runs: time series, phase plane and the arm moving in 3D.
+"""One run in a rerun recording: time series, phase plane and the arm moving in 3D.
 
-This is the only module that imports ``rerun``; everything else imports it lazily, so
-runs work without rerun installed. Nothing is logged while a run is computed: a
+The tracing package is the only one that imports ``rerun``; everything else imports it
+lazily, so runs work without rerun installed. Nothing is logged while a run is computed: a
 finished :class:`~twolink.sim.Trajectory` is sent in columns (``send_columns``) along
 one duration timeline, ``"time"`` (seconds).
 
@@ -25,9 +25,11 @@ Entity paths of one run, under its prefix ``P`` (``j`` is 1 or 2)::
 
 A recording of several runs also holds, for the "all runs" overview::
 
-    all_runs/joint{j}/P              Scalars  q_j of run P, named after the run and
-                                              coloured by its group (controller)
-    all_runs/joint{j}/P/reference    Scalars  its reference, grey (each distinct one once)
+    all_runs/joint{j}/P              Scalars  q_j of run P, named after the run, in its
+                                              group's (controller's) colour family, a
+                                              shade of its own
+    all_runs/joint{j}/P/reference    Scalars  its reference, grey and thinner (each
+                                              distinct one once, under its first run)
 
 The arm moves in the paper's (x, y) plane, which is (x, z) in 3D (z up, as MuJoCo).
 See ``docs/tracing.md``.
@@ -35,24 +37,19 @@ See ``docs/tracing.md``.
 
 from __future__ import annotations
 
-import hashlib
-import os
 import uuid
 from collections.abc import Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rerun as rr
-import rerun.blueprint as rrb
 from rerun.error_utils import catch_and_log_exceptions
 
-from twolink.io import atomic_path
 from twolink.params import ArmParams
 from twolink.sim import Trajectory
 
 if TYPE_CHECKING:
-    import pandas as pd
+    pass
 
 TIMELINE = "time"
 JOINT_COLORS = ((31, 119, 180), (255, 127, 14))  # joint 1 blue, joint 2 orange
@@ -60,19 +57,7 @@ REFERENCE_COLOR = (140, 140, 140)
 MOTOR_COLOR = (44, 160, 44)
 CENTRE_COLOR = (214, 39, 40)
 ARM_COLOR = (60, 60, 60)
-# The "all runs" overview colours each run by its group (controller): matplotlib's tab10
-# red, green, blue, purple, brown, pink, as in the report's figures (CTC red, FCM-CTC green).
-GROUP_COLORS = (
-    (214, 39, 40),
-    (44, 160, 44),
-    (31, 119, 180),
-    (148, 103, 189),
-    (140, 86, 75),
-    (227, 119, 194),
-)
-OVERVIEW = "all_runs"  # entity root of the overview's copies of every run's angles
 
-# Fixed namespace so a recording id is a pure function of the recording's content.
 _ID_NAMESPACE = uuid.UUID("5f0e2c8a-6d1b-4c39-9a57-2b7d3e1f4a60")
 
 
@@ -366,253 +351,3 @@ def log_run(
             columns=rr.Points3D.columns(positions=pts.reshape(-1, 3)).partition([3] * len(idx)),
             strict=True,
         )
-
-
-def _run_layout(prefix: str, title: str) -> rrb.Container:
-    def series(name: str, *parts: tuple[str, ...]) -> rrb.TimeSeriesView:
-        return rrb.TimeSeriesView(name=name, contents=[_path(prefix, *p) for p in parts])
-
-    j1, j2 = "joint1", "joint2"
-    plots = rrb.Vertical(
-        series("θ₁ vs reference", (j1, "angle"), (j1, "reference"), (j1, "motor_angle")),
-        series("θ₂ vs reference", (j2, "angle"), (j2, "reference"), (j2, "motor_angle")),
-        series("errors e", (j1, "error"), (j2, "error")),
-        series("error rates ė", (j1, "error_rate"), (j2, "error_rate")),
-        series("torques τ", (j1, "torque"), (j2, "torque")),
-    )
-    log = [_path(prefix, "status")] + [_path(prefix, "phase", j, "fired_rule") for j in (j1, j2)]
-    spaces = rrb.Vertical(
-        rrb.Spatial2DView(name="phase plane (e, ė)", origin=_path(prefix, "phase")),
-        rrb.Spatial3DView(name="arm", origin=_path(prefix, "arm")),
-        rrb.TextLogView(name="status and fired rules", contents=log),
-        row_shares=[4, 4, 1],
-    )
-    return rrb.Horizontal(plots, spaces, column_shares=[3, 2], name=title)
-
-
-def time_panel() -> rrb.TimePanel:
-    """The time panel on this module's timeline (the viewer would open on ``log_time``,
-    where nothing is logged, and show empty plots)."""
-    return rrb.TimePanel(timeline=TIMELINE)
-
-
-def blueprint(prefixes: Sequence[str], titles: Sequence[str] | None = None) -> rrb.Blueprint:
-    """The ready layout for runs logged by :func:`log_run` under ``prefixes``.
-
-    One run: time series (angles with references, errors, error rates, torques) beside
-    the phase plane, the arm in 3D and the status and fired rules. Several runs: an
-    overview tab overlaying every run's joint angles and references, then one tab per
-    run.
-
-    Parameters
-    ----------
-    prefixes : sequence of str
-        The runs' entity-path prefixes, as given to :func:`log_run`.
-    titles : sequence of str, optional
-        Tab titles, one per prefix; default the prefix.
-
-    Returns
-    -------
-    rerun.blueprint.Blueprint
-    """
-    prefixes = [p.strip("/") for p in prefixes]
-    if not prefixes:
-        raise ValueError("blueprint needs at least one prefix")
-    titles = list(titles) if titles is not None else [p or "run" for p in prefixes]
-    if len(titles) != len(prefixes):
-        raise ValueError(f"{len(titles)} titles for {len(prefixes)} prefixes")
-    if len(prefixes) == 1:
-        return rrb.Blueprint(_run_layout(prefixes[0], titles[0]), time_panel())
-    overview = rrb.Vertical(
-        *[
-            rrb.TimeSeriesView(
-                name=f"θ{sub} of every run (colour: controller; grey: references)",
-                contents=[f"{_path(OVERVIEW, f'joint{j}')}/**"],
-                plot_legend=rrb.PlotLegend(corner="RightTop", visible=True),
-            )
-            for j, sub in ((1, "₁"), (2, "₂"))
-        ],
-        name="all runs",
-    )
-    tabs = [_run_layout(p, title) for p, title in zip(prefixes, titles, strict=True)]
-    return rrb.Blueprint(rrb.Tabs(overview, *tabs, active_tab=0), time_panel())
-
-
-def recording_id(
-    application_id: str, runs: Sequence[tuple[str, Trajectory, ArmParams, dict]]
-) -> str:
-    """A recording id that is a pure function of what is recorded.
-
-    Two writes of the same runs share an id, so the viewer treats them as one
-    recording rather than piling up copies.
-
-    Parameters
-    ----------
-    application_id : str
-    runs : sequence of (prefix, Trajectory, ArmParams, extras)
-
-    Returns
-    -------
-    str
-        A UUID (version 5) as a string.
-    """
-    h = hashlib.sha256(application_id.encode())
-    for prefix, traj, arm, extras in runs:
-        h.update(prefix.encode() + b"\0" + repr(arm).encode())
-        for name in ("t", "q", "qd", "q_ref", "qd_ref", "qdd_ref", "tau", "motor_q"):
-            h.update(np.ascontiguousarray(getattr(traj, name), dtype=float).tobytes())
-        h.update(f"{traj.status}\0{traj.message}\0{sorted(extras)!r}".encode())
-        for key in sorted(extras):
-            h.update(repr(np.asarray(extras[key]).tolist()).encode())
-    return str(uuid.uuid5(_ID_NAMESPACE, h.hexdigest()))
-
-
-def write_recording(
-    path: str | os.PathLike,
-    runs: Sequence[tuple[str, Trajectory, ArmParams, dict[str, Any]]],
-    application_id: str = "twolink",
-    every: int = 1,
-    groups: Sequence[str] | None = None,
-) -> Path:
-    """Write one ``.rrd`` holding one or several runs and the layout, atomically.
-
-    Parameters
-    ----------
-    path : path-like
-        The ``.rrd`` file; replaced only once it is complete.
-    runs : sequence of (prefix, Trajectory, ArmParams, extras)
-        Each run under its own prefix (distinct, none inside another); ``extras`` are
-        keyword arguments of :func:`log_run` (``centres``, ``fired_rules``,
-        ``phase_scale``, ``centre_labels``, ``name``, ``every``).
-    application_id : str
-        Rerun's application id (the viewer groups recordings and layouts by it).
-    every : int
-        Default decimation for runs whose extras do not set ``every``.
-    groups : sequence of str, optional
-        One per run (e.g. its controller): in the "all runs" overview of a recording with
-        several runs, runs of one group share a colour. Default: one group per run.
-
-    Returns
-    -------
-    Path
-        ``path``.
-
-    Raises
-    ------
-    RuntimeError
-        If rerun logging is disabled (``RERUN=off``): nothing would be written.
-    """
-    runs = list(runs)
-    if not runs:
-        raise ValueError("write_recording needs at least one run")
-    prefixes = [r[0].strip("/") for r in runs]
-    _check_prefixes(prefixes)
-    groups = list(groups) if groups is not None else prefixes
-    if len(groups) != len(runs):
-        raise ValueError(f"{len(groups)} groups for {len(runs)} runs")
-    rec = rr.RecordingStream(application_id, recording_id=recording_id(application_id, runs))
-    if not rec.is_enabled():
-        raise RuntimeError("rerun logging is disabled (RERUN=off?); no recording written")
-    path = Path(path)
-    with atomic_path(path, suffix=".rrd") as tmp:
-        try:
-            titles = [str(r[3].get("name") or p) for r, p in zip(runs, prefixes, strict=True)]
-            rec.save(tmp, default_blueprint=blueprint(prefixes, titles))
-            for (_, traj, arm, extras), prefix in zip(runs, prefixes, strict=True):
-                log_run(rec, traj, arm, prefix, **{"every": every, **extras})
-            if len(runs) > 1:
-                with catch_and_log_exceptions(context="twolink.tracing.overview", strict=True):
-                    _log_overview(rec, runs, prefixes, titles, groups, every)
-            rec.flush()
-        finally:
-            # Close the file sink (writes the footer) before the rename or the cleanup.
-            rec.disconnect()
-    return path
-
-
-def _log_overview(
-    rec: rr.RecordingStream,
-    runs: list[tuple[str, Trajectory, ArmParams, dict[str, Any]]],
-    prefixes: list[str],
-    titles: list[str],
-    groups: list[str],
-    every: int,
-) -> None:
-    # Copies of every run's angles, each its own entity with the run's name and its group's
-    # colour: a run's own entities keep the per-joint colours of its tab.
-    colors = {g: GROUP_COLORS[k % len(GROUP_COLORS)] for k, g in enumerate(dict.fromkeys(groups))}
-    references: set[bytes] = set()
-    for (_, traj, _, extras), prefix, title, group in zip(
-        runs, prefixes, titles, groups, strict=True
-    ):
-        idx = sample_indices(len(traj.t), extras.get("every", every))
-        times = [_time_column(traj.t[idx])]
-        for j in (1, 2):
-            path = _path(OVERVIEW, f"joint{j}", prefix)
-            series = [(path, traj.q[idx, j - 1], f"{title} ({group})", colors[group], 1.5)]
-            ref = traj.q_ref[idx, j - 1]
-            key = b"%d" % j + traj.t[idx].tobytes() + ref.tobytes()
-            if key not in references:  # an experiment's reference once, not per controller
-                references.add(key)
-                series.append((f"{path}/reference", ref, f"{title} reference", REFERENCE_COLOR, 1))
-            for entity_path, values, name, color, width in series:
-                rec.log(
-                    entity_path,
-                    rr.SeriesLines(names=name, colors=[color], widths=[width]),
-                    static=True,
-                    strict=True,
-                )
-                rec.send_columns(
-                    entity_path,
-                    indexes=times,
-                    columns=rr.Scalars.columns(scalars=values),
-                    strict=True,
-                )
-
-
-def read_recording(path: str | os.PathLike) -> pd.DataFrame:
-    """Every scalar time series of a recording, one column per entity, indexed by time.
-
-    A reader for analysis without a viewer: columns are entity paths without the leading
-    slash (``"run/joint1/angle"``, ``"rigid/table2/CTC/joint1/torque"``), the index is
-    ``time_s``; a series missing at some time is NaN there. A recording keeps the samples
-    its writer kept (``every``; see the file's writer); ``trajectory.npz`` beside a run's
-    recording has every sample (:meth:`twolink.sim.Trajectory.load`).
-
-    Parameters
-    ----------
-    path : path-like
-        A ``.rrd`` file written by :func:`write_recording`.
-
-    Returns
-    -------
-    pandas.DataFrame
-    """
-    import pandas as pd
-    from rerun.chunk import RrdReader
-
-    pieces: dict[str, list[pd.Series]] = {}
-    for chunk in RrdReader(path).store().stream():
-        if chunk.is_static:
-            continue
-        batch = chunk.to_record_batch()
-        if "Scalars:scalars" not in batch.schema.names or TIMELINE not in batch.schema.names:
-            continue
-        t = batch.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64) / 1e9
-        col = batch.column("Scalars:scalars").flatten()
-        pieces.setdefault(chunk.entity_path.lstrip("/"), []).append(
-            pd.Series(col.to_numpy(zero_copy_only=False), index=t)
-        )
-    columns = {name: pd.concat(parts).sort_index() for name, parts in sorted(pieces.items())}
-    frame = pd.DataFrame(columns)
-    frame.index.name = "time_s"
-    return frame
-
-
-def _check_prefixes(prefixes: list[str]) -> None:
-    for i, a in enumerate(prefixes):
-        for b in prefixes[i + 1 :]:
-            if a == b or not a or not b or a.startswith(b + "/") or b.startswith(a + "/"):
-                raise ValueError(
-                    f"run prefixes must be distinct, non-empty and not nested, got {a!r} and {b!r}"
-                )
