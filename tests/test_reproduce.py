@@ -180,3 +180,13 @@ def test_an_interrupted_reproduction_resumes_per_run(tmp_path, reproduction):
     recomputed = {p for p in runs if (p / "trajectory.npz").stat().st_mtime_ns != stamps.get(p)}
     assert recomputed == set(runs[:3])
     assert json.dumps(again.rows) == json.dumps(reproduction.rows)
+
+
+def test_the_combined_recording_carries_the_fuzzy_runs_phase_plane(reproduction):
+    from rerun.chunk import RrdReader
+
+    entities = {ch.entity_path for ch in RrdReader(reproduction.out / "reproduction.rrd").stream()}
+    for folder in ("rigid/table2/FCM-CTC", "flexible/table5/FCM-CTC"):
+        assert f"/{folder}/phase/centres" in entities
+        assert f"/{folder}/phase/joint1/fired_rule" in entities
+    assert "/rigid/table2/CTC/phase/centres" not in entities  # CTC has no rules

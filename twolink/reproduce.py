@@ -26,6 +26,7 @@ from twolink.experiment import (
     measure,
     portable_config,
     run_scenario,
+    trace_extras,
     write_run,
 )
 from twolink.io import to_toml
@@ -415,7 +416,15 @@ def reproduce(
         tracing.write_recording(
             out / "reproduction.rrd",
             [
-                (sp.folder, trajectories[sp.folder], scenarios[sp.folder].plant_params, {})
+                (
+                    sp.folder,
+                    trajectories[sp.folder],
+                    scenarios[sp.folder].plant_params,
+                    # the fuzzy runs' phase planes with centres and fired rules, as in trace.rrd
+                    trace_extras(
+                        build_controller(scenarios[sp.folder]), trajectories[sp.folder], sp.centres
+                    ),
+                )
                 for sp in specs
             ],
             every=COMBINED_TRACE_EVERY,
