@@ -64,6 +64,20 @@ def test_written_rule_base_and_evidence_round_trip(tmp_path, config, result):
     np.testing.assert_array_equal(loaded.points, result.points)
 
 
+def test_an_edited_designed_rule_base_is_not_reused(tmp_path, config, result):
+    save_design(result, tmp_path)
+    path = tmp_path / "rule_base.toml"
+    rule = result.rules[0]
+    other = "PB" if rule.u != "PB" else "NB"
+    text = path.read_text()
+    edited = text.replace(f'u = "{rule.u}"', f'u = "{other}"', 1)
+    assert edited != text
+    path.write_text(edited)
+    loaded, designed = design_or_load(config, tmp_path)
+    assert designed and loaded.rules == result.rules  # designed again, not the edit
+    assert load_rule_base(path).rules == result.rules  # and written back whole
+
+
 def test_a_changed_design_config_is_designed_afresh(tmp_path, config, result):
     save_design(result, tmp_path)
     changed = load_design_config(DEFAULT_DESIGN)

@@ -652,3 +652,29 @@ def test_dask_executor_without_dask_says_how_to_get_it(tmp_path, monkeypatch):
     assert result.exit_code == 2  # checked before any work: no bar, nothing written
     assert "pip install 'twolink[dask]'" in result.output
     assert "kept" not in result.output and not (tmp_path / "o").exists()
+
+
+def test_corrupt_chunks_are_computed_again_and_a_corrupt_manifest_costs_nothing(tmp_path):
+    plan = sw.load_sweep(write(tmp_path, SMALL))
+    out = tmp_path / "out"
+    first = sw.run_sweep(plan, out, executor="inprocess", plots=False)
+    chunks = sorted((out / "chunks").glob("chunk_*.parquet"))
+    assert len(chunks) == plan.n_chunks == 3
+    # an edited value (a valid Parquet file, other numbers) and a file cut short
+    edited = pd.read_parquet(chunks[0])
+    edited.loc[0, "joint1_overshoot_pct"] = 99.0
+    edited.to_parquet(chunks[0], index=False)
+    chunks[1].write_bytes(chunks[1].read_bytes()[:-40])
+    again = sw.run_sweep(plan, out, executor="inprocess", plots=False)
+    assert again.computed == (0, 1) and again.reused == (2,)
+    columns_equal(first.results, again.results)
+    # a damaged manifest: every chunk's seal still says it belongs to this sweep
+    (out / "manifest.json").write_text('{"digest": ')
+    third = sw.run_sweep(plan, out, executor="inprocess", plots=False)
+    assert third.computed == () and third.reused == (0, 1, 2)
+    columns_equal(first.results, third.results)
+    # ... and names another sweep's chunks as such
+    (out / "manifest.json").write_text("not json")
+    other = sw.load_sweep(write(tmp_path, SMALL.replace("seed = 7", "seed = 8"), "other.toml"))
+    with pytest.raises(sw.SweepOutputError, match="holds results of a different sweep"):
+        sw.run_sweep(other, out, executor="inprocess", plots=False)

@@ -174,10 +174,21 @@ def design(config: DesignConfig) -> DesignResult:
     weights = clustering.memberships**config.fuzzifier  # (N, c)
     scores = (weights.T @ firing) / weights.sum(axis=0)[:, None]  # (c, R)
     kept = np.argmax(scores, axis=1)
-    rules = tuple(engine.rules[i] for i in sorted(set(kept.tolist())))
     return DesignResult(
-        rules, engine, points, linguistic, clustering, scores, kept, config.digest()
+        kept_rules(engine, kept),
+        engine,
+        points,
+        linguistic,
+        clustering,
+        scores,
+        kept,
+        config.digest(),
     )
+
+
+def kept_rules(engine: MamdaniEngine, kept: np.ndarray) -> tuple[Rule, ...]:
+    """The rule base the design keeps: each cluster's rule, once, in rule-table order."""
+    return tuple(engine.rules[i] for i in sorted(set(np.asarray(kept).tolist())))
 
 
 def write_design(result: DesignResult, path: str | Path) -> Path:
@@ -230,7 +241,8 @@ def save_design(result: DesignResult, folder: str | Path) -> Path:
 
 
 def load_design(config: DesignConfig, folder: str | Path) -> DesignResult | None:
-    """The design saved in ``folder`` if it is whole and its digest matches, else None."""
+    """The design saved in ``folder`` if it is whole, its digest matches and its rules are
+    the ones its evidence keeps (an edited rule base is not reused), else None."""
     folder = Path(folder)
     try:
         saved = load_rule_base(folder / "rule_base.toml")
@@ -248,6 +260,8 @@ def load_design(config: DesignConfig, folder: str | Path) -> DesignResult | None
                 float(m),
             )
             engine = build_controller(config.scenarios[0]).engine
+            if tuple(saved.rules) != kept_rules(engine, a["kept"]):
+                return None  # the rules were edited: they are not what the evidence keeps
             return DesignResult(
                 saved.rules,
                 engine,

@@ -8,6 +8,7 @@ writes, so a chunk file and its log line are always written together.
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -146,12 +147,35 @@ def _chunk_frame(plan: SweepPlan, rows: Any) -> pd.DataFrame:
     return results_frame(rows, plan.columns, plan.meta)
 
 
+def _seal_path(path: Path) -> Path:
+    return path.with_suffix(".json")
+
+
+def _seal(plan: SweepPlan, path: Path) -> None:
+    """Write the chunk's seal: the sweep it belongs to and the SHA-256 of its bytes."""
+    sha = hashlib.sha256(path.read_bytes()).hexdigest()
+    atomic_write_json(_seal_path(path), {"digest": plan.digest, "sha256": sha})
+
+
+def _seal_digest(path: Path) -> str | None:
+    """The sweep digest a chunk's seal names, None where it has no readable seal."""
+    try:
+        return json.loads(_seal_path(path).read_text()).get("digest")
+    except (OSError, ValueError, AttributeError):
+        return None
+
+
 def _valid_chunk(plan: SweepPlan, out: Path, chunk: int) -> pd.DataFrame | None:
-    """The chunk's rows if its file holds exactly what the plan asks for, else None."""
+    """The chunk's rows if its file is whole (its bytes match its seal's checksum), of this
+    sweep, and holds exactly the rows the plan asks for; else None (it is computed again)."""
     path = _chunk_path(out, chunk)
     if not path.is_file():
         return None
     try:
+        seal = json.loads(_seal_path(path).read_text())
+        data = path.read_bytes()
+        if seal != {"digest": plan.digest, "sha256": hashlib.sha256(data).hexdigest()}:
+            return None  # edited, cut short, of another sweep, or never sealed
         df = read_table(path)
     except (OSError, ValueError):  # pyarrow's errors for a damaged file are ValueErrors
         return None
@@ -232,17 +256,20 @@ class SweepOutcome:
 def _prepare_out(plan: SweepPlan, out: Path, fresh: bool) -> None:
     manifest_path = out / "manifest.json"
     chunk_dir = out / "chunks"
-    has_chunks = chunk_dir.is_dir() and any(chunk_dir.glob("chunk_*.parquet"))
+    chunks = sorted(chunk_dir.glob("chunk_*.parquet")) if chunk_dir.is_dir() else []
     digest = None
     if manifest_path.is_file():
         try:
             digest = json.loads(manifest_path.read_text()).get("digest")
-        except (OSError, ValueError):
-            digest = "unreadable"
-    foreign = (digest is not None and digest != plan.digest) or (digest is None and has_chunks)
+        except (OSError, ValueError, AttributeError):
+            digest = None  # a damaged manifest: each chunk's seal says whose it is
+    if digest is None:
+        sealed = {_seal_digest(path) for path in chunks} - {None}
+        digest = next(iter(sealed - {plan.digest}), plan.digest if sealed else None)
+    foreign = digest is not None and digest != plan.digest
     if foreign and not fresh:
         raise SweepOutputError(
-            f"{out} holds results of a different sweep (its manifest.json digest "
+            f"{out} holds results of a different sweep (its digest "
             f"{str(digest)[:12]} != {plan.digest[:12]} of {plan.file}); "
             "use another --out, or --fresh to discard them"
         )
@@ -479,7 +506,7 @@ def _drive(
                 raise SweepTaskError(f"a chunk task failed: {_error_text(exc)}") from exc
             with stops.critical():
                 frame = _chunk_frame(plan, result.rows)
-                write_table(_chunk_path(out, result.chunk), frame)
+                _seal(plan, write_table(_chunk_path(out, result.chunk), frame))
                 with open(out / "computed.log", "a") as log:
                     samples = plan.chunk_samples(result.chunk)
                     log.write(
