@@ -193,3 +193,10 @@ def test_names_from_a_manifest_never_leave_the_output_folder(tmp_path):
     path.write_text(variant)
     result = CliRunner().invoke(main, ["reproduce", "--manifest", str(path), "--out", str(out)])
     assert result.exit_code == 2 and "variants.../up: must be 1-100 letters" in result.output
+
+
+def test_a_run_on_a_rule_base_with_gaps_says_how_much_it_leaves_uncovered(tmp_path):
+    path = scenario(tmp_path, 'duration = 0.1\n[controller]\nkind = "fcm_ctc"\nrule_base = "paper"')
+    result = CliRunner().invoke(main, ["run", str(path), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 0, result.output
+    assert "no rule fires on 70 % of the (e, de) input box" in result.stderr

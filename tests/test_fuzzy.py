@@ -15,6 +15,7 @@ import skfuzzy.control.controlsystem as sk_controlsystem
 from skfuzzy import control as ctrl
 from skfuzzy.control.exceptions import EmptyMembershipError, NoTermMembershipsError
 
+from controllers import fuzzy
 from controllers.fuzzy import (
     LABELS_7,
     RULEBASE_DIR,
@@ -616,3 +617,32 @@ def test_float_path_of_the_control_loop_equals_the_array_path(defuzz):
             out = engine.evaluate_floats(e.tolist(), de.tolist())
             assert all(isinstance(x, float) for x in out)
             assert out == engine(e, de).tolist()
+
+
+def test_uncovered_fraction_equals_an_independent_skfuzzy_count():
+    """The share of the input box where no rule of the paper's Table 1 fires, against a
+    count from scikit-fuzzy's own interp_membership on the same grid."""
+    engine = fuzzy.paper_fuzzy_pd()
+    n = 61
+    grid = np.linspace(-1.0, 1.0, n)
+    universe = np.asarray(engine.e.universe)
+    table = engine.e.table  # sampled memberships, one row per term
+    mu = {
+        lab: skfuzzy.interp_membership(universe, table[k], grid)
+        for k, lab in enumerate(engine.e.labels)
+    }
+    fires = np.zeros((n, n), dtype=bool)
+    for r in engine.rules:
+        fires |= np.minimum.outer(mu[r.de], mu[r.e]) > 0
+    assert fuzzy.uncovered_fraction(engine, n=n) == pytest.approx(1 - fires.mean(), abs=1e-12)
+    assert fuzzy.uncovered_fraction(fuzzy.default_fuzzy_pd()) == 0.0  # the full 7x7 table
+
+
+def test_a_rule_base_that_contradicts_itself_is_refused(tmp_path):
+    path = tmp_path / "contradict.toml"
+    rule = '[[rule]]\ne = "PS"\nde = "Z"\nu = "{}"\n'
+    path.write_text(rule.format("PS") + rule.format("NB"))
+    with pytest.raises(ValueError, match=r"rule\[1\]: contradicts rule\[0\]"):
+        fuzzy.load_rule_base(path)
+    path.write_text(rule.format("PS") + rule.format("PS"))  # a repeat is not a contradiction
+    assert len(fuzzy.load_rule_base(path)) == 2

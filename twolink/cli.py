@@ -175,6 +175,17 @@ def run(
         check_output_folder(folder)
     except OSError as exc:
         _fail_input(str(exc))
+    engine = getattr(controller, "engine", None)
+    if engine is not None:
+        from controllers.fuzzy import uncovered_fraction
+
+        gap = uncovered_fraction(engine)
+        if gap > 0:
+            click.echo(
+                f"warning: {scenario}: controller.rule_base: no rule fires on {100 * gap:.0f} % "
+                "of the (e, de) input box; there the fuzzy term is 0 (CTC alone acts)",
+                err=True,
+            )
     traj = run_scenario(s, controller, plant)
     metrics = measure(s, traj)
     folder = write_run(

@@ -9,7 +9,12 @@ scikit-fuzzy, rule bases as data, and the project's standard engines.
 Everything public is importable from ``controllers.fuzzy`` itself.
 """
 
-from controllers.fuzzy.engine import MamdaniEngine, fired_rule_labels, rule_label
+from controllers.fuzzy.engine import (
+    MamdaniEngine,
+    fired_rule_labels,
+    rule_label,
+    uncovered_fraction,
+)
 from controllers.fuzzy.membership import (
     LABELS_7,
     MIRROR_LABELS,
@@ -44,4 +49,5 @@ __all__ = [
     "rule_label",
     "save_rule_base",
     "triangular_partition",
+    "uncovered_fraction",
 ]

@@ -591,6 +591,15 @@ def _trap_moment(x1: np.ndarray, x2: np.ndarray, y1: np.ndarray, y2: np.ndarray)
     return (x2 - x1) * (y1 * (2.0 * x1 + x2) + y2 * (x1 + 2.0 * x2)) / 6.0
 
 
+def uncovered_fraction(engine: MamdaniEngine, n: int = 201, threshold: float = 0.0) -> float:
+    """The share of the (e, de) input box where no rule fires (total firing <= threshold),
+    on an n x n grid: where the engine falls back to ``no_fire_output``."""
+    e_lo, e_hi = engine.e.universe[0], engine.e.universe[-1]
+    d_lo, d_hi = engine.de.universe[0], engine.de.universe[-1]
+    e, de = np.meshgrid(np.linspace(e_lo, e_hi, n), np.linspace(d_lo, d_hi, n))
+    return float(np.mean(engine.firing(e, de).sum(axis=-1) <= threshold))
+
+
 def rule_label(rule: Rule) -> str:
     """A rule as short text: ``"PS,NM→NS"``."""
     return f"{rule.e},{rule.de}→{rule.u}"

@@ -155,7 +155,14 @@ def load_rule_base(path: str | os.PathLike[str]) -> RuleBase:
         e, de = item["e"], item["de"]
         if mirror:
             e, de = _mirror(e, f"{where}.e"), _mirror(de, f"{where}.de")
-        rules.append(Rule(e, de, item["u"]))
+        rule = Rule(e, de, item["u"])
+        for k, earlier in enumerate(rules):  # one antecedent, one consequent
+            if (earlier.e, earlier.de) == (rule.e, rule.de) and earlier.u != rule.u:
+                raise ValueError(
+                    f"{where}: contradicts rule[{k}]: IF e is {e} AND de is {de} THEN u is "
+                    f"{earlier.u} or {rule.u}? (a rule base names one consequent per pair)"
+                )
+        rules.append(rule)
     return RuleBase(tuple(rules), _freeze(metadata), mirror)
 
 
