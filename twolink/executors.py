@@ -28,6 +28,8 @@ from collections.abc import Callable
 from concurrent import futures
 from typing import Any
 
+from twolink.io import discard_pending
+
 EXECUTORS = ("inprocess", "process", "dask")
 
 
@@ -81,10 +83,19 @@ class InProcessExecutor(SweepExecutor):
 
 
 def _worker_init(parent: int) -> None:
-    """Set up a pool worker: it ignores Ctrl-C, and it dies with its parent."""
+    """Set up a pool worker: it ignores Ctrl-C, leaves no temporary behind when stopped,
+    and dies with its parent."""
     # A terminal's Ctrl-C reaches the whole process group; only the parent should act on it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _stop_worker)
     die_with_parent(parent)
+
+
+def _stop_worker(signum: int, frame: Any) -> None:
+    # The pool's abort terminates workers mid-task: remove what they were writing, then go
+    # at once (an exception would let the pool hand the worker its next task).
+    discard_pending()
+    os._exit(128 + signum)
 
 
 def die_with_parent(parent: int) -> None:

@@ -70,6 +70,7 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix + ".tmp", dir=path.parent)
     os.close(fd)
     tmp_path = Path(tmp)
+    _PENDING.add(tmp_path)
     # mkstemp makes 0600 files; outputs should get the usual permissions.
     umask = os.umask(0)
     os.umask(umask)
@@ -79,6 +80,22 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
         os.replace(tmp_path, path)
     finally:
         tmp_path.unlink(missing_ok=True)
+        _PENDING.discard(tmp_path)
+
+
+# Temporaries being written in this process: a pool worker stopped by SIGTERM removes
+# them before it exits (``discard_pending``), so an interrupted command leaves none.
+_PENDING: set[Path] = set()
+
+
+def discard_pending() -> None:
+    """Remove this process's temporary files and folders that are still being written."""
+    for tmp in list(_PENDING):
+        if tmp.is_dir():
+            shutil.rmtree(tmp, ignore_errors=True)
+        else:
+            tmp.unlink(missing_ok=True)
+        _PENDING.discard(tmp)
 
 
 @contextmanager
@@ -92,6 +109,7 @@ def atomic_folder(path: str | os.PathLike) -> Iterator[Path]:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
+    _PENDING.add(tmp)
     umask = os.umask(0)
     os.umask(umask)
     tmp.chmod(0o777 & ~umask)
@@ -106,6 +124,7 @@ def atomic_folder(path: str | os.PathLike) -> Iterator[Path]:
             shutil.rmtree(old, ignore_errors=True)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
+        _PENDING.discard(tmp)
 
 
 def _write_with(path: str | os.PathLike, mode: str, write: Callable[[IO], Any]) -> None:
