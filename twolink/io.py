@@ -71,16 +71,20 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
     os.close(fd)
     tmp_path = Path(tmp)
     _PENDING.add(tmp_path)
-    # mkstemp makes 0600 files; outputs should get the usual permissions.
-    umask = os.umask(0)
-    os.umask(umask)
-    tmp_path.chmod(0o666 & ~umask)
+    _usual_permissions(tmp_path, 0o666)
     try:
         yield tmp_path
         os.replace(tmp_path, path)
     finally:
         tmp_path.unlink(missing_ok=True)
         _PENDING.discard(tmp_path)
+
+
+def _usual_permissions(path: Path, mode: int) -> None:
+    # mkstemp and mkdtemp make private (0600, 0700) temporaries; outputs get the usual mode.
+    umask = os.umask(0)
+    os.umask(umask)
+    path.chmod(mode & ~umask)
 
 
 # Temporaries being written in this process: a pool worker stopped by SIGTERM removes
@@ -110,9 +114,7 @@ def atomic_folder(path: str | os.PathLike) -> Iterator[Path]:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
     _PENDING.add(tmp)
-    umask = os.umask(0)
-    os.umask(umask)
-    tmp.chmod(0o777 & ~umask)
+    _usual_permissions(tmp, 0o777)
     try:
         yield tmp
         old = None
