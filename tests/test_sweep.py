@@ -16,11 +16,11 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
+from twolink import experiment
 from twolink import sweep as sw
 from twolink.cli import main as cli_main
 from twolink.config import ConfigError, load_scenario
 from twolink.experiment import measure, run_scenario
-from twolink.sweep import execution
 from twolink.vocabulary import STEP_KEYS
 
 REPO = Path(__file__).resolve().parents[1]
@@ -416,14 +416,14 @@ def test_raising_and_diverging_samples_are_recorded_and_the_sweep_goes_on(tmp_pa
         '[controllers.wild]\nkind = "ctc"\nkp = 1e7\nkd = 10.0',
     )
     plan = sw.load_sweep(write(tmp_path, text))
-    real = execution.build_plant
+    real = experiment._arm
 
-    def build_plant(s):
+    def arm(s):  # the arm of sample 4 cannot be built; the batch's others still run
         if abs(s.plant.scale["m1"] - plan.draw(4)[0]["m1"]) < 1e-15:
             raise RuntimeError("boom on sample 4")
         return real(s)
 
-    monkeypatch.setattr(execution, "build_plant", build_plant)
+    monkeypatch.setattr(experiment, "_arm", arm)
     outcome = sw.run_sweep(plan, tmp_path / "out", executor="inprocess", plots=True)
     r = outcome.results
     assert len(r) == 2 * plan.samples and list(r["sample"]) == [

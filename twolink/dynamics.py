@@ -93,15 +93,19 @@ def energy(p: ArmParams, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, np.
 
 
 def terms(
-    p: ArmParams, q1: float, q2: float, w1: float, w2: float
+    p: ArmParams, q1: float, q2: float, w1: float, w2: float, cos=math.cos, sin=math.sin
 ) -> tuple[float, float, float, float, float]:
-    """Scalar fast path: (M11, M12, M22, H1 + G1, H2 + G2) as Python floats."""
-    c2 = math.cos(q2)
+    """Scalar fast path: (M11, M12, M22, H1 + G1, H2 + G2) as Python floats.
+
+    With ``cos=np.cos, sin=np.sin`` the same arithmetic, in the same order, runs on
+    arrays: the batch controllers' path (``p``'s fields may then be arrays too), equal
+    to this one arm by arm."""
+    c2 = cos(q2)
     a = p.m2 * p.l1 * p.l2
     m22 = p.m2 * p.l2 * p.l2 / 3
     m12 = m22 + a * c2 / 2
     m11 = (p.m1 / 3 + p.m2) * p.l1 * p.l1 + m22 + a * c2
-    h = a * math.sin(q2) / 2
-    g2 = p.m2 * p.l2 * math.cos(q1 + q2) * p.g / 2
-    g1 = (p.m1 / 2 + p.m2) * p.l1 * math.cos(q1) * p.g + g2
+    h = a * sin(q2) / 2
+    g2 = p.m2 * p.l2 * cos(q1 + q2) * p.g / 2
+    g1 = (p.m1 / 2 + p.m2) * p.l1 * cos(q1) * p.g + g2
     return m11, m12, m22, g1 - h * (2 * w1 * w2 + w2 * w2), g2 + h * w1 * w1

@@ -6,8 +6,10 @@ and no control law of its own.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,16 +38,28 @@ def build_controller(s: Scenario) -> Controller:
     common = dict(model=s.arm, reference=s.reference, kp=c.kp, kd=c.kd, torque_limit=c.torque_limit)
     if c.kind == "ctc":
         return ComputedTorque(**common)
-    from controllers import fuzzy
     from controllers.fuzzy_ctc import FuzzyComputedTorque
 
     if c.kind == "fuzzy_ctc":
-        engine = fuzzy.default_fuzzy_pd()
+        engine = _engine(None)
     else:
-        rules = fuzzy.load_rule_base(resolve_rule_base(c.rule_base, s.source))
-        engine = fuzzy.default_fuzzy_pd().with_rules(rules)
+        path = resolve_rule_base(c.rule_base, s.source).resolve()
+        stat = path.stat()
+        engine = _engine(str(path), stat.st_mtime_ns, stat.st_size)
     f = c.fuzzy
     return FuzzyComputedTorque(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku, mode=f.mode)
+
+
+@functools.lru_cache(maxsize=32)
+def _engine(rule_base: str | None, *version: int):
+    """The engine of a rule-base file (None: the 7x7 heuristic), built once per file
+    version: controllers of one rule base share their engine, which is what lets the
+    batch engine run them as one law (``controllers/batch.py``)."""
+    from controllers import fuzzy
+
+    if rule_base is None:
+        return fuzzy.default_fuzzy_pd()
+    return fuzzy.default_fuzzy_pd().with_rules(fuzzy.load_rule_base(rule_base))
 
 
 def measurement_noise(s: Scenario) -> np.ndarray | None:
@@ -69,6 +83,75 @@ def run_scenario(
         qd0=s.qd0,
         noise=measurement_noise(s),
     )
+
+
+BATCH_RECORD_BYTES = 256 * 2**20  # records of one batch: with the model, peak < 1 GB
+
+
+def run_scenarios(
+    scenarios: Sequence[Scenario], controllers: Sequence[Controller] | None = None
+) -> list[Trajectory | Exception]:
+    """Simulate many scenarios on the batch engine (:mod:`twolink.batch`): arm i is
+    ``scenarios[i]`` under ``controllers[i]`` (default: each scenario's own), and its
+    trajectory equals :func:`run_scenario`'s. Arms sharing a timestep and control period
+    run in batches whose records stay under :data:`BATCH_RECORD_BYTES`; an arm MuJoCo
+    cannot build gets its ValueError in place of a trajectory, and the others still run.
+    """
+    from twolink.batch import BatchPlant, record_bytes, simulate_batch
+
+    controllers = controllers or [build_controller(s) for s in scenarios]
+    results: list[Trajectory | Exception] = [ValueError("not run")] * len(scenarios)
+    groups: dict[tuple[float, float], list[int]] = {}
+    for i, s in enumerate(scenarios):
+        groups.setdefault((s.timestep, s.control_dt), []).append(i)
+    for (timestep, control_dt), members in groups.items():
+        cost = max(
+            record_bytes(
+                round(scenarios[i].duration / control_dt), bool(scenarios[i].plant.flexibility)
+            )
+            for i in members
+        )
+        size = max(1, BATCH_RECORD_BYTES // cost)
+        for start in range(0, len(members), size):
+            arms = {}
+            for i in members[start : start + size]:
+                try:
+                    arms[i] = _arm(scenarios[i])
+                except Exception as exc:  # this arm's error, not the batch's
+                    results[i] = exc
+            if not arms:
+                continue
+            try:
+                plant = BatchPlant(list(arms.values()), timestep)
+            except ValueError:  # find the arms MuJoCo refuses; run the rest
+                for i in list(arms):
+                    try:
+                        BatchPlant([arms[i]], timestep)
+                    except ValueError as exc:
+                        results[i] = exc
+                        del arms[i]
+                if not arms:
+                    continue
+                plant = BatchPlant(list(arms.values()), timestep)
+            batch = list(arms)
+            run = simulate_batch(
+                plant,
+                [controllers[i] for i in batch],
+                [scenarios[i].duration for i in batch],
+                control_dt,
+                q0=np.array([scenarios[i].q0 for i in batch]),
+                qd0=np.array([scenarios[i].qd0 for i in batch]),
+                noise=[measurement_noise(scenarios[i]) for i in batch],
+            )
+            for k, i in enumerate(batch):
+                results[i] = run.trajectory(k)
+    return results
+
+
+def _arm(s: Scenario):
+    from twolink.batch import Arm
+
+    return Arm(s.plant_params, s.plant.flexibility, s.plant.payload)
 
 
 @dataclass(frozen=True)

@@ -51,80 +51,107 @@ def build_spec(
     timestep : float
         Integration step [s] (RK4).
     """
-    if not (payload >= 0 and np.isfinite(payload)):
-        raise ValueError(f"payload must be a finite mass >= 0, got {payload!r}")
+    spec = new_spec(timestep, p.g, "twolink_flexible" if flexibility else "twolink")
+    add_arm(spec, p, flexibility, payload)
+    return spec
+
+
+def new_spec(timestep: float, g: float, name: str = "twolink") -> mujoco.MjSpec:
+    """An empty model with the options every arm is simulated under: RK4 at ``timestep``,
+    gravity ``g`` along -z, no contacts, no automatic reset."""
     if not (timestep > 0 and np.isfinite(timestep)):
         raise ValueError(f"timestep must be > 0, got {timestep!r}")
     spec = mujoco.MjSpec()
-    spec.modelname = "twolink_flexible" if flexibility else "twolink"
+    spec.modelname = name
     spec.compiler.inertiafromgeom = mujoco.mjtInertiaFromGeom.mjINERTIAFROMGEOM_FALSE
     spec.compiler.autolimits = True
     spec.option.timestep = timestep
     spec.option.integrator = mujoco.mjtIntegrator.mjINT_RK4
-    spec.option.gravity = [0.0, 0.0, -p.g]
+    spec.option.gravity = [0.0, 0.0, -g]
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONTACT
     # A diverging run must show as NaN to the simulation loop, not silently restart.
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
+    return spec
 
+
+def add_arm(
+    spec: mujoco.MjSpec,
+    p: ArmParams,
+    flexibility: Flexibility | None = None,
+    payload: float = 0.0,
+    prefix: str = "",
+    gravcomp: float = 0.0,
+) -> None:
+    """Add one arm to ``spec``: its bodies, joints, springs and motors, every name
+    prefixed with ``prefix`` (so several arms can share a model, see
+    :mod:`twolink.batch`). ``gravcomp`` is MuJoCo's gravity compensation of the links
+    (a fraction of their weight): an arm whose gravity differs from the model's
+    (``1 - p.g / g_model``); 0 for an arm alone in its model."""
+    if not (payload >= 0 and np.isfinite(payload)):
+        raise ValueError(f"payload must be a finite mass >= 0, got {payload!r}")
     parent = spec.worldbody
     for i, (m, length) in enumerate(((p.m1, p.l1), (p.m2, p.l2)), start=1):
-        body = parent.add_body(name=f"link{i}", pos=[0, 0, 0] if i == 1 else [p.l1, 0, 0])
+        pos = [0, 0, 0] if i == 1 else [p.l1, 0, 0]
+        body = parent.add_body(name=f"{prefix}link{i}", pos=pos)
         # Uniform rod along x: centre of mass at L/2, inertia m L^2/12 about it.
         body.explicitinertial = True
         body.mass = m
         body.ipos = [length / 2, 0, 0]
         body.inertia = [m * ROD_RADIUS**2 / 2, m * length**2 / 12, m * length**2 / 12]
-        body.add_joint(name=f"theta{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS)
+        body.gravcomp = gravcomp
+        body.add_joint(name=f"{prefix}theta{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS)
         body.add_geom(
-            name=f"rod{i}",
+            name=f"{prefix}rod{i}",
             type=mujoco.mjtGeom.mjGEOM_CAPSULE,
             fromto=[0, 0, 0, length, 0, 0],
             size=[ROD_RADIUS, 0, 0],
             rgba=[0.2, 0.45, 0.8, 1] if i == 1 else [0.85, 0.45, 0.2, 1],
         )
         parent = body
-    parent.add_site(name="tip", pos=[p.l2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
+    parent.add_site(name=f"{prefix}tip", pos=[p.l2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
     if payload > 0:
-        load = parent.add_body(name="payload", pos=[p.l2, 0, 0])
+        load = parent.add_body(name=f"{prefix}payload", pos=[p.l2, 0, 0])
         load.explicitinertial = True
         load.mass = payload
         load.ipos = [0, 0, 0]
         load.inertia = [payload * 1e-6] * 3  # a point mass, up to MuJoCo's positivity check
+        load.gravcomp = gravcomp
         load.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.05, 0, 0], rgba=[0.3, 0.3, 0.3, 1])
 
     if flexibility is None:
         targets = ("theta1", "theta2")
     else:
         for i in (1, 2):
-            rotor = spec.worldbody.add_body(name=f"rotor{i}")
+            rotor = spec.worldbody.add_body(name=f"{prefix}rotor{i}")
             rotor.explicitinertial = True
             rotor.mass = ROTOR_MASS
             rotor.ipos = [0, 0, 0]
             j = flexibility.j[i - 1]
             rotor.inertia = [j, j, j]  # only the spin about the hinge axis matters
-            rotor.add_joint(name=f"phi{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS)
+            rotor.add_joint(
+                name=f"{prefix}phi{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS
+            )
             # A disc behind the arm's plane to show the rotor; visual only.
             rotor.add_geom(
-                name=f"rotor{i}",
+                name=f"{prefix}rotor{i}",
                 type=mujoco.mjtGeom.mjGEOM_CYLINDER,
                 fromto=[0, 0.03, 0, 0, 0.06, 0],
                 size=[0.06, 0, 0],
                 rgba=[0.4, 0.4, 0.4, 1],
             )
             spring = spec.add_tendon(
-                name=f"spring{i}",
+                name=f"{prefix}spring{i}",
                 stiffness=flexibility.k[i - 1],
                 damping=flexibility.d[i - 1],
                 springlength=[0.0, 0.0],
             )
-            spring.wrap_joint(f"phi{i}", 1.0)
-            spring.wrap_joint(f"theta{i}", -1.0)
+            spring.wrap_joint(f"{prefix}phi{i}", 1.0)
+            spring.wrap_joint(f"{prefix}theta{i}", -1.0)
         targets = ("phi1", "phi2")
     for i, target in enumerate(targets, start=1):
-        act = spec.add_actuator(name=f"tau{i}", target=target)
+        act = spec.add_actuator(name=f"{prefix}tau{i}", target=f"{prefix}{target}")
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
         act.set_to_motor()
-    return spec
 
 
 def build_model(

@@ -132,6 +132,26 @@ class Trajectory:
         )
 
 
+def state_message(t: float, q1: float, q2: float, w1: float, w2: float) -> str:
+    return f"state out of bounds at t={t:.4f} s: q=({q1:.4g}, {q2:.4g}), qd=({w1:.4g}, {w2:.4g})"
+
+
+def torque_message(t: float, tau1: float, tau2: float) -> str:
+    return f"torque out of bounds at t={t:.4f} s: tau=({tau1:.4g}, {tau2:.4g})"
+
+
+def control_steps(duration: float, control_dt: float, timestep: float) -> tuple[int, int]:
+    """(control periods in ``duration``, physics substeps per period), or ValueError."""
+    substeps = round(control_dt / timestep)
+    if substeps < 1 or not math.isclose(substeps * timestep, control_dt, rel_tol=1e-9):
+        raise ValueError(
+            f"control_dt {control_dt} must be a whole multiple of the timestep {timestep}"
+        )
+    if not duration > 0:
+        raise ValueError(f"duration must be > 0, got {duration}")
+    return round(duration / control_dt), substeps
+
+
 def simulate(
     plant: Plant,
     controller: Controller,
@@ -168,14 +188,7 @@ def simulate(
         sample where it did (its out-of-bounds torque, or NaN torque where the state left
         its bounds), so even one that diverges at once has one sample.
     """
-    substeps = round(control_dt / plant.dt)
-    if substeps < 1 or not math.isclose(substeps * plant.dt, control_dt, rel_tol=1e-9):
-        raise ValueError(
-            f"control_dt {control_dt} must be a whole multiple of the timestep {plant.dt}"
-        )
-    if not duration > 0:
-        raise ValueError(f"duration must be > 0, got {duration}")
-    n = round(duration / control_dt)
+    n, substeps = control_steps(duration, control_dt, plant.dt)
     if noise is not None and np.shape(noise) != (n + 1, 2):
         raise ValueError(f"noise must have shape {(n + 1, 2)}, got {np.shape(noise)}")
     noise_rows = None if noise is None else noise.tolist()
@@ -193,10 +206,7 @@ def simulate(
         # NaN fails every comparison, so this also catches non-finite states.
         if not (abs(q1) < qmax and abs(q2) < qmax and abs(w1) < wmax and abs(w2) < wmax):
             status = STATUS_DIVERGED
-            message = (
-                f"state out of bounds at t={t:.4f} s: "
-                f"q=({q1:.4g}, {q2:.4g}), qd=({w1:.4g}, {w2:.4g})"
-            )
+            message = state_message(t, q1, q2, w1, w2)
             if not rows:  # keep the one state there is (no torque was asked for)
                 rows.append((t, q1, q2, w1, w2, math.nan, math.nan))
                 if plant.flexible:
@@ -213,7 +223,7 @@ def simulate(
         if not (abs(tau1) < tmax and abs(tau2) < tmax):
             # Kept: the state measured and the torque the controller asked for (not applied).
             status = STATUS_DIVERGED
-            message = f"torque out of bounds at t={t:.4f} s: tau=({tau1:.4g}, {tau2:.4g})"
+            message = torque_message(t, tau1, tau2)
             break
         if k == n:
             break

@@ -26,7 +26,7 @@ import pandas as pd
 
 from twolink.config import scenario_from_dict
 from twolink.executors import SweepExecutor, check_options, open_executor
-from twolink.experiment import build_controller, build_plant, measure, run_scenario
+from twolink.experiment import build_controller, measure, run_scenarios
 from twolink.io import atomic_write_json, atomic_write_text
 from twolink.outcome import classify
 from twolink.sweep.plan import FORMAT_VERSION, SweepPlan
@@ -87,15 +87,14 @@ def _error_text(exc: BaseException) -> str:
 
 
 def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
-    """Compute every (sample, controller) of one chunk.
+    """Compute every (sample, controller) of one chunk, as one batch of arms.
 
     The controllers are built once per chunk (they are modelled on the nominal arm,
-    which does not change) and the plant once per sample, shared by the controllers.
-    A sample that raises or diverges gives rows with status "error" or "diverged" and
-    the message; it never stops the chunk.
+    which does not change); every (sample, controller) is one arm of the batch engine
+    (:func:`twolink.experiment.run_scenarios`). A sample that raises or diverges gives
+    rows with status "error" or "diverged" and the message; it never stops the chunk.
     """
     start = time.perf_counter()
-    nan_metrics = [math.nan] * len(METRIC_COLUMNS)
     controllers: dict[str, Any] = {}
     build_errors: dict[str, str] = {}
     for name in plan.controller_names:
@@ -104,36 +103,49 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
             controllers[name] = build_controller(s)
         except Exception as exc:  # recorded on every row of this controller
             build_errors[name] = _error_text(exc)
-    rows: list[tuple[Any, ...]] = []
+    # Rows in sample then controller order: an error now, or the arm that will fill it.
+    rows: list[Any] = []
+    arms: list[tuple[int, Any]] = []  # (row, scenario) of every arm to simulate
     for i in plan.chunk_samples(chunk):
         values, noise_seed = plan.draw(i)
         head = list(values.values())
         try:
             s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
-            plant = build_plant(s)
             sample_error = ""
         except Exception as exc:
             sample_error = _error_text(exc)
         for name in plan.controller_names:
             error = sample_error or build_errors.get(name, "")
-            if not error:
-                try:
-                    traj = run_scenario(s, controllers[name], plant)
-                except Exception as exc:
-                    error = _error_text(exc)
-                else:
-                    try:
-                        metrics = _metric_values(measure(s, traj))
-                    except Exception as exc:
-                        if traj.ok:
-                            error = _error_text(exc)
-                        else:  # diverged too early to measure anything
-                            metrics = nan_metrics
-                    if not error:
-                        rows.append((i, name, *head, *metrics, traj.status, traj.message))
-                        continue
-            rows.append((i, name, *head, *nan_metrics, STATUS_ERROR, error))
+            if error:
+                rows.append(_error_row(i, name, head, error))
+            else:
+                arms.append((len(rows), s))
+                rows.append((i, name, head))
+    trajectories = run_scenarios([s for _, s in arms], [controllers[rows[r][1]] for r, _ in arms])
+    for (r, s), traj in zip(arms, trajectories, strict=True):
+        i, name, head = rows[r]
+        rows[r] = _measured_row(i, name, head, s, traj)
     return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
+
+
+_NAN_METRICS = [math.nan] * len(METRIC_COLUMNS)
+
+
+def _error_row(i: int, name: str, head: list[Any], error: str) -> tuple[Any, ...]:
+    return (i, name, *head, *_NAN_METRICS, STATUS_ERROR, error)
+
+
+def _measured_row(i: int, name: str, head: list[Any], s: Any, traj: Any) -> tuple[Any, ...]:
+    """The row of one simulated arm (``traj`` is the exception where it could not run)."""
+    if isinstance(traj, Exception):
+        return _error_row(i, name, head, _error_text(traj))
+    try:
+        metrics = _metric_values(measure(s, traj))
+    except Exception as exc:
+        if traj.ok:
+            return _error_row(i, name, head, _error_text(exc))
+        metrics = _NAN_METRICS  # diverged too early to measure anything
+    return (i, name, *head, *metrics, traj.status, traj.message)
 
 
 # ----------------------------------------------------------------------------- chunk files

@@ -1,0 +1,164 @@
+"""Batch forms of the controllers: one law computing the torques of many arms at once.
+
+A batch law is built from the arms' own controllers (the scalar objects the single-arm
+loop calls) and, at control instant ``k``, maps the measured states of its arms, arrays
+of shape (N, 2), to their torques (N, 2). It runs the scalar law's arithmetic in the
+same order on arrays, so arm i's torque equals its controller's bit for bit, except
+where numpy's SIMD ``cos``/``sin`` round differently from ``math`` (machines with
+AVX-512) and for the fuzzy term, whose numpy path agrees with the pure-Python one to
+1e-12 (``controllers/fuzzy/engine.py``). ``tests/test_batch.py`` holds them to that.
+
+Arms are grouped by :func:`batch_laws`: all computed-torque controllers form one law
+(their models, gains and limits become per-arm arrays), fuzzy ones one law per engine
+and mode; any other controller is called arm by arm (correct, not fast).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from controllers.base import Controller
+from controllers.ctc import ComputedTorque
+from controllers.fuzzy_ctc import FuzzyComputedTorque
+from twolink.dynamics import terms
+from twolink.references import ArmReference
+
+__all__ = ["BatchComputedTorque", "BatchFuzzyComputedTorque", "ReferenceTable", "batch_laws"]
+
+
+class ReferenceTable:
+    """The references of many arms sampled once on the control grid ``times``.
+
+    Equal references are stored once: memory (len(times), unique, 2) per signal.
+    """
+
+    def __init__(self, references: Sequence[ArmReference], times: np.ndarray) -> None:
+        unique: dict[ArmReference, int] = {}
+        self.index = np.array([unique.setdefault(r, len(unique)) for r in references])
+        samples = [ref.sample(times) for ref in unique]
+        self.pos, self.vel, self.acc = (
+            np.stack([s[signal] for s in samples], axis=1) for signal in range(3)
+        )
+
+    def at(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Desired positions, velocities and accelerations at instant k, each (N, 2)."""
+        i = self.index
+        return self.pos[k, i], self.vel[k, i], self.acc[k, i]
+
+
+@dataclass(frozen=True)
+class _Models:
+    """The controllers' arm models as per-arm arrays (what :func:`terms` reads)."""
+
+    m1: np.ndarray
+    m2: np.ndarray
+    l1: np.ndarray
+    l2: np.ndarray
+    g: np.ndarray
+
+    @classmethod
+    def stack(cls, controllers: Sequence[ComputedTorque]) -> _Models:
+        return cls(
+            *(np.array([getattr(c.model, f) for c in controllers]) for f in "m1 m2 l1 l2 g".split())
+        )
+
+
+class BatchComputedTorque:
+    """:class:`~controllers.ctc.ComputedTorque` for N arms, each with its own model,
+    gains, limits and reference."""
+
+    def __init__(self, controllers: Sequence[ComputedTorque], times: np.ndarray) -> None:
+        self.reference = ReferenceTable([c.reference for c in controllers], times)
+        self.model = _Models.stack(controllers)
+        self.kp = np.array([c.kp for c in controllers])
+        self.kd = np.array([c.kd for c in controllers])
+        self.limit = np.array([c.torque_limit for c in controllers])
+
+    def errors(self, k: int, q: np.ndarray, qd: np.ndarray):
+        """Desired accelerations, errors and error rates at instant k, each (N, 2)."""
+        r, v, a = self.reference.at(k)
+        return a, r - q, v - qd
+
+    def torque(self, q: np.ndarray, qd: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``M^(q) v + H^ + G^``, saturated (the scalar ``torque``, arm by arm)."""
+        m11, m12, m22, b1, b2 = terms(
+            self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=np.cos, sin=np.sin
+        )
+        v1, v2 = v[:, 0], v[:, 1]
+        tau = np.stack([m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2], axis=1)
+        return np.clip(tau, -self.limit, self.limit)
+
+    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        a, e, de = self.errors(k, q, qd)
+        return self.torque(q, qd, a + self.kd * de + self.kp * e)
+
+
+class BatchFuzzyComputedTorque(BatchComputedTorque):
+    """:class:`~controllers.fuzzy_ctc.FuzzyComputedTorque` for N arms sharing one engine
+    and mode (scalings per arm)."""
+
+    def __init__(self, controllers: Sequence[FuzzyComputedTorque], times: np.ndarray) -> None:
+        super().__init__(controllers, times)
+        self.engine = controllers[0].engine
+        self.add = controllers[0].mode == "add"
+        self.ke, self.kde, self.ku = (
+            np.array([[getattr(c, f)] for c in controllers]) for f in ("ke", "kde", "ku")
+        )
+
+    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        v, e, de = self.errors(k, q, qd)
+        if self.add:
+            v = v + (self.kp * e + self.kd * de)
+        u = self.engine(self.ke * e, self.kde * de)
+        return self.torque(q, qd, v + self.ku * u)
+
+
+class _ArmByArm:
+    """Any other controller, called once per arm (the scalar loop's call, unbatched)."""
+
+    def __init__(self, controllers: Sequence[Controller], times: np.ndarray) -> None:
+        self.controllers = list(controllers)
+        self.times = times
+
+    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        t = float(self.times[k])
+        return np.array(
+            [
+                c(t, tuple(qi.tolist()), tuple(wi.tolist()))
+                for c, qi, wi in zip(self.controllers, q, qd, strict=True)
+            ],
+            dtype=float,
+        ).reshape(-1, 2)
+
+
+def _group_key(c: Controller) -> tuple[Any, ...]:
+    if type(c) is ComputedTorque:
+        return ("ctc",)
+    if type(c) is FuzzyComputedTorque:
+        return ("fuzzy", id(c.engine), c.mode)
+    return ("other",)
+
+
+_LAWS = {"ctc": BatchComputedTorque, "fuzzy": BatchFuzzyComputedTorque, "other": _ArmByArm}
+
+
+def batch_laws(
+    controllers: Sequence[Controller], times: np.ndarray
+) -> list[tuple[np.ndarray, Any]]:
+    """Group the arms' controllers into as few batch laws as possible.
+
+    Returns ``(arm indices, law)`` pairs: ``law(k, q[idx], qd[idx])`` gives those arms'
+    torques at ``times[k]``. Fuzzy controllers are batched together when they share
+    an engine object (the experiment layer builds one engine per rule base).
+    """
+    groups: dict[tuple[Any, ...], list[int]] = {}
+    for i, c in enumerate(controllers):
+        groups.setdefault(_group_key(c), []).append(i)
+    return [
+        (np.array(idx), _LAWS[key[0]]([controllers[i] for i in idx], times))
+        for key, idx in groups.items()
+    ]

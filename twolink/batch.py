@@ -1,0 +1,271 @@
+"""The batch engine: many arms in one MuJoCo model, stepped in lockstep.
+
+N arms, rigid or flexible, each with its own masses, lengths, payload, flexibility and
+gravity, are built into one MjModel (:func:`twolink.plant.add_arm` with a name prefix per
+arm) and advanced by one ``mj_step`` per physics step. The arms are separate kinematic
+trees with no contacts, so MuJoCo's (block-diagonal) dynamics keep them independent:
+each arm moves as it does alone in its own model (``tests/test_batch.py``).
+
+Gravity is one option per model; an arm whose g differs from the model's gets the
+difference through MuJoCo's gravity compensation (``gravcomp = 1 - g / g_model`` on its
+bodies), which adds the weight difference as a passive force. The model's g is the most
+common arm's, so those arms are bit-identical to the single-arm path and the others
+agree to rounding (the weight is computed as two terms instead of one).
+
+:func:`simulate_batch` is :func:`twolink.sim.simulate` for N arms: the same zero-order
+hold, the same bounds and the same records, per arm. An arm that leaves its bounds stops
+there as "diverged", exactly as alone, and is then frozen (held at rest at zero, torque
+zero) so that it cannot disturb the others; MuJoCo's automatic reset is off, so a NaN in
+one arm never resets the rest. An arm whose run is over is frozen the same way.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from controllers.base import Controller
+from twolink.params import ArmParams, Flexibility
+from twolink.plant import add_arm, new_spec
+from twolink.sim import (
+    STATUS_DIVERGED,
+    STATUS_OK,
+    Bounds,
+    Trajectory,
+    control_steps,
+    state_message,
+    torque_message,
+)
+
+__all__ = ["Arm", "BatchPlant", "BatchResult", "record_bytes", "simulate_batch"]
+
+
+@dataclass(frozen=True)
+class Arm:
+    """One arm of a batch: what :meth:`twolink.plant.Plant.build` takes."""
+
+    params: ArmParams
+    flexibility: Flexibility | None = None
+    payload: float = 0.0
+
+
+def model_gravity(gs: Sequence[float]) -> float:
+    """The model's gravity for arms with gravities ``gs``: the most common non-zero one
+    (gravity compensation cannot scale a zero gravity up), else 0."""
+    counts = Counter(g for g in gs if g != 0)
+    return counts.most_common(1)[0][0] if counts else 0.0
+
+
+class BatchPlant:
+    """N arms in one MuJoCo model. ``q_index``/``v_index``: (N, 2) addresses of each
+    arm's link angles in ``qpos``/``qvel``; ``ctrl_index``: (N, 2) of its motors."""
+
+    def __init__(self, arms: Sequence[Arm], timestep: float = 1e-3) -> None:
+        if not arms:
+            raise ValueError("a batch needs at least one arm")
+        g_model = model_gravity([a.params.g for a in arms])
+        spec = new_spec(timestep, g_model, "twolink_batch")
+        for i, a in enumerate(arms):
+            gravcomp = 0.0 if a.params.g == g_model else 1.0 - a.params.g / g_model
+            add_arm(spec, a.params, a.flexibility, a.payload, prefix=f"arm{i}_", gravcomp=gravcomp)
+        try:
+            self.model = spec.compile()
+        except ValueError as exc:
+            why = " ".join(str(exc).split()).removeprefix("Error: ")
+            raise ValueError(f"MuJoCo cannot build this batch of arms: {why}") from None
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self.n_arms = len(arms)
+        self.flexible = np.array([a.flexibility is not None for a in arms])
+
+        def joint(i: int, name: str):
+            return self.model.joint(f"arm{i}_{name}")
+
+        links = [(joint(i, "theta1"), joint(i, "theta2")) for i in range(len(arms))]
+        self.q_index = np.array([[j.qposadr[0] for j in pair] for pair in links])
+        self.v_index = np.array([[j.dofadr[0] for j in pair] for pair in links])
+        # Rotor addresses; a rigid arm's point at its links (read, never used).
+        motors = [
+            (joint(i, "phi1"), joint(i, "phi2")) if flex else pair
+            for i, (flex, pair) in enumerate(zip(self.flexible, links, strict=True))
+        ]
+        self.motor_index = np.array([[j.qposadr[0] for j in pair] for pair in motors])
+        self.motor_v_index = np.array([[j.dofadr[0] for j in pair] for pair in motors])
+        self.ctrl_index = np.array(
+            [[self.model.actuator(f"arm{i}_tau{k}").id for k in (1, 2)] for i in range(len(arms))]
+        )
+
+    def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
+        """Every arm at rest-springs state (q0, qd0) (rotors at the links), time 0."""
+        mujoco.mj_resetData(self.model, self.data)
+        for index, value in ((self.motor_index, q0), (self.q_index, q0)):
+            self.data.qpos[index] = value
+        for index, value in ((self.motor_v_index, qd0), (self.v_index, qd0)):
+            self.data.qvel[index] = value
+        mujoco.mj_forward(self.model, self.data)
+
+    def freeze(self, arms: np.ndarray) -> None:
+        """Hold ``arms`` (indices) at rest at zero with no torque."""
+        for q_index, v_index in (
+            (self.q_index, self.v_index),
+            (self.motor_index, self.motor_v_index),
+        ):
+            self.data.qpos[q_index[arms]] = 0.0
+            self.data.qvel[v_index[arms]] = 0.0
+        self.data.ctrl[self.ctrl_index[arms]] = 0.0
+
+
+def record_bytes(steps: int, flexible: bool = False) -> int:
+    """Memory one arm's records take for ``steps`` control periods (what bounds a batch)."""
+    return (steps + 1) * (8 if flexible else 6) * 8
+
+
+@dataclass(frozen=True, eq=False)
+class BatchResult:
+    """The records of a batch; :meth:`trajectory` gives arm i's as a Trajectory."""
+
+    times: np.ndarray
+    q: np.ndarray  # (steps + 1, N, 2)
+    qd: np.ndarray
+    tau: np.ndarray
+    motor_q: np.ndarray | None
+    length: np.ndarray  # (N,) samples kept per arm
+    status: list[str]
+    message: list[str]
+    controllers: Sequence[Controller]
+    flexible: np.ndarray
+
+    def trajectory(self, i: int) -> Trajectory:
+        """Arm i's run, as :func:`twolink.sim.simulate` returns it."""
+        n = int(self.length[i])
+        t = self.times[:n].copy()
+        q_ref, qd_ref, qdd_ref = self.controllers[i].reference.sample(t)
+        motor = self.motor_q[:n, i].copy() if self.flexible[i] else np.empty((0, 2))
+        return Trajectory(
+            t=t,
+            q=self.q[:n, i].copy(),
+            qd=self.qd[:n, i].copy(),
+            q_ref=q_ref.reshape(-1, 2),
+            qd_ref=qd_ref.reshape(-1, 2),
+            qdd_ref=qdd_ref.reshape(-1, 2),
+            tau=self.tau[:n, i].copy(),
+            motor_q=motor,
+            status=self.status[i],
+            message=self.message[i],
+        )
+
+
+def simulate_batch(
+    plant: BatchPlant,
+    controllers: Sequence[Controller],
+    durations: Sequence[float],
+    control_dt: float = 1e-3,
+    q0: np.ndarray | None = None,
+    qd0: np.ndarray | None = None,
+    bounds: Bounds | None = None,
+    noise: Sequence[np.ndarray | None] | None = None,
+) -> BatchResult:
+    """Run arm i of ``plant`` under ``controllers[i]`` for ``durations[i]`` seconds.
+
+    The arguments are those of :func:`twolink.sim.simulate`, one per arm: ``q0`` and
+    ``qd0`` of shape (N, 2) (default zeros), ``noise[i]`` of shape (steps_i + 1, 2) or
+    None. Every arm shares the plant's timestep and ``control_dt``.
+    """
+    from controllers.batch import batch_laws
+
+    n_arms = plant.n_arms
+    if len(controllers) != n_arms or len(durations) != n_arms:
+        raise ValueError(f"need one controller and one duration per arm ({n_arms})")
+    steps = np.array([control_steps(d, control_dt, plant.dt)[0] for d in durations])
+    substeps = control_steps(durations[0], control_dt, plant.dt)[1]
+    n_max = int(steps.max())
+    q0 = np.zeros((n_arms, 2)) if q0 is None else np.asarray(q0, dtype=float)
+    qd0 = np.zeros((n_arms, 2)) if qd0 is None else np.asarray(qd0, dtype=float)
+    noise_all = _stack_noise(noise, steps, n_max) if noise is not None else None
+
+    times = np.arange(n_max + 1) * control_dt
+    for c in controllers:
+        c.reset()
+    laws = batch_laws(controllers, times)
+    plant.reset(q0, qd0)
+    model, data = plant.model, plant.data
+    qpos, qvel, ctrl = data.qpos, data.qvel, data.ctrl
+    q_index, v_index, ctrl_index = plant.q_index, plant.v_index, plant.ctrl_index
+    any_flexible = bool(plant.flexible.any())
+
+    rec_q = np.empty((n_max + 1, n_arms, 2))
+    rec_qd = np.empty_like(rec_q)
+    rec_tau = np.empty_like(rec_q)
+    rec_motor = np.empty_like(rec_q) if any_flexible else None
+    length = np.zeros(n_arms, dtype=int)
+    status = [STATUS_OK] * n_arms
+    message = [""] * n_arms
+    active = np.ones(n_arms, dtype=bool)
+    bounds = bounds or Bounds()
+    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
+    tau = np.zeros((n_arms, 2))
+
+    for k in range(n_max + 1):
+        t = float(times[k])
+        q, qd = qpos[q_index], qvel[v_index]
+        rec_q[k], rec_qd[k] = q, qd
+        if any_flexible:
+            rec_motor[k] = qpos[plant.motor_index]
+        # NaN fails every comparison, so this also catches non-finite states.
+        escaped = active & ~((np.abs(q) < qmax).all(axis=1) & (np.abs(qd) < wmax).all(axis=1))
+        if escaped.any():
+            for i in np.flatnonzero(escaped):
+                status[i] = STATUS_DIVERGED
+                message[i] = state_message(t, *q[i], *qd[i])
+            length[escaped] = k if k else 1  # at once: keep the one state, with no torque
+            active &= ~escaped
+            q[escaped] = qd[escaped] = 0.0  # the laws see finite numbers
+        seen = q if noise_all is None else q + noise_all[k]
+        for idx, law in laws:
+            tau[idx] = law(k, seen[idx], qd[idx])
+        tau[~active] = np.nan if k == 0 else 0.0
+        rec_tau[k] = tau
+        runaway = active & ~(np.abs(tau) < tmax).all(axis=1)
+        for i in np.flatnonzero(runaway):
+            # Kept: the state measured and the torque asked for (not applied).
+            status[i] = STATUS_DIVERGED
+            message[i] = torque_message(t, *tau[i])
+        done = active & (runaway | (steps == k))
+        length[done] = k + 1
+        active &= ~done
+        if not active.any():
+            break
+        if not active.all():
+            plant.freeze(np.flatnonzero(~active))
+            tau[~active] = 0.0
+        ctrl[ctrl_index] = tau
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+    return BatchResult(
+        times,
+        rec_q,
+        rec_qd,
+        rec_tau,
+        rec_motor,
+        length,
+        status,
+        message,
+        controllers,
+        plant.flexible,
+    )
+
+
+def _stack_noise(noise: Sequence[np.ndarray | None], steps: np.ndarray, n_max: int) -> np.ndarray:
+    """Per-arm noise as one (n_max + 1, N, 2) array; zeros where an arm has none."""
+    out = np.zeros((n_max + 1, len(steps), 2))
+    for i, (rows, n) in enumerate(zip(noise, steps, strict=True)):
+        if rows is None:
+            continue
+        if np.shape(rows) != (n + 1, 2):
+            raise ValueError(f"noise of arm {i} must have shape {(n + 1, 2)}, got {np.shape(rows)}")
+        out[: n + 1, i] = rows
+    return out
