@@ -113,7 +113,7 @@ class BatchFuzzyComputedTorque(BatchComputedTorque):
         v, e, de = self.errors(k, q, qd)
         if self.add:
             v = v + (self.kp * e + self.kd * de)
-        u = self.engine(self.ke * e, self.kde * de)
+        u = self.engine.evaluate_batch(self.ke * e, self.kde * de)
         return self.torque(q, qd, v + self.ku * u)
 
 

@@ -95,6 +95,14 @@ def test_payload_adds_a_point_mass_at_the_tip():
     c12 = np.cos(q.sum())
     extra = 0.5 * p.g * np.array([p.l1 * np.cos(q[0]) + p.l2 * c12, p.l2 * c12])
     np.testing.assert_allclose(plant.bias(), dynamics.gravity(p, q) + extra, rtol=1e-9)
+    # inertia: the rod's plus the point mass's, mp J^T J with J the tip's Jacobian
+    s1, s12 = np.sin(q[0]), np.sin(q.sum())
+    jac = np.array(
+        [[-p.l1 * s1 - p.l2 * s12, -p.l2 * s12], [p.l1 * np.cos(q[0]) + p.l2 * c12, p.l2 * c12]]
+    )
+    np.testing.assert_allclose(
+        plant.mass_matrix(), dynamics.mass_matrix(p, q) + 0.5 * jac.T @ jac, rtol=1e-12
+    )
     with pytest.raises(ValueError, match="payload"):
         build_model(p, payload=-1.0)
 

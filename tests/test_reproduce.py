@@ -157,7 +157,7 @@ def test_the_command_reruns_reusing_the_design_with_identical_metrics_and_each_p
     assert "reused rule base" in result.stdout
     assert (reproduction.out / "metrics.json").read_text() == first
     phases = [line for line in result.stderr.splitlines() if line.startswith("[")]
-    assert [p.split("]")[0] for p in phases] == [f"[{k}/6" for k in range(1, 7)]
+    assert [p.split("]")[0] for p in phases] == [f"[{k}/5" for k in range(1, 6)]
     for name in ("design", "runs", "figures", "study", "report", "recording"):
         assert any(name in p for p in phases), name
     assert result.stdout.splitlines()[-1].endswith("s (wall time of the whole command)")

@@ -8,9 +8,9 @@ each arm moves as it does alone in its own model (``tests/test_batch.py``).
 
 Gravity is one option per model; an arm whose g differs from the model's gets the
 difference through MuJoCo's gravity compensation (``gravcomp = 1 - g / g_model`` on its
-bodies), which adds the weight difference as a passive force. The model's g is the most
-common arm's, so those arms are bit-identical to the single-arm path and the others
-agree to rounding (the weight is computed as two terms instead of one).
+bodies), which adds the weight difference as a passive force. The model's g is the
+largest in magnitude, so those arms are bit-identical to the single-arm path and the
+others agree to rounding (their weight is computed as two terms instead of one).
 
 :func:`simulate_batch` is :func:`twolink.sim.simulate` for N arms: the same zero-order
 hold, the same bounds and the same records, per arm. An arm that leaves its bounds stops
@@ -21,7 +21,6 @@ one arm never resets the rest. An arm whose run is over is frozen the same way.
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -54,10 +53,11 @@ class Arm:
 
 
 def model_gravity(gs: Sequence[float]) -> float:
-    """The model's gravity for arms with gravities ``gs``: the most common non-zero one
-    (gravity compensation cannot scale a zero gravity up), else 0."""
-    counts = Counter(g for g in gs if g != 0)
-    return counts.most_common(1)[0][0] if counts else 0.0
+    """The model's gravity for arms with gravities ``gs``: the one of largest magnitude
+    (the first of those), so that every arm's compensation ``1 - g / g_model`` is >= 0.
+    MuJoCo applies gravity compensation only when some body has a positive one
+    (``ngravcomp`` counts those), and cannot scale a zero gravity up."""
+    return max(gs, key=abs, default=0.0)
 
 
 class BatchPlant:
@@ -209,15 +209,17 @@ def simulate_batch(
     qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
     tau = np.zeros((n_arms, 2))
 
+    ends = set(steps.tolist())  # instants where some arm's run is over
     for k in range(n_max + 1):
         t = float(times[k])
         q, qd = qpos[q_index], qvel[v_index]
         rec_q[k], rec_qd[k] = q, qd
         if any_flexible:
             rec_motor[k] = qpos[plant.motor_index]
-        # NaN fails every comparison, so this also catches non-finite states.
-        escaped = active & ~((np.abs(q) < qmax).all(axis=1) & (np.abs(qd) < wmax).all(axis=1))
-        if escaped.any():
+        # NaN fails every comparison, so this also catches non-finite states. (Frozen
+        # arms rest at zero, inside the bounds.)
+        if not (np.abs(q).max() < qmax and np.abs(qd).max() < wmax):
+            escaped = active & ~((np.abs(q) < qmax).all(axis=1) & (np.abs(qd) < wmax).all(axis=1))
             for i in np.flatnonzero(escaped):
                 status[i] = STATUS_DIVERGED
                 message[i] = state_message(t, *q[i], *qd[i])
@@ -227,19 +229,23 @@ def simulate_batch(
         seen = q if noise_all is None else q + noise_all[k]
         for idx, law in laws:
             tau[idx] = law(k, seen[idx], qd[idx])
-        tau[~active] = np.nan if k == 0 else 0.0
+        stopped = not active.all()
+        if stopped:
+            tau[~active] = np.nan if k == 0 else 0.0
         rec_tau[k] = tau
-        runaway = active & ~(np.abs(tau) < tmax).all(axis=1)
-        for i in np.flatnonzero(runaway):
-            # Kept: the state measured and the torque asked for (not applied).
-            status[i] = STATUS_DIVERGED
-            message[i] = torque_message(t, *tau[i])
-        done = active & (runaway | (steps == k))
-        length[done] = k + 1
-        active &= ~done
-        if not active.any():
-            break
-        if not active.all():
+        if not np.abs(tau).max() < tmax or k in ends:
+            runaway = active & ~(np.abs(tau) < tmax).all(axis=1)
+            for i in np.flatnonzero(runaway):
+                # Kept: the state measured and the torque asked for (not applied).
+                status[i] = STATUS_DIVERGED
+                message[i] = torque_message(t, *tau[i])
+            done = active & (runaway | (steps == k))
+            length[done] = k + 1
+            active &= ~done
+            if not active.any():
+                break
+            stopped = True
+        if stopped:
             plant.freeze(np.flatnonzero(~active))
             tau[~active] = 0.0
         ctrl[ctrl_index] = tau

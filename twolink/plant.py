@@ -94,10 +94,18 @@ def add_arm(
         pos = [0, 0, 0] if i == 1 else [p.l1, 0, 0]
         body = parent.add_body(name=f"{prefix}link{i}", pos=pos)
         # Uniform rod along x: centre of mass at L/2, inertia m L^2/12 about it.
+        mass, com, inertia = m, length / 2, m * length**2 / 12
+        if i == 2 and payload > 0:
+            # The payload, a point mass at the tip, is rigidly part of link 2: one body
+            # with the combined mass, centre of mass and (parallel-axis) inertia, which is
+            # the same physics as a welded body and cheaper to step.
+            mass = m + payload
+            com = (m * length / 2 + payload * length) / mass
+            inertia += m * (length / 2 - com) ** 2 + payload * (length - com) ** 2
         body.explicitinertial = True
-        body.mass = m
-        body.ipos = [length / 2, 0, 0]
-        body.inertia = [m * ROD_RADIUS**2 / 2, m * length**2 / 12, m * length**2 / 12]
+        body.mass = mass
+        body.ipos = [com, 0, 0]
+        body.inertia = [m * ROD_RADIUS**2 / 2, inertia, inertia]
         body.gravcomp = gravcomp
         body.add_joint(name=f"{prefix}theta{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS)
         body.add_geom(
@@ -109,14 +117,14 @@ def add_arm(
         )
         parent = body
     parent.add_site(name=f"{prefix}tip", pos=[p.l2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
-    if payload > 0:
-        load = parent.add_body(name=f"{prefix}payload", pos=[p.l2, 0, 0])
-        load.explicitinertial = True
-        load.mass = payload
-        load.ipos = [0, 0, 0]
-        load.inertia = [payload * 1e-6] * 3  # a point mass, up to MuJoCo's positivity check
-        load.gravcomp = gravcomp
-        load.add_geom(type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[0.05, 0, 0], rgba=[0.3, 0.3, 0.3, 1])
+    if payload > 0:  # shown as a ball at the tip (geoms carry no mass here)
+        parent.add_geom(
+            name=f"{prefix}payload",
+            type=mujoco.mjtGeom.mjGEOM_SPHERE,
+            pos=[p.l2, 0, 0],
+            size=[0.05, 0, 0],
+            rgba=[0.3, 0.3, 0.3, 1],
+        )
 
     if flexibility is None:
         targets = ("theta1", "theta2")

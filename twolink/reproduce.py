@@ -14,7 +14,6 @@ from __future__ import annotations
 import math
 import os
 import sys
-from collections.abc import Callable
 from concurrent.futures import as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,7 +24,7 @@ from twolink.experiment import (
     build_controller,
     measure,
     portable_config,
-    run_scenario,
+    run_scenarios,
     trace_extras,
     write_run,
 )
@@ -58,43 +57,54 @@ class RunSpec:
 
 
 def plan(
-    manifest: Manifest, rule_base: Path, centres=(), overrides: dict[str, Any] | None = None
+    manifest: Manifest,
+    rule_base: Path | None,
+    centres=(),
+    overrides: dict[str, Any] | None = None,
 ) -> list[RunSpec]:
     """Every run of the reproduction, in report order; ``overrides`` (``--set``) are merged
-    over every run's scenario last."""
+    over every run's scenario last. ``rule_base`` is the designed rule base (None before
+    the design: the paper's stands in, to validate the scenarios)."""
     centres = tuple(tuple(map(float, c)) for c in centres)
     specs = []
     for variant in manifest.variants:
         for exp in manifest.experiments:
             for name, ctrl in manifest.controllers.items():
                 ctrl = dict(ctrl)
-                if ctrl.get("rule_base") == "designed":
-                    ctrl["rule_base"] = str(rule_base.resolve())
+                if ctrl.get("rule_base") == "designed":  # before the design: the paper's
+                    ctrl["rule_base"] = str(rule_base.resolve()) if rule_base else "paper"
                 run = merge(merge(variant.overrides, {"controller": ctrl}), overrides or {})
                 fuzzy = run["controller"].get("kind", "ctc") != "ctc"
                 specs.append(RunSpec(exp, variant, name, run, centres if fuzzy else ()))
     return specs
 
 
-def _execute(spec: RunSpec, out: Path, trace: bool) -> dict[str, Any]:
-    """Run one spec and write its folder; returns the metrics row (a worker task)."""
-    scenario = load_scenario(spec.experiment.scenario, spec.overrides)
-    controller = build_controller(scenario)
-    traj = run_scenario(scenario, controller)
-    metrics = measure(scenario, traj)
-    write_run(
-        out / spec.folder,
-        scenario,
-        traj,
-        metrics,
-        plots=False,
-        trace=trace,
-        controller=controller,
-        centres=spec.centres,
-        prefix=spec.folder,
-        name=spec.controller,
-    )
-    return _row(spec, scenario, traj.status, metrics)
+def _execute(specs: list[RunSpec], out: Path, trace: bool) -> list[dict[str, Any]]:
+    """Run specs as one batch of arms (:mod:`twolink.batch`) and write their folders;
+    returns their metrics rows (a worker task)."""
+    scenarios = [load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs]
+    controllers = [build_controller(s) for s in scenarios]
+    rows = []
+    for spec, scenario, controller, traj in zip(
+        specs, scenarios, controllers, run_scenarios(scenarios, controllers), strict=True
+    ):
+        if isinstance(traj, Exception):  # validated before: MuJoCo refused this arm
+            raise traj
+        metrics = measure(scenario, traj)
+        write_run(
+            out / spec.folder,
+            scenario,
+            traj,
+            metrics,
+            plots=False,
+            trace=trace,
+            controller=controller,
+            centres=spec.centres,
+            prefix=spec.folder,
+            name=spec.controller,
+        )
+        rows.append(_row(spec, scenario, traj.status, metrics))
+    return rows
 
 
 def _row(spec: RunSpec, scenario: Scenario, status: str, metrics: Any) -> dict[str, Any]:
@@ -134,20 +144,18 @@ COMBINED_TRACE_EVERY = 10  # the whole reproduction at 100 Hz: 32 runs in one fi
 def run_all(
     specs: list[RunSpec],
     out: Path,
-    workers: int | None = None,
+    pool: Any,
     trace: bool = True,
-    progress: Callable[[], None] | None = None,
     scenarios: dict[str, Scenario] | None = None,
-) -> list[dict[str, Any]]:
-    """Run every spec on the project's executors (a process pool unless ``workers`` is 1).
+) -> tuple[list[dict[str, Any]], dict[Any, list[int]]]:
+    """Submit every spec not already done to ``pool`` (a :mod:`twolink.executors`
+    executor), in one batch of arms per worker.
 
     With ``scenarios`` (by spec folder), a run already whole in ``out`` for the same
     scenario is reused, not computed again (:func:`finished_row`): an interrupted
-    reproduction resumes per run. Returns the metric rows in spec order; ``progress`` is
-    called as each run is done.
+    reproduction resumes per run. Returns the rows known now (``{}`` where pending) and
+    the pending futures with the spec indices each computes.
     """
-    from twolink.executors import open_executor
-
     rows: list[dict[str, Any]] = [{}] * len(specs)
     todo = []
     for i, spec in enumerate(specs):
@@ -156,23 +164,13 @@ def run_all(
             todo.append(i)
         else:
             rows[i] = row
-            if progress:
-                progress()
-    if not todo:
-        return rows
-    workers = workers or min(len(todo), os.cpu_count() or 1)
-    kind = "inprocess" if workers <= 1 else "process"
-    with open_executor(kind, None if kind == "inprocess" else workers) as pool:
-        try:
-            futures = {pool.submit(_execute, specs[i], out, trace): i for i in todo}
-            for fut in as_completed(futures):
-                rows[futures[fut]] = fut.result()
-                if progress:
-                    progress()
-        except KeyboardInterrupt:
-            pool.abort()  # stop now, not after the queued runs; written files are whole
-            raise
-    return rows
+    batches = max(1, min(len(todo), pool.workers))
+    pending = {}
+    for b in range(batches):
+        share = todo[b::batches]
+        if share:
+            pending[pool.submit(_execute, [specs[i] for i in share], out, trace)] = share
+    return rows, pending
 
 
 def load_trajectory(out: Path, spec: RunSpec) -> Trajectory:
@@ -256,16 +254,13 @@ def describe_choices(
     return choices
 
 
-def flexible_study(
-    sweep_file: Path, out: Path, workers: int | None, progress: bool = False
-) -> list[str]:
-    """Run the stiffness sweep into ``out/flexible_study``; its report section."""
+def flexible_study(sweep_file: Path, out: Path) -> list[str]:
+    """Run the stiffness sweep into ``out/flexible_study`` in this process (a worker
+    task: its arms are one or two batches); its report section."""
     from twolink import plots, sweep
 
     plan = sweep.load_sweep(sweep_file)
-    outcome = sweep.run_sweep(
-        plan, out / "flexible_study", workers=workers, plots=False, progress=progress
-    )
+    outcome = sweep.run_sweep(plan, out / "flexible_study", executor="inprocess", plots=False)
     plots.save_figure(
         sweep.flexible_study_figure(outcome.results), out / "figures/flexible_study.png"
     )
@@ -319,62 +314,164 @@ def reproduce(
     design runs nor the flexible-joint study."""
     from tqdm import tqdm
 
-    from controllers import fuzzy
-    from twolink import plots, report
+    from twolink import report, sweep
     from twolink.design import design_or_load, load_design_config
+    from twolink.executors import open_executor
     from twolink.io import atomic_write_json, atomic_write_text, check_output_folder
 
     out = Path(out)
     manifest = load_manifest(manifest_path)
     config = load_design_config(manifest.design)
-    check_output_folder(out)  # before any work: a folder that cannot be written is bad input
-    phase = _Phases(progress, 4 + (manifest.flexible_study is not None) + trace)
-    phase("design: the FCM rule base (reused when its inputs are unchanged)")
-    result, designed = design_or_load(config, out / "design")
-    rule_base = out / "design" / "rule_base.toml"
-    specs = plan(manifest, rule_base, result.clustering.centers, overrides)
-    # Every run's scenario, validated before any runs (and read back once for the report).
-    scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
-    phase(f"runs: {len(specs)} experiments x controllers x variants")
-    with tqdm(total=len(specs), desc="runs", unit="run", disable=not progress) as bar:
-        # Resume per run, unless the design was just made: the runs on its rule base are new.
-        finished = None if designed else scenarios
-        rows = run_all(specs, out, workers, trace, progress=bar.update, scenarios=finished)
-
-    # Read each run back once: figures, the report's choices and the combined recording.
-    trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
-
-    # Figures: responses per experiment, and the design's evidence.
-    phase("figures: responses, phase plane, membership functions, control surfaces")
-    figures: dict[str, str] = {}
-    for variant in manifest.variants:
-        for exp in manifest.experiments:
-            trajs = {
-                sp.controller: trajectories[sp.folder]
-                for sp in specs
-                if sp.experiment is exp and sp.variant is variant
+    # Bad input is found before any work: every run's scenario (the paper's rule base
+    # standing in for the one not yet designed), the study's sweep file, the folder.
+    for sp in plan(manifest, None, (), overrides):
+        load_scenario(sp.experiment.scenario, sp.overrides)
+    if manifest.flexible_study is not None:
+        sweep.load_sweep(manifest.flexible_study)
+    check_output_folder(out)
+    phase = _Phases(progress, 4 + trace)
+    workers = workers or os.cpu_count() or 1
+    kind = "inprocess" if workers <= 1 else "process"
+    # The pool starts first: its workers import while the design runs.
+    with open_executor(kind, None if kind == "inprocess" else workers) as pool:
+        try:
+            phase("design: the FCM rule base (reused when its inputs are unchanged)")
+            result, designed = design_or_load(config, out / "design")
+            rule_base = out / "design" / "rule_base.toml"
+            specs = plan(manifest, rule_base, result.clustering.centers, overrides)
+            scenarios = {
+                sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs
             }
-            name = f"figures/{variant.name}_{exp.key}.png"
-            label = f"Table {exp.table}" if exp.table else f"Figure {exp.figure}"
-            plots.save_figure(
-                plots.response_figure(trajs, exp.joint, f"{label}: {exp.title}\n({variant.title})"),
-                out / name,
+            study = (
+                pool.submit(flexible_study, manifest.flexible_study, out)
+                if manifest.flexible_study is not None
+                else None
             )
-            figures[f"{variant.name}/{exp.key}"] = name
+            phase(
+                f"runs: {len(specs)} experiments x controllers x variants, as batches of arms"
+                + (" (and the flexible-joint study)" if study else "")
+            )
+            # Resume per run, unless the design was just made: its rule base's runs are new.
+            rows, pending = run_all(specs, out, pool, trace, None if designed else scenarios)
+            _design_figures(result, out)  # here, while the workers run
+            with tqdm(
+                total=len(specs),
+                initial=sum(bool(r) for r in rows),
+                desc="runs",
+                unit="run",
+                disable=not progress,
+            ) as bar:
+                for fut in as_completed(pending):
+                    for i, row in zip(pending[fut], fut.result(), strict=True):
+                        rows[i] = row
+                    bar.update(len(pending[fut]))
+            phase("figures: responses, phase plane, membership functions, control surfaces")
+            figures: dict[str, str] = {}
+            drawing = []
+            for variant in manifest.variants:
+                for exp in manifest.experiments:
+                    runs = {
+                        sp.controller: sp.folder
+                        for sp in specs
+                        if sp.experiment is exp and sp.variant is variant
+                    }
+                    name = f"figures/{variant.name}_{exp.key}.png"
+                    label = f"Table {exp.table}" if exp.table else f"Figure {exp.figure}"
+                    title = f"{label}: {exp.title}\n({variant.title})"
+                    drawing.append(
+                        pool.submit(_response_figure, out, runs, exp.joint, title, out / name)
+                    )
+                    figures[f"{variant.name}/{exp.key}"] = name
+            # Each run read back once: the report's choices and the combined recording.
+            trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
+            if trace:
+                phase(f"recording: reproduction.rrd ({len(specs)} runs)")
+                _combined_recording(out, specs, scenarios, trajectories)
+            design_section = _design_section(result)
+            if study is not None:
+                design_section += study.result()
+            for fut in drawing:
+                fut.result()
+        except KeyboardInterrupt:
+            pool.abort()  # stop now, not after the queued tasks; written files are whole
+            raise
+    phase("report: report.md, metrics.csv, metrics.json")
+    atomic_write_text(
+        out / "report.md",
+        report.render(
+            rows, manifest, describe_choices(specs, scenarios, config), figures, design_section
+        ),
+    )
+    atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
+    atomic_write_json(out / "metrics.json", rows)
+    return Reproduction(out, rows, designed, rule_base)
+
+
+def _design_figures(result: Any, out: Path) -> None:
+    """The design's evidence: phase plane with centres, membership functions, and the
+    control surfaces of the heuristic, the paper's and the designed rule base."""
+    from controllers import fuzzy
+    from twolink import plots
+
     designed_engine = result.engine.with_rules(result.rules)
-    paper_engine = fuzzy.paper_fuzzy_pd()
     plots.save_figure(plots.phase_plane_figure(result), out / "figures/design_phase_plane.png")
     plots.save_figure(plots.membership_figure(result.engine), out / "figures/membership.png")
     plots.save_figure(
         plots.control_surface_figure(
             {
                 "7x7 heuristic": result.engine,
-                "paper Table 1": paper_engine,
+                "paper Table 1": fuzzy.paper_fuzzy_pd(),
                 "FCM-designed": designed_engine,
             }
         ),
         out / "figures/control_surfaces.png",
     )
+
+
+def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, path: Path) -> None:
+    """One experiment's response under each controller, read from its run folders (a
+    worker task)."""
+    from twolink import plots
+
+    trajs = {
+        name: Trajectory.load(out / folder / "trajectory.npz") for name, folder in runs.items()
+    }
+    plots.save_figure(plots.response_figure(trajs, joint, title), path)
+
+
+def _combined_recording(
+    out: Path,
+    specs: list[RunSpec],
+    scenarios: dict[str, Scenario],
+    trajectories: dict[str, Trajectory],
+) -> None:
+    from twolink import tracing
+
+    tracing.write_recording(
+        out / "reproduction.rrd",
+        [
+            (
+                sp.folder,
+                trajectories[sp.folder],
+                scenarios[sp.folder].plant_params,
+                # the fuzzy runs' phase planes with centres and fired rules, as in trace.rrd
+                trace_extras(
+                    build_controller(scenarios[sp.folder]), trajectories[sp.folder], sp.centres
+                ),
+            )
+            for sp in specs
+        ],
+        every=COMBINED_TRACE_EVERY,
+        groups=[sp.controller for sp in specs],
+    )
+
+
+def _design_section(result: Any) -> list[str]:
+    """The report's section on the FCM design: our kept rules beside the paper's Table 1."""
+    from controllers import fuzzy
+
+    paper_engine = fuzzy.paper_fuzzy_pd()
+
     design_section = [
         "",
         "## The FCM design (the paper's Table 1 and Figure 2)",
@@ -397,37 +494,4 @@ def reproduce(
         "",
         "![control surfaces](figures/control_surfaces.png)",
     ]
-    if manifest.flexible_study is not None:
-        phase(f"study: flexible joints ({manifest.flexible_study.name})")
-        design_section += flexible_study(manifest.flexible_study, out, workers, progress)
-    phase("report: report.md, metrics.csv, metrics.json")
-    atomic_write_text(
-        out / "report.md",
-        report.render(
-            rows, manifest, describe_choices(specs, scenarios, config), figures, design_section
-        ),
-    )
-    atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
-    atomic_write_json(out / "metrics.json", rows)
-    if trace:
-        from twolink import tracing
-
-        phase(f"recording: reproduction.rrd ({len(specs)} runs)")
-        tracing.write_recording(
-            out / "reproduction.rrd",
-            [
-                (
-                    sp.folder,
-                    trajectories[sp.folder],
-                    scenarios[sp.folder].plant_params,
-                    # the fuzzy runs' phase planes with centres and fired rules, as in trace.rrd
-                    trace_extras(
-                        build_controller(scenarios[sp.folder]), trajectories[sp.folder], sp.centres
-                    ),
-                )
-                for sp in specs
-            ],
-            every=COMBINED_TRACE_EVERY,
-            groups=[sp.controller for sp in specs],
-        )
-    return Reproduction(out, rows, designed, rule_base)
+    return design_section

@@ -12,7 +12,7 @@ Schema::
     scenario = "../paper/base.toml"     # base scenario file, relative to this file
     samples = 200                       # N >= 1
     seed = 0                            # >= 0
-    chunk_size = 10                     # samples per task and per chunk file, >= 1
+    chunk_size = 100                    # samples per task, batch and chunk file, >= 1
 
     [overrides]                         # optional: any scenario keys, merged over the base
     duration = 10.0
@@ -80,6 +80,9 @@ from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
 __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan", "load_sweep"]
 
 FORMAT_VERSION = 2  # of the chunk files (2: Parquet) and the manifest: part of the digest
+# Samples per task: each task is one batch of arms (samples x controllers) on the batch
+# engine, whose per-step cost is mostly fixed below ~100 arms (docs/sweeps.md).
+DEFAULT_CHUNK_SIZE = 100
 DISTRIBUTIONS = ("uniform", "loguniform", "normal", "choice", "grid")
 SCALE_PARAMETERS = ("m1", "m2", "l1", "l2", "g")
 FLEX_PARAMETERS = ("k", "d", "j")
@@ -439,7 +442,7 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
             f"1 GB; split a larger study into several sweeps), got {samples:,}",
         )
     seed = top.integer("seed", 0)
-    chunk_size = top.raw("chunk_size", 10)
+    chunk_size = top.raw("chunk_size", DEFAULT_CHUNK_SIZE)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         top.fail("chunk_size", f"must be an integer >= 1, got {chunk_size!r}")
 
