@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 import math
 import os
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -85,32 +85,39 @@ def run_scenario(
     )
 
 
-BATCH_RECORD_BYTES = 256 * 2**20  # records of one batch: with the model, peak < 1 GB
+BATCH_RECORD_BYTES = 256 * 2**20  # one batch's records (and noise): peak RSS < 1 GB
 
 
 def run_scenarios(
     scenarios: Sequence[Scenario], controllers: Sequence[Controller] | None = None
 ) -> list[Trajectory | Exception]:
-    """Simulate many scenarios on the batch engine (:mod:`twolink.batch`): arm i is
-    ``scenarios[i]`` under ``controllers[i]`` (default: each scenario's own), and its
-    trajectory equals :func:`run_scenario`'s. Arms sharing a timestep and control period
-    run in batches whose records stay under :data:`BATCH_RECORD_BYTES`; an arm MuJoCo
-    cannot build gets its ValueError in place of a trajectory, and the others still run.
+    """Every trajectory of :func:`iter_scenarios`, in order (all of them in memory: for
+    many arms, iterate instead)."""
+    results: list[Trajectory | Exception] = [ValueError("not run")] * len(scenarios)
+    for i, traj in iter_scenarios(scenarios, controllers):
+        results[i] = traj
+    return results
+
+
+def iter_scenarios(
+    scenarios: Sequence[Scenario], controllers: Sequence[Controller] | None = None
+) -> Iterator[tuple[int, Trajectory | Exception]]:
+    """Simulate many scenarios on the batch engine (:mod:`twolink.batch`), yielding
+    ``(i, trajectory)`` as each batch ends: arm i is ``scenarios[i]`` under
+    ``controllers[i]`` (default: each scenario's own), and its trajectory equals
+    :func:`run_scenario`'s. Arms sharing a timestep and control period run in batches
+    whose records stay under :data:`BATCH_RECORD_BYTES`, and a trajectory is made only
+    when yielded, so memory stays bounded whatever the number of scenarios. An arm that
+    cannot be built (MuJoCo refuses it) yields its exception; the others still run.
     """
     from twolink.batch import BatchPlant, record_bytes, simulate_batch
 
     controllers = controllers or [build_controller(s) for s in scenarios]
-    results: list[Trajectory | Exception] = [ValueError("not run")] * len(scenarios)
     groups: dict[tuple[float, float], list[int]] = {}
     for i, s in enumerate(scenarios):
         groups.setdefault((s.timestep, s.control_dt), []).append(i)
     for (timestep, control_dt), members in groups.items():
-        cost = max(
-            record_bytes(
-                round(scenarios[i].duration / control_dt), bool(scenarios[i].plant.flexibility)
-            )
-            for i in members
-        )
+        cost = max(_arm_bytes(scenarios[i], control_dt, record_bytes) for i in members)
         size = max(1, BATCH_RECORD_BYTES // cost)
         for start in range(0, len(members), size):
             arms = {}
@@ -118,21 +125,19 @@ def run_scenarios(
                 try:
                     arms[i] = _arm(scenarios[i])
                 except Exception as exc:  # this arm's error, not the batch's
-                    results[i] = exc
-            if not arms:
-                continue
+                    yield i, exc
             try:
-                plant = BatchPlant(list(arms.values()), timestep)
+                plant = BatchPlant(list(arms.values()), timestep) if arms else None
             except ValueError:  # find the arms MuJoCo refuses; run the rest
                 for i in list(arms):
                     try:
                         BatchPlant([arms[i]], timestep)
                     except ValueError as exc:
-                        results[i] = exc
                         del arms[i]
-                if not arms:
-                    continue
-                plant = BatchPlant(list(arms.values()), timestep)
+                        yield i, exc
+                plant = BatchPlant(list(arms.values()), timestep) if arms else None
+            if plant is None:
+                continue
             batch = list(arms)
             run = simulate_batch(
                 plant,
@@ -144,8 +149,14 @@ def run_scenarios(
                 noise=[measurement_noise(scenarios[i]) for i in batch],
             )
             for k, i in enumerate(batch):
-                results[i] = run.trajectory(k)
-    return results
+                yield i, run.trajectory(k)
+
+
+def _arm_bytes(s: Scenario, control_dt: float, record_bytes) -> int:
+    """Memory one arm of ``s`` takes in a batch: its records, and its noise if any."""
+    steps = round(s.duration / control_dt)
+    noise = (steps + 1) * 2 * 8 * 2 if s.plant.noise_std else 0  # drawn, then stacked
+    return record_bytes(steps, bool(s.plant.flexibility)) + noise
 
 
 def _arm(s: Scenario):

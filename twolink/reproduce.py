@@ -22,9 +22,9 @@ from typing import Any
 from twolink.config import Scenario, load_scenario, merge
 from twolink.experiment import (
     build_controller,
+    iter_scenarios,
     measure,
     portable_config,
-    run_scenarios,
     trace_extras,
     write_run,
 )
@@ -84,10 +84,9 @@ def _execute(specs: list[RunSpec], out: Path, trace: bool) -> list[dict[str, Any
     returns their metrics rows (a worker task)."""
     scenarios = [load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs]
     controllers = [build_controller(s) for s in scenarios]
-    rows = []
-    for spec, scenario, controller, traj in zip(
-        specs, scenarios, controllers, run_scenarios(scenarios, controllers), strict=True
-    ):
+    rows: list[dict[str, Any]] = [{}] * len(specs)
+    for i, traj in iter_scenarios(scenarios, controllers):  # written as each batch ends
+        spec, scenario, controller = specs[i], scenarios[i], controllers[i]
         if isinstance(traj, Exception):  # validated before: MuJoCo refused this arm
             raise traj
         metrics = measure(scenario, traj)
@@ -103,7 +102,7 @@ def _execute(specs: list[RunSpec], out: Path, trace: bool) -> list[dict[str, Any
             prefix=spec.folder,
             name=spec.controller,
         )
-        rows.append(_row(spec, scenario, traj.status, metrics))
+        rows[i] = _row(spec, scenario, traj.status, metrics)
     return rows
 
 
@@ -147,6 +146,7 @@ def run_all(
     pool: Any,
     trace: bool = True,
     scenarios: dict[str, Scenario] | None = None,
+    busy: int = 0,
 ) -> tuple[list[dict[str, Any]], dict[Any, list[int]]]:
     """Submit every spec not already done to ``pool`` (a :mod:`twolink.executors`
     executor), in one batch of arms per worker.
@@ -164,7 +164,9 @@ def run_all(
             todo.append(i)
         else:
             rows[i] = row
-    batches = max(1, min(len(todo), pool.workers))
+    # A batch's cost per step is mostly fixed up to ~100 arms: as few batches as keep the
+    # workers busy (one worker is left to the flexible study when it runs beside).
+    batches = max(1, min(len(todo), pool.workers - busy))
     pending = {}
     for b in range(batches):
         share = todo[b::batches]
@@ -352,7 +354,9 @@ def reproduce(
                 + (" (and the flexible-joint study)" if study else "")
             )
             # Resume per run, unless the design was just made: its rule base's runs are new.
-            rows, pending = run_all(specs, out, pool, trace, None if designed else scenarios)
+            rows, pending = run_all(
+                specs, out, pool, trace, None if designed else scenarios, busy=study is not None
+            )
             _design_figures(result, out)  # here, while the workers run
             with tqdm(
                 total=len(specs),

@@ -26,7 +26,7 @@ import pandas as pd
 
 from twolink.config import scenario_from_dict
 from twolink.executors import SweepExecutor, check_options, open_executor
-from twolink.experiment import build_controller, measure, run_scenarios
+from twolink.experiment import build_controller, iter_scenarios, measure
 from twolink.io import atomic_write_json, atomic_write_text
 from twolink.outcome import classify
 from twolink.sweep.plan import FORMAT_VERSION, SweepPlan
@@ -91,7 +91,7 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
 
     The controllers are built once per chunk (they are modelled on the nominal arm,
     which does not change); every (sample, controller) is one arm of the batch engine
-    (:func:`twolink.experiment.run_scenarios`). A sample that raises or diverges gives
+    (:func:`twolink.experiment.iter_scenarios`). A sample that raises or diverges gives
     rows with status "error" or "diverged" and the message; it never stops the chunk.
     """
     start = time.perf_counter()
@@ -121,8 +121,10 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
             else:
                 arms.append((len(rows), s))
                 rows.append((i, name, head))
-    trajectories = run_scenarios([s for _, s in arms], [controllers[rows[r][1]] for r, _ in arms])
-    for (r, s), traj in zip(arms, trajectories, strict=True):
+    # Measured as each batch ends: one trajectory at a time is ever held.
+    runs = iter_scenarios([s for _, s in arms], [controllers[rows[r][1]] for r, _ in arms])
+    for k, traj in runs:
+        r, s = arms[k]
         i, name, head = rows[r]
         rows[r] = _measured_row(i, name, head, s, traj)
     return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
