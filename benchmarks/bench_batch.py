@@ -84,6 +84,18 @@ def batch_step_us(n: int, controller_name: str) -> float:
     return elapsed / (n * (steps + 1)) * 1e6
 
 
+def mujoco_step_us(n: int) -> float:
+    """The floor: ``mj_step`` of the batch's model alone, per arm [µs]."""
+    s = load_scenario(ROOT / SCENARIOS["CTC"])
+    plant = BatchPlant(drawn_arms(n, np.random.default_rng(n), s.arm), s.timestep)
+    plant.reset(np.full((n, 2), 0.3), np.zeros((n, 2)))
+    steps = max(20, ARM_STEPS // n)
+    start = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(plant.model, plant.data)
+    return (time.perf_counter() - start) / (n * steps) * 1e6
+
+
 def sweep_step_us() -> tuple[float, int]:
     """Wall time of an in-process robustness sweep (a fresh process, start-up included)
     per arm-step [µs], and its arm-steps."""
@@ -113,13 +125,13 @@ def main() -> None:
 
     bare = bare_step_us()
     print(f"baseline: bare single-arm mj_step loop {bare:.2f} µs per step\n")
-    print(f"{'N':>7}  {'controller':<8}  {'µs/arm-step':>11}  {'ratio':>6}")
-    results: dict[str, list[float]] = {name: [] for name in SCENARIOS}
+    print(f"{'N':>7}  {'controller':<14}  {'µs/arm-step':>11}  {'ratio':>6}")
+    results: dict[str, list[float]] = {name: [] for name in (*SCENARIOS, "mj_step alone")}
     for n in SIZES:
-        for name in SCENARIOS:
-            us = batch_step_us(n, name)
+        for name in results:
+            us = mujoco_step_us(n) if name == "mj_step alone" else batch_step_us(n, name)
             results[name].append(us)
-            print(f"{n:>7}  {name:<8}  {us:>11.2f}  {us / bare:>5.2f}x", flush=True)
+            print(f"{n:>7}  {name:<14}  {us:>11.2f}  {us / bare:>5.2f}x", flush=True)
     if args.sweep:
         us, arm_steps = sweep_step_us()
         print(
@@ -134,7 +146,8 @@ def main() -> None:
 
     fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
     for name, values in results.items():
-        ax.loglog(SIZES, np.array(values) / bare, "o-", label=f"batch, {name}")
+        style = ":" if name == "mj_step alone" else "-"
+        ax.loglog(SIZES, np.array(values) / bare, "o" + style, label=f"batch, {name}")
     ax.axhline(1.0, color="k", ls="--", lw=1, label="bare single-arm mj_step loop")
     ax.set_xlabel("arms in one batch (N)")
     ax.set_ylabel("time per arm-step / bare mj_step")

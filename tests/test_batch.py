@@ -12,6 +12,7 @@ its pure-Python path to 1e-12 (controllers/fuzzy/engine.py).
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -223,3 +224,11 @@ def test_custom_controllers_run_arm_by_arm():
     single = simulate(Plant.build(s.arm), alone, 0.5)
     assert_same_run(single, batch.trajectory(0))
     assert_same_run(simulate(Plant.build(s.arm), Damped(), 0.3), batch.trajectory(1))
+
+
+def test_the_docs_example_runs_as_written():
+    text = (Path(__file__).resolve().parents[1] / "docs" / "batch.md").read_text()
+    code = text.split("```python\n", 1)[1].split("```", 1)[0]
+    namespace: dict = {}
+    exec(compile(code, "docs/batch.md", "exec"), namespace)  # noqa: S102
+    assert [t.ok for t in namespace["trajectories"]] == [True] * 3
