@@ -75,12 +75,19 @@ def test_the_report_uses_the_manifests_own_controller_names(tmp_path):
     assert "/ 5.89 |" in text
 
 
+def paper_paths(text: str) -> str:
+    """A copy of the shipped manifest, elsewhere: its files still the shipped ones."""
+    for key in ("scenario", "design", "flexible_study"):
+        text = text.replace(f'{key} = "', f'{key} = "{PAPER}/')
+    return text
+
+
 def test_claim_roles_can_be_named_and_are_checked_before_anything_runs(tmp_path):
     # Two computed-torque controllers: the baseline cannot be inferred from the kinds.
     extra = '[controllers.stiff]\nkind = "ctc"\nkp = 25.0\nkd = 10.0\n\n'
     text = shipped_text().replace("[variants.rigid]", extra + "[variants.rigid]")
     path = tmp_path / "two_ctc.toml"
-    path.write_text(text.replace('scenario = "', f'scenario = "{PAPER}/'))
+    path.write_text(paper_paths(text))
     with pytest.raises(ConfigError, match=r"two_ctc.toml: baseline: missing"):
         load_manifest(path)
     path.write_text('baseline = "stiff"\n' + path.read_text())
@@ -92,7 +99,7 @@ def test_claim_roles_can_be_named_and_are_checked_before_anything_runs(tmp_path)
         ('proposed = "nope"', "proposed: must name a controller of this manifest"),
         ('proposed = "CTC"\nbaseline = "CTC"', "baseline: must differ from proposed"),
     ):
-        path.write_text(bad + "\n" + text.replace('scenario = "', f'scenario = "{PAPER}/'))
+        path.write_text(bad + "\n" + paper_paths(text))
         with pytest.raises(ConfigError, match=message):
             load_manifest(path)
 

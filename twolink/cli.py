@@ -51,8 +51,21 @@ def main() -> None:
 
 
 @main.command(short_help="Check the analytic dynamics against MuJoCo's.")
-@click.option("-n", "--samples", default=1000, show_default=True, help="Random arms and states.")
-@click.option("--seed", default=0, show_default=True, help="Seed of the random draws.")
+@click.option(
+    "-n",
+    "--samples",
+    type=click.IntRange(min=1),
+    default=1000,
+    show_default=True,
+    help="Random arms and states.",
+)
+@click.option(
+    "--seed",
+    type=click.IntRange(min=0),
+    default=0,
+    show_default=True,
+    help="Seed of the random draws.",
+)
 def validate(samples: int, seed: int) -> None:
     """Check the analytic M, H, G against MuJoCo's own dynamics; exit 1 on any failure.
 
@@ -90,12 +103,16 @@ def models(out: Path | None, install: bool) -> None:
       twolink models                 # into results/models
       twolink models --install       # regenerate the repository's models/
     """
-    from twolink.io import atomic_write_text
+    from twolink.io import atomic_write_text, check_output_folder
     from twolink.plant import model_xml, scene_xml
 
     if install and out is not None:
         _fail_input("--install writes the repository's models/; it takes no --out")
     out = REPO_MODELS if install else out or Path("results/models")
+    try:
+        check_output_folder(out)
+    except OSError as exc:
+        _fail_input(str(exc))
     out.mkdir(parents=True, exist_ok=True)
     files = {
         "twolink.xml": model_xml(ArmParams()),
@@ -258,17 +275,21 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
     from twolink.config import RULEBASE_DIR, ConfigError
     from twolink.design import DEFAULT_DESIGN, load_design_config, write_design
     from twolink.design import design as run_design
+    from twolink.io import check_output_file
 
     if install and out is not None:
         _fail_input("--install writes the shipped designed rule base; it takes no --out")
-    try:
-        config = load_design_config(config_path or DEFAULT_DESIGN)
-    except (ConfigError, OSError) as exc:
-        _fail_input(str(exc))
-    result = run_design(config)
     target = (
         RULEBASE_DIR / "designed.toml" if install else out or Path("results/design/rule_base.toml")
     )
+    try:
+        config = load_design_config(config_path or DEFAULT_DESIGN)
+        check_output_file(target, "--out")
+        if figure:
+            check_output_file(figure, "--figure")
+    except (ConfigError, OSError) as exc:
+        _fail_input(str(exc))
+    result = run_design(config)
     path = write_design(result, target)
     for j, i in enumerate(result.kept):
         rule = result.engine.rules[i]
@@ -299,7 +320,12 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
     default=None,
     help="Reproduction manifest [default: runs/paper/reproduce.toml].",
 )
-@click.option("--workers", type=int, default=None, help="Processes [default: all cores].")
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Processes [default: all cores].",
+)
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recordings.")
 @set_option
 def reproduce(
@@ -415,7 +441,7 @@ def sweep_command(
 
     from twolink.config import ConfigError, merge, parse_set
     from twolink.executors import ExecutorError
-    from twolink.io import check_output_folder
+    from twolink.io import OutputBusy, check_output_folder
     from twolink.sweep import (
         SweepInterrupted,
         SweepOutputError,
@@ -450,7 +476,7 @@ def sweep_command(
             plots=not no_plots,
             fresh=fresh,
         )
-    except SweepOutputError as exc:
+    except (SweepOutputError, OutputBusy) as exc:
         _fail_input(str(exc))
     except SweepInterrupted as exc:
         click.echo(f"\n{exc}", err=True)

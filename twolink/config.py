@@ -295,6 +295,7 @@ class TomlTable:
         minimum: float | None = None,
         positive: bool = False,
         allow_inf: bool = False,
+        allow_nan: bool = False,
     ) -> float:
         if isinstance(value, bool) or not isinstance(value, int | float):
             self.fail(key, f"must be a number, got {value!r}")
@@ -305,7 +306,7 @@ class TomlTable:
                 key,
                 f"must be a number a float can hold, got an integer of {len(str(value))} digits",
             )
-        if math.isnan(value) or (math.isinf(value) and not allow_inf):
+        if (math.isnan(value) and not allow_nan) or (math.isinf(value) and not allow_inf):
             self.fail(key, f"must be finite, got {value!r}")
         if positive and not value > 0:
             self.fail(key, f"must be > 0, got {value!r}")
@@ -377,7 +378,8 @@ def _plant(t: TomlTable) -> PlantConfig:
     return plant
 
 
-def _controller(t: TomlTable) -> ControllerConfig:
+def controller_from_table(t: TomlTable) -> ControllerConfig:
+    """A ``[controller]`` table (or overrides of one) validated; errors name ``t``'s file."""
     d = ControllerConfig()
     f = t.table("fuzzy")
     fd = FuzzyConfig()
@@ -426,7 +428,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         name=top.string("name", Path(source).stem),
         arm=_arm(top.table("arm")),
         plant=_plant(top.table("plant")),
-        controller=_controller(top.table("controller")),
+        controller=controller_from_table(top.table("controller")),
         reference=_reference(top.table("reference")),
         duration=top.number("duration", 10.0, positive=True),
         control_dt=top.number("control_dt", 1e-3, positive=True),

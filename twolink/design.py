@@ -27,12 +27,21 @@ import numpy as np
 
 from controllers.fcm import FCMResult, fcm
 from controllers.fuzzy import MamdaniEngine, Rule, load_rule_base, save_rule_base
-from twolink.config import Scenario, TomlTable, expect_kind, load_scenario, read_toml
+from twolink.config import (
+    Scenario,
+    TomlTable,
+    controller_from_table,
+    expect_kind,
+    load_scenario,
+    read_toml,
+)
 from twolink.experiment import build_controller, run_scenario
 from twolink.io import atomic_path
 
 DEFAULT_DESIGN = Path(__file__).resolve().parents[1] / "runs" / "paper" / "design.toml"
 DECIMATE = 10  # cluster every 10th sample (100 Hz): the shape of the trajectory, 10x cheaper
+FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc")  # controllers with a fuzzy engine to design from
+MAX_CLUSTERS = 49  # the rules of the 7x7 table: each cluster keeps one rule
 
 
 @dataclass(frozen=True)
@@ -68,7 +77,13 @@ class DesignConfig:
 
 
 def load_design_config(path: str | Path = DEFAULT_DESIGN) -> DesignConfig:
-    """Read a design file; its scenarios run with its ``controller`` overrides."""
+    """Read a design file; its scenarios run with its ``controller`` overrides.
+
+    Everything the design would stumble on later is refused here, naming the design file
+    and the key: a missing scenario file, a controller without a fuzzy engine, more
+    clusters than the design runs give points (or than :data:`MAX_CLUSTERS`),
+    ``max_iter`` < 1.
+    """
     path = Path(path)
     data = read_toml(path)
     expect_kind(data, path, "design")
@@ -79,19 +94,49 @@ def load_design_config(path: str | Path = DEFAULT_DESIGN) -> DesignConfig:
     controller = t.raw("controller", {"kind": "fuzzy_ctc"})
     if not isinstance(controller, dict):
         t.fail("controller", "must be a table of [controller] keys")
-    scenarios = tuple(load_scenario(path.parent / n, {"controller": controller}) for n in names)
+    controller_from_table(TomlTable(controller, "controller", str(path)))  # its own keys
+    files = [path.parent / n for n in names]
+    for file in files:
+        if file.is_dir():
+            t.fail("scenarios", f"{file}: is a folder, not a scenario file")
+        if not file.is_file():
+            t.fail("scenarios", f"{file}: no such file (relative to the design file)")
+    scenarios = tuple(load_scenario(f, {"controller": controller}) for f in files)
+    for s in scenarios:
+        if s.controller.kind not in FUZZY_KINDS:
+            t.fail(
+                "controller.kind",
+                f"must be one of {list(FUZZY_KINDS)} (the design clusters a fuzzy "
+                f"controller's phase plane), got {s.controller.kind!r} for {s.source}",
+            )
     clusters = t.integer("clusters", 5)
     if clusters < 2:
         t.fail("clusters", f"must be >= 2, got {clusters}")
+    if clusters > MAX_CLUSTERS:
+        t.fail(
+            "clusters",
+            f"at most {MAX_CLUSTERS} (the 7x7 table's rules: each cluster keeps one), "
+            f"got {clusters}",
+        )
+    points = sum(len(range(0, round(s.duration / s.control_dt) + 1, DECIMATE)) for s in scenarios)
+    if clusters > points:
+        t.fail(
+            "clusters",
+            f"at most the {points} phase-plane points the design runs give (every "
+            f"{DECIMATE}th control sample of {names}), got {clusters}",
+        )
     fuzzifier = t.number("fuzzifier", 2.0)
     if not fuzzifier > 1:
         t.fail("fuzzifier", f"must be > 1, got {fuzzifier}")
+    max_iter = t.integer("max_iter", 500)
+    if max_iter < 1:
+        t.fail("max_iter", f"must be >= 1, got {max_iter}")
     config = DesignConfig(
         scenarios=scenarios,
         clusters=clusters,
         fuzzifier=fuzzifier,
         tolerance=t.number("tolerance", 1e-5, positive=True),
-        max_iter=t.integer("max_iter", 500),
+        max_iter=max_iter,
         seed=t.integer("seed", 0),
         source=str(path),
     )

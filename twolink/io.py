@@ -35,7 +35,7 @@ def unsafe_name_problem(name: Any) -> str | None:
     return None
 
 
-def check_output_folder(path: str | os.PathLike) -> Path:
+def check_output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
     """Make sure ``path`` can become the output folder, before any work starts and
     without creating it: the folder, or its nearest existing parent, is a folder that a
     probe file can be written to (and removed from).
@@ -43,19 +43,77 @@ def check_output_folder(path: str | os.PathLike) -> Path:
     Raises
     ------
     OSError
-        With a message that names the folder: under a file, read-only, no permission.
+        With a message that names the option and the folder: under a file, read-only,
+        no permission.
     """
     path = Path(path)
-    existing = next(p for p in (path, *path.parents) if p.exists() or p == Path(p.anchor))
+    _check_writable(path, path, option)
+    return path
+
+
+def check_output_file(path: str | os.PathLike, option: str = "--out") -> Path:
+    """Make sure the file ``path`` can be written, before any work starts and without
+    creating anything: it is not a folder, and its folder can become one (see
+    :func:`check_output_folder`). Errors name the option and ``path``."""
+    path = Path(path)
+    if path.is_dir():
+        raise IsADirectoryError(f"{option} {path}: is a folder, not a file")
+    _check_writable(path.parent, path, option)
+    return path
+
+
+def _check_writable(folder: Path, shown: Path, option: str) -> None:
+    existing = next(p for p in (folder, *folder.parents) if p.exists() or p == Path(p.anchor))
     if not existing.is_dir():
-        where = "is a file" if existing == path else f"is under {existing}, which is a file"
-        raise NotADirectoryError(f"--out {path}: {where}, not a folder")
+        where = "is a file" if existing == shown else f"is under {existing}, which is a file"
+        raise NotADirectoryError(f"{option} {shown}: {where}, not a folder")
     try:
         with tempfile.NamedTemporaryFile(dir=existing, prefix=".write-test-"):
             pass
     except OSError as exc:
-        raise OSError(f"--out {path}: cannot write in {existing} ({exc.strerror or exc})") from None
-    return path
+        raise OSError(
+            f"{option} {shown}: cannot write in {existing} ({exc.strerror or exc})"
+        ) from None
+
+
+LOCK_NAME = ".twolink.lock"
+
+
+class OutputBusy(OSError):
+    """Another twolink process is writing into the same output folder."""
+
+
+@contextmanager
+def output_lock(path: str | os.PathLike) -> Iterator[Path]:
+    """Hold the output folder ``path`` (created if need be) for this process.
+
+    A second reproduction or sweep into the same folder stops at once with
+    :class:`OutputBusy`, naming the process that holds it, instead of mixing its files
+    with the first's. The lock is ``fcntl.flock`` on ``path/.twolink.lock``: the kernel
+    drops it when the holder ends, even killed, so a stale lock never blocks a rerun.
+    """
+    import fcntl
+
+    path = Path(path)
+    path.mkdir(parents=True, exist_ok=True)
+    fh = open(path / LOCK_NAME, "a+")  # noqa: SIM115 (held open for the lock's life)
+    try:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            fh.seek(0)
+            holder = fh.read().strip() or "?"
+            raise OutputBusy(
+                f"--out {path}: another twolink (pid {holder}) is writing into this folder; "
+                "wait for it to finish or use another --out"
+            ) from None
+        fh.seek(0)
+        fh.truncate()
+        fh.write(f"{os.getpid()}\n")
+        fh.flush()
+        yield path
+    finally:
+        fh.close()  # releases the lock
 
 
 @contextmanager

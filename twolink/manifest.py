@@ -9,6 +9,7 @@ its report.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -96,17 +97,44 @@ def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]
     return name
 
 
+def _referenced_file(top: TomlTable, key: str, name: str, base: Path, what: str) -> Path:
+    """``name`` (the value of ``key``) relative to the manifest: a file, or an error that
+    names the manifest and the key."""
+    path = base / name
+    if path.is_dir():
+        top.fail(key, f"{path}: is a folder, not a {what}")
+    if not path.is_file():
+        top.fail(key, f"{path}: no such file (the {what}, relative to the manifest)")
+    return path
+
+
+def _paper_values(e: TomlTable, controllers: dict[str, Any]) -> dict[str, dict[str, float]]:
+    """An experiment's ``paper.CONTROLLER = { SYMBOL = value }``: numbers (NaN: not given)."""
+    pt = e.table("paper")
+    paper: dict[str, dict[str, float]] = {}
+    for ctrl in list(pt.data):
+        if ctrl not in controllers:
+            pt.fail(ctrl, f"not a controller of this manifest {list(controllers)}")
+        ct = pt.table(ctrl)
+        unknown = set(ct.data) - set(PAPER_SYMBOLS)
+        if unknown:
+            pt.fail(ctrl, f"unknown metric(s) {sorted(unknown)} (known: {list(PAPER_SYMBOLS)})")
+        paper[ctrl] = {sym: ct.number(sym, math.nan, allow_nan=True) for sym in list(ct.data)}
+        ct.done()
+    pt.done()
+    return paper
+
+
 def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
-    """Read and validate a reproduction manifest; errors name the file and the key."""
+    """Read and validate a reproduction manifest; errors name the file and the key.
+
+    The files it names (design, flexible-joint study, experiments' scenarios) must exist:
+    a missing one is refused here, naming the manifest's key, before anything runs.
+    """
     path = Path(path)
     data = read_toml(path)
     expect_kind(data, path, "manifest")
     top = TomlTable(data, "", str(path))
-    design = path.parent / top.string("design", "design.toml")
-    study = top.raw("flexible_study")
-    if study is not None and not isinstance(study, str):
-        top.fail("flexible_study", f"must be a sweep file path, got {study!r}")
-    flexible_study = path.parent / study if study else None
     controllers = top.raw("controllers", {})
     if not isinstance(controllers, dict) or not controllers:
         top.fail("controllers", "needs at least one [controllers.NAME] table")
@@ -116,7 +144,15 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         if not isinstance(ctrl, dict):
             top.fail(f"controllers.{name}", "must be a table of [controller] keys")
     variants = []
-    for name, body in top.raw("variants", {"rigid": {}}).items():
+    raw_variants = top.raw("variants", {"rigid": {}})
+    if not isinstance(raw_variants, dict):
+        top.fail("variants", f"must be a table of [variants.NAME] tables, got {raw_variants!r}")
+    if not raw_variants:
+        top.fail(
+            "variants",
+            "needs at least one [variants.NAME] table (without [variants]: the rigid arm only)",
+        )
+    for name, body in raw_variants.items():
         if problem := unsafe_name_problem(name):
             top.fail(f"variants.{name}", problem)
         v = TomlTable(body, f"variants.{name}", str(path))
@@ -126,6 +162,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         variants.append(Variant(name, v.string("title", name), overrides))
         v.done()
     experiments = []
+    folders: dict[str, int] = {}  # result folder -> the experiment that writes it
     raw = top.raw("experiment", [])
     if not isinstance(raw, list) or not raw:
         top.fail("experiment", "needs at least one [[experiment]]")
@@ -133,8 +170,11 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         e = TomlTable(body, f"experiment[{i}]", str(path))
         table = e.raw("table")
         figure = e.raw("figure")
-        if not isinstance(table, int | None) or not isinstance(figure, int | None):
-            e.fail("table", "table and figure must be integers")
+        for number in (table, figure):
+            if number is not None and (
+                isinstance(number, bool) or not isinstance(number, int) or number < 1
+            ):
+                e.fail("table", f"table and figure must be integers >= 1, got {number!r}")
         if table is None and figure is None:
             e.fail("table", "an experiment needs a table or figure number")
         scenario = path.parent / e.string("scenario", "")
@@ -143,21 +183,32 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         joint = e.integer("joint", 1)
         if joint not in (1, 2):
             e.fail("joint", f"must be 1 or 2, got {joint}")
-        paper = e.raw("paper", {})
-        for ctrl, values in paper.items():
-            if ctrl not in controllers:
-                e.fail(f"paper.{ctrl}", f"not a controller of this manifest {list(controllers)}")
-            unknown = set(values) - set(PAPER_SYMBOLS)
-            if unknown:
-                e.fail(f"paper.{ctrl}", f"unknown metric(s) {sorted(unknown)}")
-        experiments.append(
-            Experiment(e.string("title", scenario.stem), scenario, joint, table, figure, paper)
+        paper = _paper_values(e, controllers)
+        experiment = Experiment(
+            e.string("title", scenario.stem), scenario, joint, table, figure, paper
         )
+        if experiment.key in folders:
+            e.fail(
+                "table" if table else "figure",
+                f"{experiment.key} is also experiment[{folders[experiment.key]}]'s: both "
+                f"would write the folder <variant>/{experiment.key}",
+            )
+        folders[experiment.key] = i
+        experiments.append(experiment)
         e.done()
     proposed = _claim_role(top, "proposed", "fcm_ctc", controllers)
     baseline = _claim_role(top, "baseline", "ctc", controllers)
     if proposed == baseline:
         top.fail("baseline", f"must differ from proposed ({proposed!r})")
+    design = _referenced_file(
+        top, "design", top.string("design", "design.toml"), path.parent, "design file"
+    )
+    study = top.raw("flexible_study")
+    if study is not None and not isinstance(study, str):
+        top.fail("flexible_study", f"must be a sweep file path, got {study!r}")
+    flexible_study = (
+        _referenced_file(top, "flexible_study", study, path.parent, "sweep file") if study else None
+    )
     top.done()
     return Manifest(
         path,

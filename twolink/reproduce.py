@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from twolink.config import Scenario, load_scenario, merge
+from twolink.config import ConfigError, Scenario, load_scenario, merge
 from twolink.experiment import (
     build_controller,
     iter_scenarios,
@@ -104,6 +104,26 @@ def _execute(specs: list[RunSpec], out: Path, trace: bool) -> list[dict[str, Any
         )
         rows[i] = _row(spec, scenario, traj.status, metrics)
     return rows
+
+
+def _check_run(manifest: Manifest, spec: RunSpec) -> None:
+    """Load a run's scenario; a bad key is blamed on where it was written: the experiment's
+    scenario file, the manifest's variant overrides or controller table, or ``--set``."""
+    try:
+        load_scenario(spec.experiment.scenario, spec.overrides)
+    except ConfigError as exc:
+        scenario = spec.experiment.scenario
+        load_scenario(scenario)  # the scenario file's own mistake: its own error
+        where = manifest.path
+        for key, part in (
+            (f"variants.{spec.variant.name}.overrides", spec.variant.overrides),
+            (f"controllers.{spec.controller}", {"controller": spec.overrides["controller"]}),
+        ):
+            try:
+                load_scenario(scenario, part)
+            except ConfigError:
+                raise ConfigError(f"{where}: {key}: {exc}") from None
+        raise  # --set
 
 
 def _row(spec: RunSpec, scenario: Scenario, status: str, metrics: Any) -> dict[str, Any]:
@@ -314,12 +334,9 @@ def reproduce(
 
     ``overrides`` (the command's ``--set``) change every experiment's scenario, not the
     design runs nor the flexible-joint study."""
-    from tqdm import tqdm
-
-    from twolink import report, sweep
-    from twolink.design import design_or_load, load_design_config
-    from twolink.executors import open_executor
-    from twolink.io import atomic_write_json, atomic_write_text, check_output_folder
+    from twolink import sweep
+    from twolink.design import load_design_config
+    from twolink.io import check_output_folder, output_lock
 
     out = Path(out)
     manifest = load_manifest(manifest_path)
@@ -327,10 +344,32 @@ def reproduce(
     # Bad input is found before any work: every run's scenario (the paper's rule base
     # standing in for the one not yet designed), the study's sweep file, the folder.
     for sp in plan(manifest, None, (), overrides):
-        load_scenario(sp.experiment.scenario, sp.overrides)
+        _check_run(manifest, sp)
     if manifest.flexible_study is not None:
         sweep.load_sweep(manifest.flexible_study)
     check_output_folder(out)
+    # One reproduction at a time per folder: a second one into it stops at once.
+    with output_lock(out):
+        return _reproduce(manifest, config, out, workers, trace, progress, overrides)
+
+
+def _reproduce(
+    manifest: Manifest,
+    config: Any,
+    out: Path,
+    workers: int | None,
+    trace: bool,
+    progress: bool,
+    overrides: dict[str, Any] | None,
+) -> Reproduction:
+    """:func:`reproduce` once its inputs are checked and its folder is held."""
+    from tqdm import tqdm
+
+    from twolink import report
+    from twolink.design import design_or_load
+    from twolink.executors import open_executor
+    from twolink.io import atomic_write_json, atomic_write_text
+
     phase = _Phases(progress, 4 + trace)
     workers = workers or os.cpu_count() or 1
     kind = "inprocess" if workers <= 1 else "process"

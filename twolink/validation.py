@@ -91,6 +91,10 @@ def energy_drift(p: ArmParams, q0, duration: float = 10.0, timestep: float = 1e-
 
 def validate(n: int = 1000, seed: int = 0) -> list[Check]:
     """All checks of ``twolink validate``: dynamics agreement and energy conservation."""
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ValueError(f"n must be an integer >= 1 (no sample checks nothing), got {n!r}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise ValueError(f"seed must be an integer >= 0, got {seed!r}")
     checks = compare_dynamics(n, seed)
     drift = energy_drift(ArmParams(), q0=(0.3, 0.8))
     checks.append(Check("energy drift, 10 s free swing", drift, ENERGY_TOLERANCE, 1))

@@ -27,7 +27,7 @@ import pandas as pd
 from twolink.config import scenario_from_dict
 from twolink.executors import SweepExecutor, check_options, open_executor
 from twolink.experiment import build_controller, iter_scenarios, measure
-from twolink.io import atomic_write_json, atomic_write_text
+from twolink.io import atomic_write_json, atomic_write_text, output_lock
 from twolink.outcome import classify
 from twolink.sweep.plan import FORMAT_VERSION, SweepPlan
 from twolink.sweep.results import (
@@ -400,7 +400,6 @@ def run_sweep(
     ExecutorError, ValueError
         The executor cannot be started or its options are inconsistent.
     """
-    from tqdm import tqdm
 
     start = time.perf_counter()
     out = Path(out)
@@ -410,6 +409,25 @@ def run_sweep(
     if scheduler is None and executor == plan.execution.executor:
         scheduler = plan.execution.scheduler
     check_options(executor, workers, scheduler)
+    # One sweep at a time per folder: a second one into it stops at once (OutputBusy).
+    with output_lock(out):
+        return _run_sweep(plan, out, executor, workers, scheduler, progress, plots, fresh, start)
+
+
+def _run_sweep(
+    plan: SweepPlan,
+    out: Path,
+    executor: str,
+    workers: int | None,
+    scheduler: str | None,
+    progress: bool,
+    plots: bool,
+    fresh: bool,
+    start: float,
+) -> SweepOutcome:
+    """:func:`run_sweep` once its options are checked and its folder is held."""
+    from tqdm import tqdm
+
     _prepare_out(plan, out, fresh)
 
     frames: dict[int, pd.DataFrame] = {}

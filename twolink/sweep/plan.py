@@ -99,6 +99,9 @@ PARAMETERS: Mapping[str, str] = {
 }  # fmt: skip
 FLEX_NAMES = frozenset(f"{p}{j}" for p in FLEX_PARAMETERS for j in ("", "1", "2"))
 TRUNCATION_TRIES = 10_000
+# A truncated normal must keep this share of the draws: with 10,000 tries per value, no
+# draw in the truncation is then a chance of (1 - 0.01)**10_000 ~ 1e-44.
+MIN_TRUNCATION_MASS = 0.01
 MAX_SAMPLES = 1_000_000
 
 
@@ -296,6 +299,12 @@ def _strip_source(exc: ConfigError, source: str) -> str:
 def _check_value(t: TomlTable, key: str, value: Any, domain: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float):
         t.fail(key, f"must be a number, got {value!r}")
+    try:
+        value = float(value)
+    except OverflowError:
+        t.fail(
+            key, f"must be a number a float can hold, got an integer of {len(str(value))} digits"
+        )
     if not math.isfinite(value):
         t.fail(key, f"must be finite, got {value!r}")
     if domain == "positive" and not value > 0:
@@ -303,6 +312,15 @@ def _check_value(t: TomlTable, key: str, value: Any, domain: str) -> float:
     if domain == "nonnegative" and value < 0:
         t.fail(key, f"must be >= 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
     return float(value)
+
+
+def _normal_mass(mean: float, std: float, low: float | None, high: float | None) -> float:
+    """The probability that a draw of normal(mean, std) lies in [low, high]."""
+    if std == 0:
+        return 1.0  # every draw is the mean, which lies within the truncation
+    lo = -math.inf if low is None else (low - mean) / std
+    hi = math.inf if high is None else (high - mean) / std
+    return 0.5 * (math.erf(hi / math.sqrt(2)) - math.erf(lo / math.sqrt(2)))
 
 
 def _number_list(t: TomlTable, key: str, domain: str) -> tuple[float, ...]:
@@ -355,6 +373,14 @@ def _parameter(name: str, data: Any, file: str) -> Parameter:
             t.fail("high", f"must be >= low ({low}): the distribution is empty, got {high}")
         if (low is not None and mean < low) or (high is not None and mean > high):
             t.fail("mean", f"must lie within the truncation [{low}, {high}], got {mean}")
+        mass = _normal_mass(mean, std, low, high)
+        if mass < MIN_TRUNCATION_MASS:
+            t.fail(
+                "high" if high is not None else "low",
+                f"the truncation [{low}, {high}] keeps {mass:.3g} of normal({mean}, {std})'s "
+                f"draws; at least {MIN_TRUNCATION_MASS:g} is needed (values are drawn by "
+                "rejection): widen [low, high] or raise std",
+            )
         p = Parameter(name, dist, low=low, high=high, mean=mean, std=std)
     else:
         values = _number_list(t, "values", domain)
