@@ -8,9 +8,9 @@ where numpy's SIMD ``cos``/``sin`` round differently from ``math`` (machines wit
 AVX-512) and for the fuzzy term, whose numpy path agrees with the pure-Python one to
 1e-12 (``controllers/fuzzy/engine.py``). ``tests/test_batch.py`` holds them to that.
 
-Arms are grouped by :func:`batch_laws`: all computed-torque controllers form one law
-(their models, gains and limits become per-arm arrays), fuzzy ones one law per engine
-and mode; any other controller is called arm by arm (correct, not fast).
+Arms are grouped by :func:`batch_laws`: all controllers of one class form one law (their
+models, gains and limits become per-arm arrays), fuzzy ones one law per engine (and
+mode); any other controller is called arm by arm (correct, not fast).
 """
 
 from __future__ import annotations
@@ -22,12 +22,21 @@ from typing import Any
 import numpy as np
 
 from controllers.base import Controller
+from controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity
 from controllers.ctc import ComputedTorque
 from controllers.fuzzy_ctc import FuzzyComputedTorque
 from twolink.dynamics import terms
 from twolink.references import ArmReference
 
-__all__ = ["BatchComputedTorque", "BatchFuzzyComputedTorque", "ReferenceTable", "batch_laws"]
+__all__ = [
+    "BatchComputedTorque",
+    "BatchFuzzyComputedTorque",
+    "BatchFuzzyPD",
+    "BatchIntegralComputedTorque",
+    "BatchPDGravity",
+    "ReferenceTable",
+    "batch_laws",
+]
 
 
 class ReferenceTable:
@@ -117,6 +126,62 @@ class BatchFuzzyComputedTorque(BatchComputedTorque):
         return self.torque(q, qd, v + self.ku * u)
 
 
+class BatchPDGravity(BatchComputedTorque):
+    """:class:`~controllers.baselines.PDGravity` for N arms."""
+
+    def __init__(self, controllers: Sequence[PDGravity], times: np.ndarray) -> None:
+        super().__init__(controllers, times)
+        self.scale = np.array([c.scale for c in controllers])
+
+    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        _, e, de = self.errors(k, q, qd)
+        zero = np.zeros(len(q))
+        _, _, _, g1, g2 = terms(self.model, q[:, 0], q[:, 1], zero, zero, cos=np.cos, sin=np.sin)
+        tau = self.scale * (self.kp * e + self.kd * de) + np.stack([g1, g2], axis=1)
+        return np.clip(tau, -self.limit, self.limit)
+
+
+class BatchIntegralComputedTorque(BatchComputedTorque):
+    """:class:`~controllers.baselines.IntegralComputedTorque` for N arms: its integrators
+    are this law's state, (N, 2), empty at the start of a run."""
+
+    def __init__(self, controllers: Sequence[IntegralComputedTorque], times: np.ndarray) -> None:
+        super().__init__(controllers, times)
+        self.ki = np.array([c.ki for c in controllers])
+        self.dt = np.array([[c.control_dt] for c in controllers])
+        self.z = np.zeros((len(controllers), 2))
+
+    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        a, e, de = self.errors(k, q, qd)
+        v = a + self.kd * de + self.kp * e + self.ki * self.z
+        m11, m12, m22, b1, b2 = terms(
+            self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=np.cos, sin=np.sin
+        )
+        v1, v2 = v[:, 0], v[:, 1]
+        raw = np.stack([m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2], axis=1)
+        tau = np.clip(raw, -self.limit, self.limit)
+        free = (tau == raw) | ((e > 0) != (raw > 0))  # anti-windup, as the scalar law
+        self.z = np.where(free, self.z + e * self.dt, self.z)
+        return tau
+
+
+class BatchFuzzyPD(BatchComputedTorque):
+    """:class:`~controllers.baselines.FuzzyPD` for N arms sharing one engine."""
+
+    def __init__(self, controllers: Sequence[FuzzyPD], times: np.ndarray) -> None:
+        super().__init__(controllers, times)
+        self.engine = controllers[0].engine
+        self.scale = np.array([c.scale for c in controllers])
+        self.ke, self.kde, self.ku = (
+            np.array([[getattr(c, f)] for c in controllers]) for f in ("ke", "kde", "ku")
+        )
+
+    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        _, e, de = self.errors(k, q, qd)
+        u = self.engine.evaluate_batch(self.ke * e, self.kde * de)
+        return np.clip(self.scale * (self.ku * u), -self.limit, self.limit)
+
+
 class _ArmByArm:
     """Any other controller, called once per arm (the scalar loop's call, unbatched)."""
 
@@ -136,14 +201,22 @@ class _ArmByArm:
 
 
 def _group_key(c: Controller) -> tuple[Any, ...]:
-    if type(c) is ComputedTorque:
-        return ("ctc",)
-    if type(c) is FuzzyComputedTorque:
-        return ("fuzzy", id(c.engine), c.mode)
-    return ("other",)
+    kind = type(c)
+    if kind is FuzzyComputedTorque:
+        return (kind, id(c.engine), c.mode)
+    if kind is FuzzyPD:
+        return (kind, id(c.engine))
+    return (kind,) if kind in _LAWS else (_ArmByArm,)
 
 
-_LAWS = {"ctc": BatchComputedTorque, "fuzzy": BatchFuzzyComputedTorque, "other": _ArmByArm}
+_LAWS: dict[type, type] = {
+    ComputedTorque: BatchComputedTorque,
+    FuzzyComputedTorque: BatchFuzzyComputedTorque,
+    PDGravity: BatchPDGravity,
+    IntegralComputedTorque: BatchIntegralComputedTorque,
+    FuzzyPD: BatchFuzzyPD,
+    _ArmByArm: _ArmByArm,
+}
 
 
 def batch_laws(

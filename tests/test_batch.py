@@ -110,8 +110,19 @@ def test_flexible_and_rigid_arms_share_a_batch():
         {"kind": "fuzzy_ctc", "fuzzy": {"ke": 2.0, "ku": 3.0}},
         {"kind": "fcm_ctc", "rule_base": "paper"},
         {"kind": "fcm_ctc", "rule_base": "paper", "fuzzy": {"mode": "replace", "kde": 0.5}},
+        {"kind": "pd_gravity", "kp": 25.0, "kd": 10.0},
+        {"kind": "ctc_integral", "kp": 25.0, "kd": 10.0, "ki": 12.5, "torque_limit": 20.0},
+        {"kind": "fuzzy_pd", "rule_base": "paper", "fuzzy": {"ku": 20.0}},
     ],
-    ids=["ctc saturating", "fuzzy_ctc", "fcm_ctc", "fcm_ctc replace"],
+    ids=[
+        "ctc saturating",
+        "fuzzy_ctc",
+        "fcm_ctc",
+        "fcm_ctc replace",
+        "pd_gravity",
+        "ctc_integral saturating",
+        "fuzzy_pd",
+    ],
 )
 def test_every_controller_kind(controller):
     scenarios = [

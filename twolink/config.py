@@ -23,9 +23,11 @@ Schema (all keys optional except the reference)::
     [plant.flexibility]      # present = Spong flexible joints
     k = [500, 500]  d = [1, 1]  j = [0.05, 0.05]
     [controller]
-    kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules)
+    kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules);
+                             # baselines: "pd_gravity", "ctc_integral", "fuzzy_pd"
     kp = [4, 4]  kd = [2.4, 2.4]  torque_limit = 1e3
-    rule_base = "paper"      # fcm_ctc: "paper", "designed", "default" (7x7) or a TOML path
+    ki = [2, 2]              # ctc_integral: integral gain, 1/s^3
+    rule_base = "paper"      # fcm_ctc, fuzzy_pd: "paper", "designed", "default" or a path
     fuzzy = { ke = 1.0, kde = 1.0, ku = 4.0, mode = "add" }
     [reference.joint1]
     kind = "step"  initial = 0.0  final = 1.0
@@ -48,7 +50,9 @@ from typing import Any
 from twolink.params import ArmParams, Flexibility
 from twolink.references import ArmReference, make_reference, reference_params
 
-CONTROLLER_KINDS = ("ctc", "fuzzy_ctc", "fcm_ctc")
+CONTROLLER_KINDS = ("ctc", "fuzzy_ctc", "fcm_ctc", "pd_gravity", "ctc_integral", "fuzzy_pd")
+FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc", "fuzzy_pd")  # controllers with a fuzzy engine
+RULE_BASE_KINDS = ("fcm_ctc", "fuzzy_pd")  # those whose rule base is the rule_base key
 FUZZY_MODES = ("add", "replace")
 
 
@@ -97,6 +101,7 @@ class ControllerConfig:
     kind: str = "ctc"
     kp: tuple[float, float] = (4.0, 4.0)
     kd: tuple[float, float] = (2.4, 2.4)
+    ki: tuple[float, float] = (2.0, 2.0)
     torque_limit: float = math.inf
     rule_base: str = "paper"
     fuzzy: FuzzyConfig = FuzzyConfig()
@@ -134,7 +139,7 @@ class Scenario:
         if self.plant.flexibility is not None:
             plant["flexibility"] = {k: list(v) for k, v in asdict(self.plant.flexibility).items()}
         ctrl = asdict(self.controller)
-        ctrl["kp"], ctrl["kd"] = list(ctrl["kp"]), list(ctrl["kd"])
+        ctrl["kp"], ctrl["kd"], ctrl["ki"] = list(ctrl["kp"]), list(ctrl["kd"]), list(ctrl["ki"])
         return {
             "name": self.name,
             "duration": self.duration,
@@ -394,6 +399,7 @@ def controller_from_table(t: TomlTable) -> ControllerConfig:
         kind=t.string("kind", d.kind, CONTROLLER_KINDS),
         kp=t.pair("kp", d.kp, minimum=0.0),
         kd=t.pair("kd", d.kd, minimum=0.0),
+        ki=t.pair("ki", d.ki, minimum=0.0),
         torque_limit=t.number("torque_limit", d.torque_limit, positive=True, allow_inf=True),
         rule_base=t.string("rule_base", d.rule_base),
         fuzzy=fuzzy,
@@ -463,7 +469,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
 def _check_rule_base(top: TomlTable, s: Scenario) -> None:
     # A rule-base file that is missing or broken is bad input, found before any run.
     name = s.controller.rule_base
-    if s.controller.kind != "fcm_ctc" or name in BUILTIN_RULE_BASES:
+    if s.controller.kind not in RULE_BASE_KINDS or name in BUILTIN_RULE_BASES:
         return
     path = resolve_rule_base(name, s.source)
     if not path.is_file():

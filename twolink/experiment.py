@@ -38,8 +38,12 @@ def build_controller(s: Scenario) -> Controller:
     common = dict(model=s.arm, reference=s.reference, kp=c.kp, kd=c.kd, torque_limit=c.torque_limit)
     if c.kind == "ctc":
         return ComputedTorque(**common)
-    from controllers.fuzzy_ctc import FuzzyComputedTorque
+    from controllers import baselines
 
+    if c.kind == "pd_gravity":
+        return baselines.PDGravity(**common)
+    if c.kind == "ctc_integral":
+        return baselines.IntegralComputedTorque(**common, ki=c.ki, control_dt=s.control_dt)
     if c.kind == "fuzzy_ctc":
         engine = _engine(None)
     else:
@@ -47,6 +51,10 @@ def build_controller(s: Scenario) -> Controller:
         stat = path.stat()
         engine = _engine(str(path), stat.st_mtime_ns, stat.st_size)
     f = c.fuzzy
+    if c.kind == "fuzzy_pd":
+        return baselines.FuzzyPD(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku)
+    from controllers.fuzzy_ctc import FuzzyComputedTorque
+
     return FuzzyComputedTorque(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku, mode=f.mode)
 
 

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from twolink.config import ConfigError, Scenario, load_scenario, merge
+from twolink.config import FUZZY_KINDS, ConfigError, Scenario, load_scenario, merge
 from twolink.experiment import (
     build_controller,
     iter_scenarios,
@@ -74,7 +74,7 @@ def plan(
                 if ctrl.get("rule_base") == "designed":  # before the design: the paper's
                     ctrl["rule_base"] = str(rule_base.resolve()) if rule_base else "paper"
                 run = merge(merge(variant.overrides, {"controller": ctrl}), overrides or {})
-                fuzzy = run["controller"].get("kind", "ctc") != "ctc"
+                fuzzy = run["controller"].get("kind", "ctc") in FUZZY_KINDS
                 specs.append(RunSpec(exp, variant, name, run, centres if fuzzy else ()))
     return specs
 
@@ -233,7 +233,9 @@ def describe_choices(
             if sc.plant.scale
         }
     )
-    fuzzy = next((sc.controller for sc in scenarios.values() if sc.controller.kind != "ctc"), None)
+    fuzzy = next(
+        (sc.controller for sc in scenarios.values() if sc.controller.kind in FUZZY_KINDS), None
+    )
     flex = sorted(
         {
             f"k = {sc.plant.flexibility.k} N·m/rad, d = {sc.plant.flexibility.d} N·m·s/rad, "

@@ -30,7 +30,14 @@ __all__ = [
 ]
 
 # Scenario ``kind`` -> the controller's name in outputs.
-CONTROLLER_LABELS = {"ctc": "CTC", "fuzzy_ctc": "fuzzy-CTC", "fcm_ctc": "FCM-CTC"}
+CONTROLLER_LABELS = {
+    "ctc": "CTC",
+    "fuzzy_ctc": "fuzzy-CTC",
+    "fcm_ctc": "FCM-CTC",
+    "pd_gravity": "PD+G",
+    "ctc_integral": "CTC+I",
+    "fuzzy_pd": "fuzzy-PD",
+}
 
 
 @dataclass(frozen=True)

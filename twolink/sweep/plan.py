@@ -63,6 +63,7 @@ import numpy as np
 
 from twolink.config import (
     BUILTIN_RULE_BASES,
+    RULE_BASE_KINDS,
     ConfigError,
     TomlTable,
     expect_kind,
@@ -408,7 +409,7 @@ def _rule_base_hashes(plan_controllers: Sequence[tuple[str, dict]], base: dict) 
     out = {}
     for name, over in plan_controllers:
         ctrl = merge(base.get("controller", {}), over)
-        if ctrl.get("kind") != "fcm_ctc":
+        if ctrl.get("kind") not in RULE_BASE_KINDS:
             continue
         path = resolve_rule_base(ctrl.get("rule_base", "paper"))
         if path.is_file():
