@@ -87,6 +87,8 @@ def save_run_plots(out: str | Path, traj: Trajectory, title: str = "") -> list[P
 
 
 CONTROLLER_STYLES = {"CTC": ("tab:red", "-"), "FCM-CTC": ("tab:green", "-")}
+# The other controllers (baselines) in order: colours the paper's two do not use, dashed.
+OTHER_STYLES = [(c, "--") for c in ("tab:blue", "tab:orange", "tab:purple", "tab:brown")]
 
 
 def response_figure(trajs: dict[str, Trajectory], joint: int, title: str) -> Figure:
@@ -97,8 +99,9 @@ def response_figure(trajs: dict[str, Trajectory], joint: int, title: str) -> Fig
     j = joint - 1
     first = next(iter(trajs.values()))
     ax.plot(first.t, first.q_ref[:, j], "k--", lw=1.2, label="reference")
+    others = iter(OTHER_STYLES * len(trajs))
     for name, traj in trajs.items():
-        colour, style = CONTROLLER_STYLES.get(name, (None, "-"))
+        colour, style = CONTROLLER_STYLES.get(name) or next(others)
         label = name if traj.ok else f"{name} ({traj.status})"
         ax.plot(traj.t, traj.q[:, j], style, color=colour, lw=1.5, label=label)
         ax_e.plot(traj.t, traj.e[:, j], style, color=colour, lw=1.2, label=name)
