@@ -19,12 +19,18 @@ def shipped_text() -> str:
     return "".join(x for x in lines if not x.startswith(("proposed =", "baseline =")))
 
 
+def paper_paths(text: str) -> str:
+    """A copy of the shipped manifest, elsewhere: its files still the shipped ones."""
+    for key in ("scenario", "design", "flexible_study", "claims_study"):
+        text = text.replace(f'{key} = "', f'{key} = "{PAPER}/')
+    return text
+
+
 def renamed_manifest(tmp_path: Path, extra: str = "", **names: str) -> Path:
     """The shipped manifest, with absolute paths and its controllers renamed."""
-    text = shipped_text()
-    text = text.replace('scenario = "', f'scenario = "{PAPER}/')
-    text = text.replace('design = "', f'design = "{PAPER}/')
-    text = text.replace('flexible_study = "', f'flexible_study = "{PAPER}/')
+    # without its claims sweep, which runs the controllers by their shipped names
+    text = "".join(x for x in shipped_text().splitlines(True) if not x.startswith("claims_"))
+    text = paper_paths(text)
     for old, new in names.items():
         text = text.replace(f"controllers.{old}]", f"controllers.{new}]")
         text = text.replace(f"paper.{old} =", f"paper.{new} =")
@@ -75,13 +81,6 @@ def test_the_report_uses_the_manifests_own_controller_names(tmp_path):
     assert "/ 5.89 |" in text
 
 
-def paper_paths(text: str) -> str:
-    """A copy of the shipped manifest, elsewhere: its files still the shipped ones."""
-    for key in ("scenario", "design", "flexible_study"):
-        text = text.replace(f'{key} = "', f'{key} = "{PAPER}/')
-    return text
-
-
 def test_claim_roles_can_be_named_and_are_checked_before_anything_runs(tmp_path):
     # Two computed-torque controllers: the baseline cannot be inferred from the kinds.
     extra = '[controllers.stiff]\nkind = "ctc"\nkp = 25.0\nkd = 10.0\n\n'
@@ -112,3 +111,25 @@ def test_claims_count_the_proposed_controller_against_the_baseline(tmp_path):
     assert counts["overshoot_pct"][:2] == (n, n)  # a wins every time
     assert counts["peak_time_s"][:2] == (0, n)  # a's 2.0 never below b's 1.0
     assert not any(math.isnan(x) for c in counts.values() for x in c)
+
+
+def test_a_claims_sweep_must_run_the_claims_two_controllers(tmp_path):
+    from click.testing import CliRunner
+
+    from twolink.cli import main
+
+    sweep = tmp_path / "other.toml"
+    sweep.write_text(
+        (PAPER.parent / "sweeps" / "robustness.toml")
+        .read_text()
+        .replace("[controllers.FCM-CTC]", "[controllers.FCM]")
+        .replace('"../paper/base.toml"', f'"{PAPER}/base.toml"')
+    )
+    text = (PAPER / "reproduce.toml").read_text()
+    path = tmp_path / "m.toml"
+    path.write_text(paper_paths(text).replace(f'"{PAPER}/../sweeps/robustness.toml"', f'"{sweep}"'))
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["reproduce", "--manifest", str(path), "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert "m.toml: claims_study: other.toml must run ['FCM-CTC']" in result.output
+    assert not out.exists()

@@ -48,6 +48,26 @@ def test_every_paper_table_is_in_the_report_beside_the_papers_values(reproductio
     assert (reproduction.out / "figures" / "flexible_study.png").is_file()
 
 
+def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(reproduction):
+    """claims.csv is paired_claims of the saved sweep table, recomputed here, and the report
+    shows it before the paper's tables."""
+    import pandas as pd
+
+    from twolink.claims import paired_claims
+    from twolink.sweep import load_results
+
+    report = (reproduction.out / "report.md").read_text()
+    head = "## The paper's claims on 200 plants, with 95 % confidence intervals"
+    assert head in report and report.index(head) < report.index("### Table 2:")
+    results = load_results(reproduction.out / "claims_study")
+    assert len(results) == 400 and set(results["controller"]) == {"CTC", "FCM-CTC"}
+    saved = pd.read_csv(reproduction.out / "claims.csv")
+    again = paired_claims(results, "FCM-CTC", "CTC", joints=(1, 2))
+    pd.testing.assert_frame_equal(saved, again, check_dtype=False)
+    for r in again.itertuples():
+        assert f"| θ{r.joint} | " in report and r.verdict in report
+
+
 def test_report_metrics_equal_step_metrics_of_the_saved_trajectories(reproduction):
     rows = json.loads((reproduction.out / "metrics.json").read_text())
     for row in rows:
@@ -157,7 +177,7 @@ def test_the_command_reruns_reusing_the_design_with_identical_metrics_and_each_p
     assert "reused rule base" in result.stdout
     assert (reproduction.out / "metrics.json").read_text() == first
     phases = [line for line in result.stderr.splitlines() if line.startswith("[")]
-    assert [p.split("]")[0] for p in phases] == [f"[{k}/5" for k in range(1, 6)]
+    assert [p.split("]")[0] for p in phases] == [f"[{k}/6" for k in range(1, 7)]
     for name in ("design", "runs", "figures", "study", "report", "recording"):
         assert any(name in p for p in phases), name
     assert result.stdout.splitlines()[-1].endswith("s (wall time of the whole command)")

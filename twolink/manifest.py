@@ -68,6 +68,9 @@ class Manifest:
     proposed, baseline : str
         The two controllers of the paper's claim ("proposed beats baseline"): names of
         ``controllers``. The report's claims table and commentary compare these two.
+    claims_study : Path or None
+        A sweep file whose plants judge the claim with confidence intervals
+        (:mod:`twolink.claims`); it must run ``proposed`` and ``baseline`` by those names.
     """
 
     path: Path
@@ -78,6 +81,7 @@ class Manifest:
     experiments: tuple[Experiment, ...]
     proposed: str = "FCM-CTC"
     baseline: str = "CTC"
+    claims_study: Path | None = None
 
 
 def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]) -> str:
@@ -123,6 +127,17 @@ def _paper_values(e: TomlTable, controllers: dict[str, Any]) -> dict[str, dict[s
         ct.done()
     pt.done()
     return paper
+
+
+SWEEP_KEYS = ("flexible_study", "claims_study")  # optional sweep files the reproduction runs
+
+
+def _sweep_file(top: TomlTable, key: str, manifest: Path) -> Path | None:
+    """An optional sweep file named by ``key``, relative to the manifest, checked to exist."""
+    study = top.raw(key)
+    if study is not None and not isinstance(study, str):
+        top.fail(key, f"must be a sweep file path, got {study!r}")
+    return _referenced_file(top, key, study, manifest.parent, "sweep file") if study else None
 
 
 def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
@@ -203,12 +218,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     design = _referenced_file(
         top, "design", top.string("design", "design.toml"), path.parent, "design file"
     )
-    study = top.raw("flexible_study")
-    if study is not None and not isinstance(study, str):
-        top.fail("flexible_study", f"must be a sweep file path, got {study!r}")
-    flexible_study = (
-        _referenced_file(top, "flexible_study", study, path.parent, "sweep file") if study else None
-    )
+    flexible_study, claims_study = (_sweep_file(top, key, path) for key in SWEEP_KEYS)
     top.done()
     return Manifest(
         path,
@@ -219,4 +229,5 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         tuple(experiments),
         proposed,
         baseline,
+        claims_study,
     )

@@ -166,8 +166,10 @@ def render(
     settings: dict[str, Any],
     figures: dict[str, str],
     extra_sections: Sequence[str] = (),
+    lead_sections: Sequence[str] = (),
 ) -> str:
-    """The whole report as markdown."""
+    """The whole report as markdown; ``lead_sections`` (the claims with intervals) come
+    first, as what a reader needs first."""
     controllers = list(manifest.controllers)
     out = [
         "# Reproduction of Devi, Ravi Kumar & Pydi: CTC vs FCM-CTC",
@@ -184,6 +186,7 @@ def render(
         "(the paper's fractions are shown in percent too), ess `steady_state_error_rad`",
         '|target − θ| at the end of the run (docs/metrics.md). "—": undefined (the',
         "response never reached that level) or not given by the paper.",
+        *lead_sections,
         "",
         "## Our choices (the paper leaves them open)",
         "",
@@ -215,3 +218,32 @@ def render(
     out += list(extra_sections)
     out += commentary(rows, manifest, dict(settings))
     return "\n".join(out) + "\n"
+
+
+def claims_section(table: Any, manifest: Manifest, plants: int, source: str) -> list[str]:
+    """The paper's claims judged on many plants (:func:`twolink.claims.paired_claims`'s
+    table): per joint and metric, the medians, the median paired difference with its 95 %
+    bootstrap interval, and the verdict."""
+    p, b = manifest.proposed, manifest.baseline
+    out = [
+        "",
+        f"## The paper's claims on {plants} plants, with 95 % confidence intervals",
+        "",
+        f"Does {p} lower each metric against {b}? Both ran on the same {plants} plants drawn",
+        f"by `{source}` (masses, lengths, gravity and a tip payload off the controllers'",
+        f"model). Per plant the difference {p} − {b}; its median and a 95 % bootstrap",
+        "interval of the median (BCa, `twolink.claims`). **holds**: the interval is below 0;",
+        "**fails**: above 0; **inconclusive**: it contains 0; n: plants where both have",
+        "the metric (a response that never settles or never peaks has none).",
+        "",
+        f"| joint | metric | n | {p} median | {b} median | median difference [95 % CI] | verdict |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for r in table.itertuples():
+        m = metric(r.metric)
+        out.append(
+            f"| θ{r.joint} | {m.symbol} `{r.metric}` | {r.n} | {fmt(r.proposed_median)} | "
+            f"{fmt(r.baseline_median)} | {fmt(r.median_difference)} "
+            f"[{fmt(r.ci_low)}, {fmt(r.ci_high)}] | {r.verdict} |"
+        )
+    return out

@@ -349,6 +349,14 @@ def reproduce(
         _check_run(manifest, sp)
     if manifest.flexible_study is not None:
         sweep.load_sweep(manifest.flexible_study)
+    if manifest.claims_study is not None:
+        names = sweep.load_sweep(manifest.claims_study).controller_names
+        missing = [n for n in (manifest.proposed, manifest.baseline) if n not in names]
+        if missing:
+            raise ConfigError(
+                f"{manifest.path}: claims_study: {manifest.claims_study.name} must run "
+                f"{missing} by name (it runs {list(names)})"
+            )
     check_output_folder(out)
     # One reproduction at a time per folder: a second one into it stops at once.
     with output_lock(out):
@@ -372,7 +380,7 @@ def _reproduce(
     from twolink.executors import open_executor
     from twolink.io import atomic_write_json, atomic_write_text
 
-    phase = _Phases(progress, 4 + trace)
+    phase = _Phases(progress, 4 + trace + (manifest.claims_study is not None))
     workers = workers or os.cpu_count() or 1
     kind = "inprocess" if workers <= 1 else "process"
     # The pool starts first: its workers import while the design runs.
@@ -399,6 +407,10 @@ def _reproduce(
                 specs, out, pool, trace, None if designed else scenarios, busy=study is not None
             )
             _design_figures(result, out)  # here, while the workers run
+            claims: list[str] = []
+            if manifest.claims_study is not None:
+                phase(f"claims: {manifest.claims_study.name}, on the same pool")
+                claims = _claims(manifest, out, pool, progress)
             with tqdm(
                 total=len(specs),
                 initial=sum(bool(r) for r in rows),
@@ -444,12 +456,37 @@ def _reproduce(
     atomic_write_text(
         out / "report.md",
         report.render(
-            rows, manifest, describe_choices(specs, scenarios, config), figures, design_section
+            rows,
+            manifest,
+            describe_choices(specs, scenarios, config),
+            figures,
+            design_section,
+            lead_sections=claims,
         ),
     )
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
     atomic_write_json(out / "metrics.json", rows)
     return Reproduction(out, rows, designed, rule_base)
+
+
+def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> list[str]:
+    """Run the claims sweep on ``pool`` into ``out/claims_study``, judge the paper's claims
+    on its plants (``claims.csv``), and return the report's section on them."""
+    from twolink import report, sweep
+    from twolink.claims import paired_claims
+    from twolink.io import atomic_write_text
+
+    plan = sweep.load_sweep(manifest.claims_study)
+    try:
+        outcome = sweep.run_sweep(
+            plan, out / "claims_study", pool=pool, plots=False, progress=progress
+        )
+    except sweep.SweepInterrupted:
+        raise KeyboardInterrupt from None  # the reproduction's own stop
+    table = paired_claims(outcome.results, manifest.proposed, manifest.baseline, joints=plan.joints)
+    atomic_write_text(out / "claims.csv", table.to_csv(index=False))
+    source = f"{manifest.claims_study.parent.name}/{manifest.claims_study.name}"
+    return report.claims_section(table, manifest, plan.samples, source)
 
 
 def _design_figures(result: Any, out: Path) -> None:

@@ -368,6 +368,7 @@ def run_sweep(
     progress: bool = False,
     plots: bool = True,
     fresh: bool = False,
+    pool: SweepExecutor | None = None,
 ) -> SweepOutcome:
     """Compute the missing chunks of a sweep, then write its table, summary and plots.
 
@@ -380,6 +381,9 @@ def run_sweep(
     executor, workers, scheduler : optional
         See :func:`twolink.executors.open_executor`; default: the sweep file's
         ``[execution]`` table, else a process pool on all cores.
+    pool : SweepExecutor, optional
+        An executor already running (the reproduction's pool): the chunks go to it, and
+        it is left open; ``executor``, ``workers`` and ``scheduler`` are then unused.
     progress : bool
         Show a tqdm progress bar over samples (on stderr).
     plots : bool
@@ -411,7 +415,9 @@ def run_sweep(
     check_options(executor, workers, scheduler)
     # One sweep at a time per folder: a second one into it stops at once (OutputBusy).
     with output_lock(out):
-        return _run_sweep(plan, out, executor, workers, scheduler, progress, plots, fresh, start)
+        return _run_sweep(
+            plan, out, executor, workers, scheduler, progress, plots, fresh, start, pool
+        )
 
 
 def _run_sweep(
@@ -424,6 +430,7 @@ def _run_sweep(
     plots: bool,
     fresh: bool,
     start: float,
+    pool: SweepExecutor | None,
 ) -> SweepOutcome:
     """:func:`run_sweep` once its options are checked and its folder is held."""
     from tqdm import tqdm
@@ -452,15 +459,17 @@ def _run_sweep(
         with stops.installed():
             try:
                 if missing:
-                    ex = open_executor(executor, workers, scheduler)
+                    ex = pool or open_executor(executor, workers, scheduler)
                     n_workers = ex.workers
                     try:
                         _drive(plan, out, ex, missing, frames, computed, bar, stops)
                     except BaseException:
-                        with stops.critical():
-                            ex.abort()
+                        if pool is None:  # a lent pool is its owner's to stop
+                            with stops.critical():
+                                ex.abort()
                         raise
-                    ex.shutdown(wait=True)
+                    if pool is None:
+                        ex.shutdown(wait=True)
             except KeyboardInterrupt:
                 signum = stops.received[0] if stops.received else signal.SIGINT
                 raise SweepInterrupted(signum, len(frames), plan.n_chunks, out) from None
