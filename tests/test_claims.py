@@ -53,6 +53,14 @@ def test_identical_metrics_are_no_difference():
     assert row["verdict"] == "no difference" and row["median_difference"] == 0
 
 
+def test_mostly_equal_metrics_with_an_interval_of_zero_are_no_difference():
+    rng = np.random.default_rng(7)
+    base = np.zeros(200)
+    prop = np.where(rng.uniform(size=200) < 0.1, rng.uniform(-1, 1, 200), 0.0)
+    row = judge(sweep(base, prop))
+    assert (row["ci_low"], row["ci_high"]) == (0, 0) and row["verdict"] == "no difference"
+
+
 def test_plants_without_both_values_do_not_count():
     rng = np.random.default_rng(4)
     base = rng.uniform(1, 2, 220)

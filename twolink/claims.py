@@ -8,7 +8,8 @@ seeded so a claim table is reproducible), and a verdict:
 
 - **holds**: the whole interval is below 0 (A lowers the metric);
 - **fails**: the whole interval is above 0 (A raises it);
-- **no difference**: every difference is 0 (e.g. both have no overshoot on every plant);
+- **no difference**: every difference is 0, or so many are that the interval is [0, 0]
+  (e.g. neither overshoots on most plants);
 - **inconclusive**: the interval contains 0.
 
 A plant counts for a metric only where both controllers have a value (a run that
@@ -19,6 +20,7 @@ metric judged here (times, overshoot, errors).
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 
 import numpy as np
@@ -38,7 +40,7 @@ RESAMPLES = 2000
 
 def verdict(low: float, high: float, differences: np.ndarray) -> str:
     """The verdict of a confidence interval (see the module's docstring)."""
-    if differences.size and not differences.any():
+    if differences.size and (not differences.any() or low == high == 0):
         return "no difference"
     if high < 0:
         return "holds"
@@ -49,14 +51,16 @@ def verdict(low: float, high: float, differences: np.ndarray) -> str:
 
 def _median_interval(d: np.ndarray, method: str, seed: int) -> tuple[float, float]:
     """95 % bootstrap confidence interval of the median of ``d``."""
-    ci = stats.bootstrap(
-        (d,),
-        np.median,
-        confidence_level=CONFIDENCE,
-        n_resamples=RESAMPLES,
-        method=method,
-        rng=np.random.default_rng(seed),
-    ).confidence_interval
+    with warnings.catch_warnings():  # a degenerate BCa gives NaN: the caller falls back
+        warnings.simplefilter("ignore")
+        ci = stats.bootstrap(
+            (d,),
+            np.median,
+            confidence_level=CONFIDENCE,
+            n_resamples=RESAMPLES,
+            method=method,
+            rng=np.random.default_rng(seed),
+        ).confidence_interval
     return float(ci.low), float(ci.high)
 
 

@@ -220,10 +220,12 @@ def render(
     return "\n".join(out) + "\n"
 
 
-def claims_section(table: Any, manifest: Manifest, plants: int, source: str) -> list[str]:
+def claims_section(
+    table: Any, manifest: Manifest, plants: int, source: str, met: dict[str, int]
+) -> list[str]:
     """The paper's claims judged on many plants (:func:`twolink.claims.paired_claims`'s
     table): per joint and metric, the medians, the median paired difference with its 95 %
-    bootstrap interval, and the verdict."""
+    bootstrap interval, and the verdict; ``met``: plants on which each met the spec."""
     p, b = manifest.proposed, manifest.baseline
     out = [
         "",
@@ -235,6 +237,11 @@ def claims_section(table: Any, manifest: Manifest, plants: int, source: str) -> 
         "interval of the median (BCa, `twolink.claims`). **holds**: the interval is below 0;",
         "**fails**: above 0; **inconclusive**: it contains 0; n: plants where both have",
         "the metric (a response that never settles or never peaks has none).",
+        "",
+        f"First, whether either reached its targets: {p} met the spec (final error within",
+        f"2 % of the step on both joints, overshoot under 20 %) on {met.get(p, 0)} of {plants}",
+        f"plants, {b} on {met.get(b, 0)}. A claim that holds between two controllers that",
+        "both miss their targets compares two failures.",
         "",
         f"| joint | metric | n | {p} median | {b} median | median difference [95 % CI] | verdict |",
         "|---|---|---|---|---|---|---|",

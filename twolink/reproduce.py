@@ -486,7 +486,8 @@ def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> list[st
     table = paired_claims(outcome.results, manifest.proposed, manifest.baseline, joints=plan.joints)
     atomic_write_text(out / "claims.csv", table.to_csv(index=False))
     source = f"{manifest.claims_study.parent.name}/{manifest.claims_study.name}"
-    return report.claims_section(table, manifest, plan.samples, source)
+    met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
+    return report.claims_section(table, manifest, plan.samples, source, met)
 
 
 def _design_figures(result: Any, out: Path) -> None:
