@@ -349,3 +349,18 @@ def test_torque_rms_of_a_huge_demand_is_finite_and_right():
     m = torque_measures(tau)
     assert m.rms[0] == pytest.approx(2.0e300 / np.sqrt(2)) and m.rms[1] == 1.0
     assert m.peak == (2.0e300, 1.0)
+
+
+def test_oscillation_is_the_amplitude_of_a_limit_cycle_and_not_of_drift_or_offset():
+    from twolink.metrics import oscillation_amplitude
+
+    t = np.linspace(0.0, 10.0, 10001)
+    cycle = 0.175 * np.sin(2 * np.pi * t / 3.0)  # Table 4's FCM-CTC: ~3 s, 0.35 rad p2p
+    settled = 0.3 * np.exp(-2 * t) * np.cos(5 * t)
+    offset = np.full_like(t, 0.4)  # settled off target: not oscillation
+    drift = 0.02 * t  # still sagging: half its change over the last 3 s
+    got = oscillation_amplitude(t, np.stack([cycle + offset, settled, offset, drift], axis=1))
+    assert abs(got[0] - 0.175) < 1e-6  # the window holds a whole period
+    assert got[1] < 1e-6 and got[2] == 0
+    assert abs(got[3] - 0.03) < 1e-12
+    assert math.isnan(oscillation_amplitude(t[:2], cycle[:2]))

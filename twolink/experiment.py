@@ -20,7 +20,13 @@ from controllers.base import Controller
 from controllers.ctc import ComputedTorque
 from twolink.config import BUILTIN_RULE_BASES, Scenario, resolve_rule_base
 from twolink.io import atomic_folder, atomic_write_json, atomic_write_text, to_toml
-from twolink.metrics import error_measures, metrics_dict, step_metrics, torque_measures
+from twolink.metrics import (
+    error_measures,
+    metrics_dict,
+    oscillation_amplitude,
+    step_metrics,
+    torque_measures,
+)
 from twolink.outcome import classify_run
 from twolink.plant import Plant
 from twolink.sim import Trajectory, simulate
@@ -183,6 +189,7 @@ class RunMetrics:
     status: str
     message: str
     final_error: tuple[float, float] = (math.nan, math.nan)  # |θd(T) − θ(T)| per joint
+    oscillation: tuple[float, float] = (math.nan, math.nan)  # sustained, per joint
 
     def to_dict(self, controller: str = "", outcome: str = "") -> dict[str, Any]:
         """``metrics.json``: status, outcome (``twolink.outcome``), and every metric of
@@ -210,6 +217,7 @@ def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
         status=traj.status,
         message=traj.message,
         final_error=tuple(float(x) for x in np.abs(traj.e[-1])) if len(traj.t) else (math.nan,) * 2,
+        oscillation=oscillation_amplitude(traj.t, traj.e) if len(traj.t) else (math.nan,) * 2,
     )
 
 

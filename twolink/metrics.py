@@ -315,6 +315,34 @@ def error_measures(t: np.ndarray, e: np.ndarray) -> ErrorMeasures:
     )
 
 
+OSCILLATION_WINDOW = 0.3  # the last 30 % of a run: 3 s of a 10 s run, a period of ~3 s
+
+
+def oscillation_amplitude(
+    t: np.ndarray, e: np.ndarray, window: float = OSCILLATION_WINDOW
+) -> float | tuple[float, ...]:
+    """Amplitude of sustained oscillation: half the peak-to-peak of the error over the last
+    ``window`` of the run.
+
+    A limit cycle gives its amplitude (the window must hold one period: 3 s of a 10 s run);
+    a response settled there, at its target or off it, gives ~0; one still drifting gives
+    half its change over the window. (Removing a fitted line instead would bias a window of
+    about one period by up to 15 %.) NaN for fewer than 3 samples in the window.
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+    e : ndarray, shape (N,) or (N, k)
+        Error (or angle); each column separately.
+    """
+    e = _check_signal("e", e)
+    t = _check_times(t, e.shape[0])
+    tail = t >= t[-1] - window * (t[-1] - t[0])
+    if tail.sum() < 3:
+        return _per_column(np.full(e.shape[1:], np.nan)) if e.ndim > 1 else math.nan
+    return _per_column(0.5 * np.ptp(e[tail], axis=0))
+
+
 def torque_measures(tau: np.ndarray) -> TorqueMeasures:
     """RMS and peak of the joint torques.
 

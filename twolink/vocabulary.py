@@ -80,6 +80,7 @@ METRICS: tuple[Metric, ...] = (
     Metric("overshoot_pct", "Mp", "%", "step.overshoot", 100.0),
     Metric("steady_state_error_rad", "ess", "rad", "step.steady_state_error"),
     Metric("final_error_rad", "e(T)", "rad", "final_error"),
+    Metric("oscillation_rad", "osc", "rad", "oscillation"),
     Metric("iae_rad_s", "IAE", "rad·s", "errors.iae"),
     Metric("ise_rad2_s", "ISE", "rad²·s", "errors.ise"),
     Metric("itae_rad_s2", "ITAE", "rad·s²", "errors.itae"),

@@ -80,7 +80,7 @@ from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
 
 __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan", "load_sweep"]
 
-FORMAT_VERSION = 2  # of the chunk files (2: Parquet) and the manifest: part of the digest
+FORMAT_VERSION = 3  # chunk files and manifest (2: Parquet, 3: oscillation_rad); in the digest
 # Samples per task: each task is one batch of arms (samples x controllers) on the batch
 # engine, whose per-step cost is mostly fixed below ~100 arms (docs/sweeps.md).
 DEFAULT_CHUNK_SIZE = 100
