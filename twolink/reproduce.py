@@ -444,7 +444,8 @@ def _reproduce(
             if trace:
                 phase(f"recording: reproduction.rrd ({len(specs)} runs)")
                 _combined_recording(out, specs, scenarios, trajectories)
-            design_section = _design_section(result)
+            design_section = _oscillation_section(specs, scenarios, trajectories, rows)
+            design_section += _design_section(result)
             if study is not None:
                 design_section += study.result()
             for fut in drawing:
@@ -488,6 +489,69 @@ def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> list[st
     source = f"{manifest.claims_study.parent.name}/{manifest.claims_study.name}"
     met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
     return report.claims_section(table, manifest, plan.samples, source, met)
+
+
+OSCILLATING = 0.05  # rad: a sustained oscillation worth explaining in the report
+
+
+def _oscillation_section(
+    specs: list[RunSpec],
+    scenarios: dict[str, Scenario],
+    trajectories: dict[str, Trajectory],
+    rows: list[dict[str, Any]],
+) -> list[str]:
+    """The runs that end in a sustained oscillation (``oscillation_rad`` above
+    :data:`OSCILLATING` on the experiment's joint), and for fuzzy ones which rules fire
+    over that window (the dominant rule per sample; "none": the CTC term alone acts)."""
+    import numpy as np
+
+    from controllers.fuzzy import fired_rule_labels
+    from twolink.metrics import OSCILLATION_WINDOW
+    from twolink.vocabulary import format_value
+
+    lines = []
+    for spec, row in zip(specs, rows, strict=True):
+        if not row["oscillation_rad"] > OSCILLATING:
+            continue
+        traj, j = trajectories[spec.folder], spec.experiment.joint - 1
+        tail = traj.t >= traj.t[-1] * (1 - OSCILLATION_WINDOW)
+        rules = "(no fuzzy term)"
+        controller = build_controller(scenarios[spec.folder])
+        engine = getattr(controller, "engine", None)
+        if engine is not None:
+            labels = fired_rule_labels(
+                engine, controller.ke * traj.e[tail, j], controller.kde * traj.de[tail, j]
+            )
+            names, counts = np.unique(labels, return_counts=True)
+            order = np.argsort(-counts)
+            rules = ", ".join(
+                f"{names[k]} {100 * counts[k] / counts.sum():.0f} %" for k in order[:4]
+            )
+        lines.append(
+            f"| {spec.folder} | θ{j + 1} | {format_value(row['oscillation_rad'])} | "
+            f"{format_value(row['steady_state_error_rad'])} | {rules} |"
+        )
+    if not lines:
+        return []
+    return [
+        "",
+        "## Sustained oscillations",
+        "",
+        f"Runs whose error still swings by more than {OSCILLATING} rad (half peak-to-peak)",
+        f"over the last {100 * OSCILLATION_WINDOW:.0f} % of the run, and for the fuzzy ones",
+        'the dominant fuzzy rule over that window (share of samples; "none": no rule',
+        'fires). Reading it: where a fuzzy CTC\'s window is mostly "none" (CTC alone, which',
+        "keeps the model mismatch's offset) cut by a rule or two, those rules switch on",
+        "while the error is large, push θ by at most ku (the fuzzy term's scale, rad/s²),",
+        "and switch off as the error leaves their support: an on-off correction that keeps",
+        "the cycle going instead of settling. A fuzzy term without the model cannot hold",
+        "the arm up at these scalings (docs/control.md); an integrator at low gains may not",
+        "settle within the run.",
+        "",
+        "| run | joint | osc [rad] | ess [rad] | rules firing over the window |",
+        "|---|---|---|---|---|",
+        *lines,
+    ]
 
 
 def _design_figures(result: Any, out: Path) -> None:
