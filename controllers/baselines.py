@@ -100,8 +100,7 @@ class IntegralComputedTorque(ComputedTorque):
         z1, z2 = self.z
         v1 = a1 + kd1 * de1 + kp1 * e1 + ki1 * z1
         v2 = a2 + kd2 * de2 + kp2 * e2 + ki2 * z2
-        m11, m12, m22, b1, b2 = terms(self.model, q[0], q[1], qd[0], qd[1])
-        raw1, raw2 = m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2
+        raw1, raw2 = self.unsaturated(q, qd, v1, v2)
         lim1, lim2 = self.torque_limit
         tau1, tau2 = saturate(raw1, lim1), saturate(raw2, lim2)
         dt = self.control_dt

@@ -76,6 +76,11 @@ class _Models:
         )
 
 
+def _fuzzy_scalings(controllers: Sequence[Any]) -> tuple[np.ndarray, ...]:
+    """Per-arm (ke, kde, ku) of fuzzy controllers, each as an (N, 1) column."""
+    return tuple(np.array([[getattr(c, f)] for c in controllers]) for f in ("ke", "kde", "ku"))
+
+
 class BatchComputedTorque:
     """:class:`~controllers.ctc.ComputedTorque` for N arms, each with its own model,
     gains, limits and reference."""
@@ -92,14 +97,17 @@ class BatchComputedTorque:
         r, v, a = self.reference.at(k)
         return a, r - q, v - qd
 
-    def torque(self, q: np.ndarray, qd: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``M^(q) v + H^ + G^``, saturated (the scalar ``torque``, arm by arm)."""
+    def unsaturated(self, q: np.ndarray, qd: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """``M^(q) v + H^ + G^`` (the scalar ``unsaturated``, arm by arm)."""
         m11, m12, m22, b1, b2 = terms(
             self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=np.cos, sin=np.sin
         )
         v1, v2 = v[:, 0], v[:, 1]
-        tau = np.stack([m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2], axis=1)
-        return np.clip(tau, -self.limit, self.limit)
+        return np.stack([m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2], axis=1)
+
+    def torque(self, q: np.ndarray, qd: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """:meth:`unsaturated`, saturated."""
+        return np.clip(self.unsaturated(q, qd, v), -self.limit, self.limit)
 
     def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         a, e, de = self.errors(k, q, qd)
@@ -114,9 +122,7 @@ class BatchFuzzyComputedTorque(BatchComputedTorque):
         super().__init__(controllers, times)
         self.engine = controllers[0].engine
         self.add = controllers[0].mode == "add"
-        self.ke, self.kde, self.ku = (
-            np.array([[getattr(c, f)] for c in controllers]) for f in ("ke", "kde", "ku")
-        )
+        self.ke, self.kde, self.ku = _fuzzy_scalings(controllers)
 
     def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         v, e, de = self.errors(k, q, qd)
@@ -154,11 +160,7 @@ class BatchIntegralComputedTorque(BatchComputedTorque):
     def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         a, e, de = self.errors(k, q, qd)
         v = a + self.kd * de + self.kp * e + self.ki * self.z
-        m11, m12, m22, b1, b2 = terms(
-            self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=np.cos, sin=np.sin
-        )
-        v1, v2 = v[:, 0], v[:, 1]
-        raw = np.stack([m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2], axis=1)
+        raw = self.unsaturated(q, qd, v)
         tau = np.clip(raw, -self.limit, self.limit)
         free = (tau == raw) | ((e > 0) != (raw > 0))  # anti-windup, as the scalar law
         self.z = np.where(free, self.z + e * self.dt, self.z)
@@ -172,9 +174,7 @@ class BatchFuzzyPD(BatchComputedTorque):
         super().__init__(controllers, times)
         self.engine = controllers[0].engine
         self.scale = np.array([c.scale for c in controllers])
-        self.ke, self.kde, self.ku = (
-            np.array([[getattr(c, f)] for c in controllers]) for f in ("ke", "kde", "ku")
-        )
+        self.ke, self.kde, self.ku = _fuzzy_scalings(controllers)
 
     def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
         _, e, de = self.errors(k, q, qd)

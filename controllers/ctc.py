@@ -62,14 +62,16 @@ class ComputedTorque:
         r2, v2, a2 = self.reference.joint2(t)
         return a1, a2, r1 - q1, r2 - q2, v1 - w1, v2 - w2
 
-    def torque(self, q: Sequence[float], qd: Sequence[float], v1: float, v2: float):
-        """``M^(q) v + H^ + G^``, saturated: the inner, linearising loop."""
+    def unsaturated(self, q: Sequence[float], qd: Sequence[float], v1: float, v2: float):
+        """``M^(q) v + H^ + G^``: the inner, linearising loop, before the actuator limit."""
         m11, m12, m22, b1, b2 = terms(self.model, q[0], q[1], qd[0], qd[1])
+        return m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2
+
+    def torque(self, q: Sequence[float], qd: Sequence[float], v1: float, v2: float):
+        """:meth:`unsaturated`, saturated."""
+        raw1, raw2 = self.unsaturated(q, qd, v1, v2)
         lim1, lim2 = self.torque_limit
-        return (
-            saturate(m11 * v1 + m12 * v2 + b1, lim1),
-            saturate(m12 * v1 + m22 * v2 + b2, lim2),
-        )
+        return saturate(raw1, lim1), saturate(raw2, lim2)
 
     def __call__(self, t: float, q: Sequence[float], qd: Sequence[float]) -> tuple[float, float]:
         a1, a2, e1, e2, de1, de2 = self.errors(t, q, qd)
