@@ -17,6 +17,11 @@ class Controller(Protocol):
     (two floats each) and returns the joint torques ``(tau1, tau2)`` [N m]. It is called
     once per control period, so it must be cheap. ``reset()`` clears any internal state
     before a new run. ``reference`` is the reference the controller tracks.
+
+    A controller of flexible joints that also reads the motors sets the class attribute
+    ``needs_motor = True`` and is called ``(t, q, qd, motor_q, motor_qd)`` instead, with
+    the rotor angles and rates (``controllers/flexible.py``); the simulation loop and the
+    batch engine check for it, so a rigid controller needs neither.
     """
 
     reference: ArmReference

@@ -183,21 +183,32 @@ class BatchFuzzyPD(BatchComputedTorque):
 
 
 class _ArmByArm:
-    """Any other controller, called once per arm (the scalar loop's call, unbatched)."""
+    """Any other controller, called once per arm (the scalar loop's call, unbatched). A
+    controller that reads the motors (``needs_motor``) gets them, as in the scalar loop."""
 
     def __init__(self, controllers: Sequence[Controller], times: np.ndarray) -> None:
         self.controllers = list(controllers)
         self.times = times
+        self.motor = [bool(getattr(c, "needs_motor", False)) for c in self.controllers]
+        self.needs_motor = any(self.motor)
 
-    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    def __call__(
+        self,
+        k: int,
+        q: np.ndarray,
+        qd: np.ndarray,
+        motor_q: np.ndarray | None = None,
+        motor_qd: np.ndarray | None = None,
+    ) -> np.ndarray:
         t = float(self.times[k])
-        return np.array(
-            [
-                c(t, tuple(qi.tolist()), tuple(wi.tolist()))
-                for c, qi, wi in zip(self.controllers, q, qd, strict=True)
-            ],
-            dtype=float,
-        ).reshape(-1, 2)
+        out = []
+        for i, (c, qi, wi) in enumerate(zip(self.controllers, q, qd, strict=True)):
+            if self.motor[i]:
+                m, md = tuple(motor_q[i].tolist()), tuple(motor_qd[i].tolist())
+                out.append(c(t, tuple(qi.tolist()), tuple(wi.tolist()), m, md))
+            else:
+                out.append(c(t, tuple(qi.tolist()), tuple(wi.tolist())))
+        return np.array(out, dtype=float).reshape(-1, 2)
 
 
 def _group_key(c: Controller) -> tuple[Any, ...]:
@@ -206,7 +217,9 @@ def _group_key(c: Controller) -> tuple[Any, ...]:
         return (kind, id(c.engine), c.mode)
     if kind is FuzzyPD:
         return (kind, id(c.engine))
-    return (kind,) if kind in _LAWS else (_ArmByArm,)
+    if kind in _LAWS or "batch_law" in vars(kind):  # a class may bring its own batch form
+        return (kind,)
+    return (_ArmByArm,)
 
 
 _LAWS: dict[type, type] = {
@@ -225,13 +238,17 @@ def batch_laws(
     """Group the arms' controllers into as few batch laws as possible.
 
     Returns ``(arm indices, law)`` pairs: ``law(k, q[idx], qd[idx])`` gives those arms'
-    torques at ``times[k]``. Fuzzy controllers are batched together when they share
-    an engine object (the experiment layer builds one engine per rule base).
+    torques at ``times[k]`` (``law(k, q, qd, motor_q, motor_qd)`` for a law whose
+    ``needs_motor`` is true: the flexible-joint controllers, ``controllers/flexible.py``,
+    whose classes name their batch form as ``batch_law``). Fuzzy controllers are batched
+    together when they share an engine object (the experiment layer builds one engine
+    per rule base).
     """
     groups: dict[tuple[Any, ...], list[int]] = {}
     for i, c in enumerate(controllers):
         groups.setdefault(_group_key(c), []).append(i)
-    return [
-        (np.array(idx), _LAWS[key[0]]([controllers[i] for i in idx], times))
-        for key, idx in groups.items()
-    ]
+    laws = []
+    for key, idx in groups.items():
+        law = _LAWS.get(key[0]) or vars(key[0])["batch_law"]
+        laws.append((np.array(idx), law([controllers[i] for i in idx], times)))
+    return laws

@@ -13,6 +13,12 @@ from a random initial partition, until max |U(k+1) - U(k)| < eps (the paper's
 criterion). The paper's eq 23 mixes its indices; this is the textbook update
 (Bezdek 1981) that it means.
 
+Optional sample weights w_i >= 0 weigh each point's term of the objective,
+J = sum_i w_i sum_j u_ij^m ||x_i - v_j||^2, so the centres become
+v_j = sum_i w_i u_ij^m x_i / sum_i w_i u_ij^m and the membership update is unchanged
+(a point's memberships do not depend on its own weight). An integer weight k is the
+same as the point repeated k times.
+
 A point that coincides with a centre (zero distance) belongs to that centre
 fully (shared equally if several centres coincide there); the update never
 divides by zero.
@@ -90,8 +96,10 @@ def _memberships_from_distances(dist: np.ndarray, m: float) -> np.ndarray:
     return weight / weight.sum(axis=1, keepdims=True)
 
 
-def _centres(x: np.ndarray, u: np.ndarray, m: float, previous: np.ndarray | None) -> np.ndarray:
-    w = u**m
+def _centres(
+    x: np.ndarray, u: np.ndarray, m: float, previous: np.ndarray | None, weights: np.ndarray
+) -> np.ndarray:
+    w = weights[:, None] * u**m
     mass = w.sum(axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         centers = (w.T @ x) / mass[:, None]
@@ -118,7 +126,8 @@ class FCMResult:
     initial_memberships : numpy.ndarray, shape (N, c)
         The starting partition U(0).
     objective : numpy.ndarray, shape (n_iter,)
-        J_m(U(k), V(k)) at each iteration k = 0 .. n_iter - 1, V(k) the centres of U(k).
+        J_m(U(k), V(k)) at each iteration k = 0 .. n_iter - 1, V(k) the centres of U(k)
+        (with sample weights: the weighted objective).
     n_iter : int
         Iterations run.
     converged : bool
@@ -172,6 +181,7 @@ def fcm(
     seed: int | None = None,
     rng: np.random.Generator | None = None,
     init: np.ndarray | None = None,
+    weights: np.ndarray | None = None,
 ) -> FCMResult:
     """Fuzzy C-Means clustering.
 
@@ -194,6 +204,9 @@ def fcm(
     init : array_like, shape (N, c), optional
         Initial partition U(0): non-negative, rows summing to 1. Give exactly one
         of ``seed``, ``rng`` and ``init``.
+    weights : array_like, shape (N,), optional
+        Sample weights w_i >= 0, not all zero (default: all 1): the weighted objective
+        sum_i w_i sum_j u_ij^m ||x_i - v_j||^2. Integer weights equal repeated points.
 
     Returns
     -------
@@ -202,8 +215,8 @@ def fcm(
     Raises
     ------
     ValueError
-        For m <= 1, c < 2 or c > N, malformed x or init, eps < 0, max_iter < 1,
-        or not exactly one source of the initial partition.
+        For m <= 1, c < 2 or c > N, malformed x, init or weights, eps < 0,
+        max_iter < 1, or not exactly one source of the initial partition.
     """
     x = _as_points(x, "x")
     n_points = x.shape[0]
@@ -219,6 +232,14 @@ def fcm(
         raise ValueError(f"eps must be a finite number >= 0, got {eps!r}")
     if isinstance(max_iter, bool) or not isinstance(max_iter, numbers.Integral) or max_iter < 1:
         raise ValueError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    if weights is None:
+        w = np.ones(n_points)
+    else:
+        w = np.asarray(weights, dtype=float)
+        if w.shape != (n_points,):
+            raise ValueError(f"weights must have shape (N,) = {(n_points,)}, got {w.shape}")
+        if not np.all(np.isfinite(w)) or np.any(w < 0) or not w.sum() > 0:
+            raise ValueError("weights must be finite, non-negative and not all zero")
     sources = [name for name, v in (("seed", seed), ("rng", rng), ("init", init)) if v is not None]
     if len(sources) != 1:
         raise ValueError(
@@ -249,9 +270,9 @@ def fcm(
     converged = False
     n_iter = 0
     while n_iter < max_iter:
-        centers = _centres(x, u, m, centers)
+        centers = _centres(x, u, m, centers, w)
         sq = ((x[:, None, :] - centers[None, :, :]) ** 2).sum(axis=-1)
-        objective.append(float(((u**m) * sq).sum()))
+        objective.append(float((w[:, None] * (u**m) * sq).sum()))
         u_next = _memberships_from_distances(np.sqrt(sq), m)
         change = float(np.max(np.abs(u_next - u)))
         u = u_next

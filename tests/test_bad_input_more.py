@@ -27,6 +27,7 @@ DESIGN = 'scenarios = ["tiny.toml"]\ncontroller = { kind = "fuzzy_ctc" }\ncluste
 # Files the cases point to, written beside the file under test.
 SIDE_FILES = {
     "tiny.toml": TINY,
+    "short.toml": 'extends = "tiny.toml"\nduration = 0.01\n',
     "design.toml": DESIGN,
     "bad_design.toml": DESIGN.replace("clusters = 2", "clusters = 1"),
     "bad_step.toml": 'extends = "tiny.toml"\nduration = -1.0\n',
@@ -989,9 +990,10 @@ DESIGN_CASES = {
     "clusters bool": ("clusters = 2", "clusters = true", "clusters: must be an integer >= 0"),
     "clusters above the rules": ("clusters = 2", "clusters = 50", "clusters: at most 49"),
     "clusters above the points": (
-        "clusters = 2",
-        "clusters = 7",
-        "clusters: at most the 6 phase-plane points",
+        '["tiny.toml"]\ncontroller = { kind = "fuzzy_ctc" }\nclusters = 2',
+        # 0.01 s: 6 samples (every 2nd) of each of 2 joints, 12 points
+        '["short.toml"]\ncontroller = { kind = "fuzzy_ctc" }\nclusters = 13',
+        "clusters: at most the 12 phase-plane points",
     ),
     "scenario a folder": ('["tiny.toml"]', '["."]', "scenarios: "),
     "controller gain negative": (

@@ -147,13 +147,15 @@ def test_mixed_controllers_durations_noise_and_starts_in_one_batch():
 
 
 def test_a_diverging_arm_stops_as_alone_and_leaves_the_others_untouched():
-    wild = {"kind": "ctc", "kp": 1e7, "kd": 10.0}  # discrete loop unstable at 1 kHz
+    # discrete loop unstable at 1 kHz; no actuator limit, so nothing bounds its torque
+    wild = {"kind": "ctc", "kp": 1e7, "kd": 10.0, "torque_limit": math.inf}
     scenarios = [
         scenario(),
         scenario(controller=wild),
         scenario(controller={"kind": "fcm_ctc", "rule_base": "paper"}),
         scenario(initial={"q": [200.0, 0.0]}),  # out of bounds at once: one sample kept
-        scenario(controller={"kind": "ctc", "kp": 1e300}),  # torque out of bounds at once
+        # torque out of bounds at once
+        scenario(controller={"kind": "ctc", "kp": 1e300, "torque_limit": math.inf}),
     ]
     batch = check_against_single(scenarios)
     assert [b.status for b in batch] == ["ok", "diverged", "ok", "diverged", "diverged"]

@@ -15,6 +15,7 @@ from twolink.design import (
     load_design_config,
     save_design,
 )
+from twolink.design_checks import mirror_rule
 from twolink.experiment import build_controller, run_scenario
 
 PAPER = Path(__file__).resolve().parents[1] / "runs" / "paper"
@@ -40,16 +41,19 @@ def test_design_is_deterministic_for_a_seed(config, result):
 
 def test_kept_rules_are_the_rules_the_evidence_names(result):
     rules = result.engine.rules
-    # per cluster: the rule with the largest membership-weighted firing strength
-    w = result.clustering.memberships**2.0
+    # per cluster: the rule with the largest weighted, membership-weighted firing strength
+    w = np.abs(result.points).sum(axis=1)[:, None] * result.clustering.memberships**2.0
     firing = result.engine.firing(result.points[:, 0], result.points[:, 1])
     scores = (w.T @ firing) / w.sum(axis=0)[:, None]
     np.testing.assert_allclose(scores, result.scores, rtol=1e-12)
-    assert set(result.rules) == {rules[i] for i in np.argmax(scores, axis=1)}
-    # every kept rule fired on the trajectory and is the best rule at its cluster
+    clustered = {rules[i] for i in np.argmax(scores, axis=1)}
+    assert set(result.clustered_rules) == clustered
+    # the rule base: those rules and their mirrors (symmetry = "enforce")
+    assert set(result.rules) == clustered | {mirror_rule(r) for r in clustered}
+    # every clustered rule fired on the trajectory and is the best rule at its cluster
     counts = result.firing_counts
-    assert all(counts.get(r, 0) > 0 for r in result.rules)
-    assert len(result.rules) <= result.clustering.n_clusters
+    assert all(counts.get(r, 0) > 0 for r in clustered)
+    assert len(clustered) <= result.clustering.n_clusters
 
 
 def test_written_rule_base_and_evidence_round_trip(tmp_path, config, result):
@@ -57,11 +61,17 @@ def test_written_rule_base_and_evidence_round_trip(tmp_path, config, result):
     saved = load_rule_base(tmp_path / "rule_base.toml")
     assert set(saved.rules) == set(result.rules)
     ev = saved.metadata["evidence"]
-    assert {tuple(s.split()) for s in ev["kept_per_cluster"]} == set(result.rules)
+    assert {tuple(s.split()) for s in ev["kept_per_cluster"]} == set(result.clustered_rules)
     np.testing.assert_allclose(ev["centres_e"], result.clustering.centers[:, 0], atol=1e-6)
     loaded, designed = design_or_load(config, tmp_path)
     assert not designed and loaded.rules == result.rules
     np.testing.assert_array_equal(loaded.points, result.points)
+    np.testing.assert_array_equal(loaded.sample_weights, result.sample_weights)
+    assert loaded.splits == result.splits
+    for a, b in zip(loaded.validation, result.validation, strict=True):
+        assert (a.run, a.file, a.controller) == (b.run, b.file, b.controller)
+        for k in a.COLUMNS:
+            np.testing.assert_allclose(getattr(a, k), getattr(b, k), rtol=1e-5, atol=0)
 
 
 def test_an_edited_designed_rule_base_is_not_reused(tmp_path, config, result):

@@ -175,6 +175,10 @@ def test_stops_on_eps_or_max_iter():
         ({"x": np.zeros((10, 2, 1))}, "2-D"),
         ({"x": np.zeros((0, 2))}, "at least one point"),
         ({"x": np.array([[np.nan, 0.0]] * 10)}, "NaN"),
+        ({"weights": np.ones(9)}, "weights must have shape"),
+        ({"weights": -np.ones(10)}, "non-negative"),
+        ({"weights": np.zeros(10)}, "not all zero"),
+        ({"weights": np.full(10, np.nan)}, "finite"),
     ],
 )
 def test_errors(kwargs, match):
@@ -188,3 +192,48 @@ def test_predict_checks_shape():
     with pytest.raises(ValueError, match="features"):
         res.predict(np.zeros((3, 3)))
     assert res.predict(np.zeros((3, 2))).shape == (3, 2)
+
+
+def test_integer_weights_equal_repeated_points():
+    # Weighted FCM against its definition: a weight k is the point repeated k times (from
+    # the same initial partition, repeated with it), iteration by iteration.
+    x, _ = blobs(3)
+    rng = np.random.default_rng(5)
+    k = rng.integers(0, 4, size=len(x))
+    k[0] = 1
+    u0 = rng.random((len(x), 4))
+    u0 /= u0.sum(axis=1, keepdims=True)
+    for n_iter in (1, 7):
+        weighted = fcm(x, 4, eps=0.0, max_iter=n_iter, init=u0, weights=k)
+        repeated = fcm(
+            np.repeat(x, k, axis=0), 4, eps=0.0, max_iter=n_iter, init=np.repeat(u0, k, 0)
+        )
+        np.testing.assert_allclose(weighted.centers, repeated.centers, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(weighted.objective, repeated.objective, rtol=1e-12)
+        np.testing.assert_allclose(
+            np.repeat(weighted.memberships, k, axis=0), repeated.memberships, atol=1e-12
+        )
+
+
+def test_unit_weights_change_nothing_and_zero_weights_drop_points():
+    x, _ = blobs(4)
+    plain = fcm(x, 4, seed=1)
+    ones = fcm(x, 4, seed=1, weights=np.ones(len(x)))
+    np.testing.assert_array_equal(plain.centers, ones.centers)
+    np.testing.assert_array_equal(plain.objective, ones.objective)
+    # far outliers with zero weight do not move the centres
+    outliers = np.full((50, 2), 100.0)
+    u0 = np.random.default_rng(2).random((len(x) + 50, 4))
+    u0 /= u0.sum(axis=1, keepdims=True)
+    with_outliers = fcm(
+        np.vstack([x, outliers]),
+        4,
+        eps=0.0,
+        max_iter=20,
+        init=u0,
+        weights=np.r_[np.ones(len(x)), np.zeros(50)],
+    )
+    without = fcm(
+        x, 4, eps=0.0, max_iter=20, init=u0[: len(x)] / u0[: len(x)].sum(1, keepdims=True)
+    )
+    np.testing.assert_allclose(with_outliers.centers, without.centers, atol=1e-12)

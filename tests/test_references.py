@@ -11,6 +11,7 @@ from twolink.references import (
     ArmReference,
     Quintic,
     Ramp,
+    Septic,
     Sine,
     Step,
     make_reference,
@@ -23,8 +24,9 @@ REFERENCES = [
     Ramp(initial=1.0, final=0.25, duration=0.3),
     Sine(amplitude=0.8, frequency_hz=0.7, offset=0.1, phase=0.3),
     Quintic(initial=0.5, final=-1.0, duration=1.7, t0=0.4),
+    Septic(initial=0.5, final=-1.0, duration=1.7, t0=0.4),
 ]
-IDS = ["step", "ramp", "ramp-down", "sine", "quintic"]
+IDS = ["step", "ramp", "ramp-down", "sine", "quintic", "septic"]
 
 
 def _times(ref) -> np.ndarray:

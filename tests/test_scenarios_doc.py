@@ -4,7 +4,7 @@ from dataclasses import fields
 from pathlib import Path
 
 from twolink.config import load_scenario
-from twolink.references import Quintic, Ramp, Sine, Step
+from twolink.references import Quintic, Ramp, Septic, Sine, Step
 
 REPO = Path(__file__).resolve().parents[1]
 DOC = (REPO / "docs" / "scenarios.md").read_text()
@@ -34,7 +34,7 @@ def test_every_scenario_key_is_documented():
 
 
 def test_every_reference_kind_and_parameter_is_documented():
-    for cls in (Step, Ramp, Sine, Quintic):
+    for cls in (Step, Ramp, Sine, Quintic, Septic):
         assert f'`"{cls.kind}"`' in DOC
         for f in fields(cls):
             assert f"`{f.name}`" in DOC, (cls.kind, f.name)

@@ -171,7 +171,8 @@ def simulate_batch(
 ) -> BatchResult:
     """Run arm i of ``plant`` under ``controllers[i]`` for ``durations[i]`` seconds.
 
-    The arguments are those of :func:`twolink.sim.simulate`, one per arm: ``q0`` and
+    The arguments are those of :func:`twolink.sim.simulate`, one per arm (a controller
+    that reads the motors, ``needs_motor``, gets each arm's rotor states): ``q0`` and
     ``qd0`` of shape (N, 2) (default zeros), ``noise[i]`` of shape (steps_i + 1, 2) or
     None. Every arm shares the plant's timestep and ``control_dt``.
     """
@@ -191,6 +192,14 @@ def simulate_batch(
     for c in controllers:
         c.reset()
     laws = batch_laws(controllers, times)
+    motor_laws = [bool(getattr(law, "needs_motor", False)) for _, law in laws]
+    rigid = [i for i, c in enumerate(controllers) if getattr(c, "needs_motor", False)]
+    rigid = [i for i in rigid if not plant.flexible[i]]
+    if rigid:
+        raise ValueError(
+            f"arm {rigid[0]}'s controller ({type(controllers[rigid[0]]).__name__}) reads the "
+            "motor states of flexible joints; that arm is rigid"
+        )
     plant.reset(q0, qd0)
     model, data = plant.model, plant.data
     qpos, qvel, ctrl = data.qpos, data.qvel, data.ctrl
@@ -227,8 +236,14 @@ def simulate_batch(
             active &= ~escaped
             q[escaped] = qd[escaped] = 0.0  # the laws see finite numbers
         seen = q if noise_all is None else q + noise_all[k]
-        for idx, law in laws:
-            tau[idx] = law(k, seen[idx], qd[idx])
+        if any(motor_laws):  # the rotors, for the laws of flexible joints
+            mq, mqd = qpos[plant.motor_index], qvel[plant.motor_v_index]
+            mq[~active] = mqd[~active] = 0.0
+        for (idx, law), motor in zip(laws, motor_laws, strict=True):
+            if motor:
+                tau[idx] = law(k, seen[idx], qd[idx], mq[idx], mqd[idx])
+            else:
+                tau[idx] = law(k, seen[idx], qd[idx])
         stopped = not active.all()
         if stopped:
             tau[~active] = np.nan if k == 0 else 0.0

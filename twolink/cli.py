@@ -10,7 +10,7 @@ from pathlib import Path
 
 import click
 
-from twolink.executors import EXECUTORS
+from twolink.executors import EXECUTORS, open_executor
 from twolink.params import ArmParams, Flexibility
 
 REPO_MODELS = Path(__file__).resolve().parents[1] / "models"
@@ -223,6 +223,8 @@ def run(
         f"{100 * spec.final_error:g} % of the step at the end, overshoot at most "
         f"{spec.max_overshoot_pct:g} %)"
     )
+    for warning in metrics.warnings:  # physically meaningless states (docs/model.md)
+        click.echo(f"warning: {warning}")
     click.echo(f"results in {folder}")
     if not no_trace:
         from twolink.experiment import TRACE_EVERY
@@ -289,7 +291,10 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
             check_output_file(figure, "--figure")
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
-    result = run_design(config)
+    try:
+        result = run_design(config)
+    except ConfigError as exc:
+        _fail_input(str(exc))
     path = write_design(result, target)
     for j, i in enumerate(result.kept):
         rule = result.engine.rules[i]
@@ -298,12 +303,100 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
             f"cluster {j}: centre ({c[0]:+.3f}, {c[1]:+.3f})  rule {' '.join(rule)}"
             f"  score {result.scores[j, i]:.3f}"
         )
+    added = [r for r in result.rules if r not in result.clustered_rules]
+    quadrants = ", ".join(f"{q} {n}" for q, n in result.quadrant_counts.items())
+    click.echo(
+        f"samples {len(result.points)}: {result.settled_count} settled (|e|+|de| < "
+        f"{result.settled_radius:g}, {100 * result.settled_weight_share:.1f} % of the weight, "
+        f"{result.settled!r}), {result.trimmed_count} weigh nothing; outside: {quadrants}"
+    )
+    click.echo(
+        f"symmetry {result.symmetry!r}: {len(added)} mirror rules added, surface asymmetry "
+        f"{result.symmetry_of(result.rules).max_asymmetry:.3g}"
+    )
+    for row in result.validation:
+        click.echo(
+            f"held out: {row.file:22s} {row.controller:8s} Mp {row.overshoot_pct:6.3g} %  "
+            f"Ts {row.settling_s:6.3g} s  IAE {row.iae:8.3g} rad s  peak tau "
+            f"{row.peak_torque_Nm:6.3g} N m"
+        )
     click.echo(f"{len(result.rules)} rules kept -> {path}")
+    if install:
+        from twolink.design import DOCS, update_docs
+
+        update_docs(path, DOCS)
+        click.echo(f"designed rule base tables -> {DOCS}")
     if figure:
         from twolink.plots import phase_plane_figure, save_figure
 
         save_figure(phase_plane_figure(result), figure)
         click.echo(f"phase plane -> {figure}")
+
+
+@main.command(short_help="Run the gain study and apply its design rule.")
+@click.argument("study_file", required=False, type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("results/gains"),
+    show_default=True,
+    help="Folder for the table (gains.csv), its choice (gains.json) and the trade-off figure.",
+)
+@click.option(
+    "--install",
+    is_flag=True,
+    help="Also write the study's shipped table (runs/paper/gains.csv) that the reproduction reads.",
+)
+@click.option(
+    "--workers",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Processes [default: all cores].",
+)
+@set_option
+def gains(study_file: Path | None, out: Path, install: bool, workers: int | None, settings) -> None:
+    """Run the gain study (ωn, ζ against error under mismatch, torque and saturation) and
+    print the operating point its design rule picks (docs/control.md).
+
+    \b
+    Examples:
+      twolink gains                             # runs/paper/gains.toml -> results/gains/
+      twolink gains --set plants=10             # a quicker, coarser study
+      twolink gains --install                   # update runs/paper/gains.csv
+    """
+    from twolink import gains as study_module
+    from twolink.config import ConfigError, parse_set
+    from twolink.io import check_output_folder
+
+    try:
+        study = study_module.load_gain_study(
+            study_file or study_module.DEFAULT_STUDY, parse_set(settings)
+        )
+        check_output_folder(out)
+    except (ConfigError, OSError) as exc:
+        _fail_input(str(exc))
+    click.echo(f"gain study: {study_module.n_runs(study)} runs ({study.source})", err=True)
+    if install and parse_set(settings):
+        _fail_input("--install writes the shipped table of the study file as it is; drop --set")
+    with open_executor("process", workers) as pool:
+        results = study_module.run_gain_study(study, pool, progress=True)
+    table = study_module.gain_table(results, study.quantile)
+    try:
+        choice = study_module.choose(table, study)
+    except ValueError as exc:
+        choice = None
+        click.echo(f"error: {exc}", err=True)
+    if choice is not None:
+        study_module.save_study(table, study, choice, out / "gains.csv")
+        if install:
+            study_module.save_study(table, study, choice, study_module.table_path(study))
+    study_module.tradeoff_figure(table, study, choice, out / "gain_tradeoff.png")
+    if choice is None:
+        sys.exit(1)
+    click.echo("\n".join(study_module.summary_lines(table, choice)))
+    click.echo(f"\n{choice.reason}")
+    click.echo(f"kp = {choice.wn**2:g}, kd = {2 * choice.zeta * choice.wn:g}, ki = {choice.ki:g}")
+    click.echo(f"-> {out}" + (f" and {study_module.table_path(study)}" if install else ""))
 
 
 @main.command(short_help="Reproduce the paper's tables and figures.")

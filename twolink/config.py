@@ -24,11 +24,13 @@ Schema (all keys optional except the reference)::
     k = [500, 500]  d = [1, 1]  j = [0.05, 0.05]
     [controller]
     kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules);
-                             # baselines: "pd_gravity", "ctc_integral", "fuzzy_pd"
+                             # baselines: "pd_gravity", "ctc_integral", "fuzzy_pd";
+                             # flexible joints: "motor_pd", "composite", "flexible_fl"
     kp = [4, 4]  kd = [2.4, 2.4]  torque_limit = 1e3
     ki = [2, 2]              # ctc_integral: integral gain, 1/s^3
     rule_base = "paper"      # fcm_ctc, fuzzy_pd: "paper", "designed", "default" or a path
-    fuzzy = { ke = 1.0, kde = 1.0, ku = 4.0, mode = "add" }
+    [controller.fuzzy]       # u = ku f(ke e, kde de); "auto": tied to the gains (docs/fuzzy.md)
+    ke = "auto"  kde = "auto"  ku = "auto"  span = "auto"  authority = 1.0  mode = "add"
     [reference.joint1]
     kind = "step"  initial = 0.0  final = 1.0
     [reference.joint2]
@@ -50,7 +52,18 @@ from typing import Any
 from twolink.params import ArmParams, Flexibility
 from twolink.references import ArmReference, make_reference, reference_params
 
-CONTROLLER_KINDS = ("ctc", "fuzzy_ctc", "fcm_ctc", "pd_gravity", "ctc_integral", "fuzzy_pd")
+# Controllers of flexible joints (controllers/flexible.py): they read the motor states and
+# model the joints with [plant.flexibility], so they need a flexible plant.
+FLEXIBLE_KINDS = ("motor_pd", "composite", "flexible_fl")
+CONTROLLER_KINDS = (
+    "ctc",
+    "fuzzy_ctc",
+    "fcm_ctc",
+    "pd_gravity",
+    "ctc_integral",
+    "fuzzy_pd",
+    *FLEXIBLE_KINDS,
+)
 FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc", "fuzzy_pd")  # controllers with a fuzzy engine
 RULE_BASE_KINDS = ("fcm_ctc", "fuzzy_pd")  # those whose rule base is the rule_base key
 FUZZY_MODES = ("add", "replace")
@@ -88,12 +101,83 @@ class PlantConfig:
 
 @dataclass(frozen=True)
 class FuzzyConfig:
-    """Scaling of the fuzzy term: u = ku * engine(ke * e, kde * de), and how it joins CTC."""
+    """Scaling of the fuzzy term: u = ku * engine(ke * e, kde * de), and how it joins CTC.
+
+    In a scenario each of ``ke``, ``kde``, ``ku`` is a number or ``"auto"`` (the default),
+    resolved when the scenario is read by :func:`auto_fuzzy_scaling` from the controller's
+    gains, ``span`` and ``authority``; a resolved config holds numbers only.
+    """
 
     ke: float = 1.0
     kde: float = 1.0
     ku: float = 4.0
     mode: str = "add"
+    span: float = 1.0  # rad: E, the error that reaches the edge of the input universe
+    authority: float = 1.0  # fuzzy full scale / PD term at full-scale error ("auto")
+
+
+AUTO = "auto"
+DEFAULT_SPAN = 1.0  # rad: E where no joint has a torque limit (the paper's 1 rad moves)
+
+
+def linear_span(
+    arm: ArmParams, kp: Sequence[float], torque_limit: Sequence[float] = (math.inf, math.inf)
+) -> float:
+    """E, the largest error the PD term answers without saturating the actuator [rad].
+
+    Per joint j, the torque left over the largest static gravity torque, divided by the
+    PD term's torque per radian at the largest inertia, M̂jj Kp_j (both at θ = 0, the arm
+    straight and horizontal); the smaller of the two joints. A joint with Kp = 0, no
+    limit, or a limit that does not exceed gravity's torque (it cannot hold itself,
+    whatever the span) gives none; :data:`DEFAULT_SPAN` where neither gives one.
+    """
+    import numpy as np
+
+    from twolink.dynamics import gravity, mass_matrix
+
+    m = mass_matrix(arm, np.zeros(2))
+    g = np.abs(gravity(arm, np.zeros(2))).tolist()
+    spans = []
+    for j in range(2):
+        if not math.isfinite(torque_limit[j]) or not kp[j] > 0:
+            continue
+        headroom = torque_limit[j] - g[j]
+        if headroom > 0:  # else the joint cannot even hold itself: no linear range
+            spans.append(float(headroom / (m[j, j] * kp[j])))
+    return min(spans, default=DEFAULT_SPAN)
+
+
+def auto_fuzzy_scaling(
+    kp: Sequence[float],
+    span: float = DEFAULT_SPAN,
+    authority: float = 1.0,
+    ke: float | None = None,
+    kde: float | None = None,
+    ku: float | None = None,
+) -> tuple[float, float, float]:
+    """The fuzzy scaling tied to the CTC gains (docs/fuzzy.md, "Scaling"); a value given
+    (not None) is kept, and the others follow from it.
+
+    With the softer joint's stiffness (the smaller Kp = ωn²; both joints share one
+    scaling):
+
+    - ``ke = 1 / span``: an error of ``span`` (E; by default :func:`linear_span`, the
+      largest error the PD term answers unsaturated) fills the error universe;
+    - ``kde = ke / ωn``: a rate of ωn E, a full-scale error changing on the loop's own
+      time scale 1/ωn, fills the rate universe;
+    - ``ku = authority · Kp / ke``: the fuzzy term's full scale is ``authority`` times the
+      PD term's Kp · E at full-scale error E = 1/ke.
+
+    The damping (Kd) does not enter. Raises ValueError where the softer joint's Kp is 0
+    and ``kde`` or ``ku`` is derived.
+    """
+    kp_s = float(min(kp))
+    ke = 1.0 / span if ke is None else ke
+    if (kde is None or ku is None) and not kp_s > 0:
+        raise ValueError(f"needs kp > 0 on both joints, got kp = {list(kp)}")
+    kde = ke / math.sqrt(kp_s) if kde is None else kde
+    ku = authority * kp_s / ke if ku is None else ku
+    return ke, kde, ku
 
 
 @dataclass(frozen=True)
@@ -102,7 +186,7 @@ class ControllerConfig:
     kp: tuple[float, float] = (4.0, 4.0)
     kd: tuple[float, float] = (2.4, 2.4)
     ki: tuple[float, float] = (2.0, 2.0)
-    torque_limit: float = math.inf
+    torque_limit: tuple[float, float] = (math.inf, math.inf)  # N m per joint
     rule_base: str = "paper"
     fuzzy: FuzzyConfig = FuzzyConfig()
 
@@ -243,6 +327,7 @@ FILE_KINDS = {
     "sweep": (("samples", "parameters", "chunk_size"), "twolink sweep FILE"),
     "manifest": (("experiment", "variants"), "twolink reproduce --manifest FILE"),
     "design": (("scenarios", "clusters", "fuzzifier"), "twolink design --config FILE"),
+    "gains": (("natural_frequencies", "damping_ratios"), "twolink gains FILE"),
 }
 
 
@@ -383,29 +468,73 @@ def _plant(t: TomlTable) -> PlantConfig:
     return plant
 
 
-def controller_from_table(t: TomlTable) -> ControllerConfig:
-    """A ``[controller]`` table (or overrides of one) validated; errors name ``t``'s file."""
+def controller_from_table(t: TomlTable, arm: ArmParams | None = None) -> ControllerConfig:
+    """A ``[controller]`` table (or overrides of one) validated; errors name ``t``'s file.
+    ``arm`` (default: the default arm) is the model that an "auto" fuzzy span reads."""
     d = ControllerConfig()
-    f = t.table("fuzzy")
-    fd = FuzzyConfig()
-    fuzzy = FuzzyConfig(
-        ke=f.number("ke", fd.ke, positive=True),
-        kde=f.number("kde", fd.kde, positive=True),
-        ku=f.number("ku", fd.ku, minimum=0.0),
-        mode=f.string("mode", fd.mode, FUZZY_MODES),
-    )
-    f.done()
+    kind = t.string("kind", d.kind, CONTROLLER_KINDS)
+    kp = t.pair("kp", d.kp, minimum=0.0)
+    kd = t.pair("kd", d.kd, minimum=0.0)
+    limit = t.pair("torque_limit", d.torque_limit, positive=True, allow_inf=True)
+    fuzzy = _fuzzy(t.table("fuzzy"), kind, kp, limit, arm or ArmParams())
     ctrl = ControllerConfig(
-        kind=t.string("kind", d.kind, CONTROLLER_KINDS),
-        kp=t.pair("kp", d.kp, minimum=0.0),
-        kd=t.pair("kd", d.kd, minimum=0.0),
+        kind=kind,
+        kp=kp,
+        kd=kd,
         ki=t.pair("ki", d.ki, minimum=0.0),
-        torque_limit=t.number("torque_limit", d.torque_limit, positive=True, allow_inf=True),
+        torque_limit=t.pair("torque_limit", d.torque_limit, positive=True, allow_inf=True),
         rule_base=t.string("rule_base", d.rule_base),
         fuzzy=fuzzy,
     )
     t.done()
     return ctrl
+
+
+def _fuzzy(
+    f: TomlTable,
+    kind: str,
+    kp: Sequence[float],
+    limit: Sequence[float],
+    arm: ArmParams,
+) -> FuzzyConfig:
+    """``[controller.fuzzy]`` with its "auto" scalings resolved from the gains."""
+    fd = FuzzyConfig()
+    span = _auto_or_number(f, "span", positive=True)
+    if span is None:
+        span = linear_span(arm, kp, limit)
+    authority = f.number("authority", fd.authority, minimum=0.0)
+    given = {
+        "ke": _auto_or_number(f, "ke", positive=True),
+        "kde": _auto_or_number(f, "kde", positive=True),
+        "ku": _auto_or_number(f, "ku", minimum=0.0),
+    }
+    try:
+        ke, kde, ku = auto_fuzzy_scaling(kp, span, authority, **given)
+    except ValueError as exc:
+        if kind in FUZZY_KINDS:
+            auto = next(k for k in ("kde", "ku") if given[k] is None)
+            f.fail(auto, f'"auto" {exc} (or give {auto} as a number)')
+        ke, kde, ku = fd.ke, fd.kde, fd.ku  # a controller without a fuzzy term: unused
+    fuzzy = FuzzyConfig(
+        ke=ke,
+        kde=kde,
+        ku=ku,
+        mode=f.string("mode", fd.mode, FUZZY_MODES),
+        span=span,
+        authority=authority,
+    )
+    f.done()
+    return fuzzy
+
+
+def _auto_or_number(t: TomlTable, key: str, **checks: Any) -> float | None:
+    """A fuzzy scaling key: a checked number, or None for "auto" (its default)."""
+    value = t.raw(key, AUTO)
+    if value == AUTO:
+        return None
+    if isinstance(value, str):
+        t.fail(key, f'must be a number or "auto", got {value!r}')
+    return t.number(key, 0.0, **checks)
 
 
 def _reference(t: TomlTable) -> ArmReference:
@@ -430,11 +559,12 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     if "reference" not in data:
         top.fail("reference", "missing: a scenario needs [reference.joint1] and .joint2")
     initial = top.table("initial")
+    arm = _arm(top.table("arm"))
     scenario = Scenario(
         name=top.string("name", Path(source).stem),
-        arm=_arm(top.table("arm")),
+        arm=arm,
         plant=_plant(top.table("plant")),
-        controller=controller_from_table(top.table("controller")),
+        controller=controller_from_table(top.table("controller"), arm),
         reference=_reference(top.table("reference")),
         duration=top.number("duration", 10.0, positive=True),
         control_dt=top.number("control_dt", 1e-3, positive=True),
@@ -463,6 +593,12 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     except ValueError as exc:
         top.fail("plant.scale", str(exc))
     _check_rule_base(top, scenario)
+    if scenario.controller.kind in FLEXIBLE_KINDS and scenario.plant.flexibility is None:
+        top.fail(
+            "controller.kind",
+            f"{scenario.controller.kind!r} reads the motors of flexible joints and models them "
+            "with [plant.flexibility], which this scenario lacks (a rigid arm)",
+        )
     return scenario
 
 

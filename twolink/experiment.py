@@ -18,7 +18,7 @@ import numpy as np
 
 from controllers.base import Controller
 from controllers.ctc import ComputedTorque
-from twolink.config import BUILTIN_RULE_BASES, Scenario, resolve_rule_base
+from twolink.config import BUILTIN_RULE_BASES, FLEXIBLE_KINDS, Scenario, resolve_rule_base
 from twolink.io import atomic_folder, atomic_write_json, atomic_write_text, to_toml
 from twolink.metrics import (
     error_measures,
@@ -44,6 +44,17 @@ def build_controller(s: Scenario) -> Controller:
     common = dict(model=s.arm, reference=s.reference, kp=c.kp, kd=c.kd, torque_limit=c.torque_limit)
     if c.kind == "ctc":
         return ComputedTorque(**common)
+    if c.kind in FLEXIBLE_KINDS:  # they model the joints with the plant's own (identified)
+        from controllers import flexible
+
+        joints = s.plant.flexibility
+        if c.kind == "motor_pd":
+            return flexible.MotorPD(**common, joints=joints)
+        if c.kind == "composite":
+            return flexible.CompositeControl(**common, joints=joints)
+        return flexible.FlexibleFeedbackLinearisation(
+            **common, joints=joints, control_dt=s.control_dt
+        )
     from controllers import baselines
 
     if c.kind == "pd_gravity":
@@ -190,6 +201,24 @@ class RunMetrics:
     message: str
     final_error: tuple[float, float] = (math.nan, math.nan)  # |θd(T) − θ(T)| per joint
     oscillation: tuple[float, float] = (math.nan, math.nan)  # sustained, per joint
+    # Ts to the target (within 2 % of the step of θd's final value), NaN where it never gets
+    # there or the joint has no step; ``step[j].settling_time`` is Ts to the final value.
+    settling_target: tuple[float, float] = (math.nan, math.nan)
+    # Flexible joints: the largest spring twist |φ − θ| per joint (NaN for the rigid arm);
+    # beyond twolink.params.TWIST_LIMIT the joint is no physical spring (``warnings``).
+    max_twist: tuple[float, float] = (math.nan, math.nan)
+
+    @property
+    def warnings(self) -> list[str]:
+        """Physically meaningless states of the run, in words (empty when none)."""
+        from twolink.params import TWIST_LIMIT
+
+        return [
+            f"joint {j} spring twisted by {twist:.3g} rad, beyond the {TWIST_LIMIT} rad a real "
+            "elastic joint takes (docs/model.md, 'Realistic joints')"
+            for j, twist in enumerate(self.max_twist, start=1)
+            if twist > TWIST_LIMIT
+        ]
 
     def to_dict(self, controller: str = "", outcome: str = "") -> dict[str, Any]:
         """``metrics.json``: status, outcome (``twolink.outcome``), and every metric of
@@ -201,15 +230,24 @@ class RunMetrics:
             message=self.message,
             joint1=joint_values(self, 1),
             joint2=joint_values(self, 2),
+            max_twist_rad=list(self.max_twist),
+            warnings=self.warnings,
         )
 
 
 def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
-    """Step metrics per joint (towards the reference's final value), integral measures."""
+    """Step metrics per joint (towards the reference's final value, Ts both to the final
+    value and to the target), error measures (integrals, max |e|), torque, oscillation."""
     steps = []
+    to_target = []
     for j, target in enumerate(s.reference.final):
         moves = np.isfinite(target) and target != s.q0[j]
         steps.append(step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j]) if moves else None)
+        to_target.append(
+            step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j], final_value=target).settling_time
+            if moves
+            else math.nan
+        )
     return RunMetrics(
         step=(steps[0], steps[1]),
         errors=error_measures(traj.t, traj.e),
@@ -218,7 +256,19 @@ def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
         message=traj.message,
         final_error=tuple(float(x) for x in np.abs(traj.e[-1])) if len(traj.t) else (math.nan,) * 2,
         oscillation=oscillation_amplitude(traj.t, traj.e) if len(traj.t) else (math.nan,) * 2,
+        settling_target=(to_target[0], to_target[1]),
+        max_twist=max_twist(traj),
     )
+
+
+def max_twist(traj: Trajectory) -> tuple[float, float]:
+    """The largest |φ − θ| per joint over a run (NaN for the rigid arm, or where the
+    twist was never finite)."""
+    twist = np.abs(traj.twist)
+    if not len(twist):
+        return (math.nan, math.nan)
+    finite = np.where(np.isfinite(twist), twist, -np.inf).max(axis=0)
+    return tuple(float(x) if np.isfinite(x) else math.nan for x in finite)  # type: ignore[return-value]
 
 
 TRACE_EVERY = 5  # recordings at 200 Hz: smooth to watch; trajectory.npz keeps every sample
@@ -272,7 +322,7 @@ def write_run(
     no file of an earlier run stays beside the new ones. ``name`` is the controller's name
     in the outputs (default: its kind's label)."""
     out = Path(out)
-    name = name or CONTROLLER_LABELS[s.controller.kind]
+    name = name or CONTROLLER_LABELS.get(s.controller.kind, s.controller.kind)
     with atomic_folder(out) as tmp:
         atomic_write_text(tmp / "config.toml", to_toml(portable_config(s, out)))
         traj.save(tmp / "trajectory.npz")

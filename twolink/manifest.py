@@ -33,6 +33,7 @@ class Experiment:
     table: int | None = None
     figure: int | None = None
     paper: dict[str, dict[str, float]] = field(default_factory=dict)
+    name: str | None = None  # an experiment beyond the paper: no table or figure of its own
 
     def paper_value(self, controller: str, key: str) -> float | None:
         """The paper's value of metric ``key`` for ``controller``, in the key's unit (its
@@ -43,7 +44,16 @@ class Experiment:
 
     @property
     def key(self) -> str:
-        return f"table{self.table}" if self.table else f"figure{self.figure}"
+        if self.table:
+            return f"table{self.table}"
+        return f"figure{self.figure}" if self.figure else str(self.name)
+
+    @property
+    def label(self) -> str:
+        """How the report heads it: "Table 2", "Figure 6", or "Beyond the paper"."""
+        if self.table:
+            return f"Table {self.table}"
+        return f"Figure {self.figure}" if self.figure else "Beyond the paper"
 
 
 @dataclass(frozen=True)
@@ -71,6 +81,8 @@ class Manifest:
     claims_study : Path or None
         A sweep file whose plants judge the claim with confidence intervals
         (:mod:`twolink.claims`); it must run ``proposed`` and ``baseline`` by those names.
+    gain_study : Path or None
+        The gain-study file (:mod:`twolink.gains`) whose trade-off the report shows.
     """
 
     path: Path
@@ -82,6 +94,7 @@ class Manifest:
     proposed: str = "FCM-CTC"
     baseline: str = "CTC"
     claims_study: Path | None = None
+    gain_study: Path | None = None
 
 
 def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]) -> str:
@@ -190,8 +203,15 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
                 isinstance(number, bool) or not isinstance(number, int) or number < 1
             ):
                 e.fail("table", f"table and figure must be integers >= 1, got {number!r}")
-        if table is None and figure is None:
-            e.fail("table", "an experiment needs a table or figure number")
+        name = e.raw("name")
+        if name is not None and (table is not None or figure is not None):
+            e.fail("name", "names an experiment beyond the paper: give no table or figure")
+        if name is not None and unsafe_name_problem(name):
+            e.fail("name", unsafe_name_problem(name))
+        if isinstance(name, str) and name.startswith(("table", "figure")):
+            e.fail("name", f"must not start with table or figure (their folders), got {name!r}")
+        if name is None and table is None and figure is None:
+            e.fail("table", "an experiment needs a table or figure number (or a name)")
         scenario = path.parent / e.string("scenario", "")
         if not scenario.is_file():
             e.fail("scenario", f"no such file {scenario}")
@@ -200,11 +220,11 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
             e.fail("joint", f"must be 1 or 2, got {joint}")
         paper = _paper_values(e, controllers)
         experiment = Experiment(
-            e.string("title", scenario.stem), scenario, joint, table, figure, paper
+            e.string("title", scenario.stem), scenario, joint, table, figure, paper, name
         )
         if experiment.key in folders:
             e.fail(
-                "table" if table else "figure",
+                "table" if table else "figure" if figure else "name",
                 f"{experiment.key} is also experiment[{folders[experiment.key]}]'s: both "
                 f"would write the folder <variant>/{experiment.key}",
             )
@@ -219,6 +239,12 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         top, "design", top.string("design", "design.toml"), path.parent, "design file"
     )
     flexible_study, claims_study = (_sweep_file(top, key, path) for key in SWEEP_KEYS)
+    gains = top.raw("gain_study")
+    if gains is not None and not isinstance(gains, str):
+        top.fail("gain_study", f"must be a gain-study file path, got {gains!r}")
+    gain_study = None
+    if gains:
+        gain_study = _referenced_file(top, "gain_study", gains, path.parent, "gain-study file")
     top.done()
     return Manifest(
         path,
@@ -230,4 +256,5 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         proposed,
         baseline,
         claims_study,
+        gain_study,
     )

@@ -42,7 +42,8 @@ class StepMetrics:
     Attributes
     ----------
     peak_time : float
-        Tp, time of the largest excursion in the step direction.
+        Tp, time of the largest excursion in the step direction; NaN unless the response
+        turns there (it ends more than the settling band below that peak).
     delay_time : float
         Td, first time the response reaches 50 % of the step.
     rise_time : float
@@ -76,11 +77,14 @@ class ErrorMeasures:
         Integral of ``e**2``.
     itae : float or tuple of float
         Integral of ``t |e|``.
+    max_abs : float or tuple of float
+        Largest ``|e|`` over the run (over the samples).
     """
 
     iae: float | tuple[float, ...]
     ise: float | tuple[float, ...]
     itae: float | tuple[float, ...]
+    max_abs: float | tuple[float, ...]
 
 
 @dataclass(frozen=True)
@@ -148,9 +152,12 @@ def step_metrics(
     - Ts (settling time): the first sample time after which ``|y - y_final| < 0.02 |S|``
       (``settling_threshold``) holds to the end, where ``y_final = y[-1]`` (as in
       python-control and MATLAB) unless ``final_value`` is given.
-    - Tp (peak time): the time of the largest ``p`` (the first such sample). With overshoot
-      this is the time of the largest excursion past the target; for a monotone response it
-      is where it comes closest to the target, often near the end of the run.
+    - Tp (peak time): the time of the largest ``p`` (the first such sample), where there is a
+      peak: the response must turn there, ``max(p) - p[-1] > settling_threshold`` (it ends
+      more than the 2 % band below its peak). With overshoot this is the time of the largest
+      excursion past the target. A response that rises monotonically (or creeps up to its
+      final value) has no peak, and its Tp is NaN, not the end of the run. (python-control's
+      ``step_info`` reports a PeakTime always.)
     - Mp (overshoot): ``max(0, max((y - target) / S))``, a fraction of the step (0.10 = 10 %),
       measured against the target (not the final value).
     - ess (steady-state error): ``|target - y[-1]|``, the last sample (no averaging).
@@ -158,7 +165,8 @@ def step_metrics(
     A metric the data do not determine is NaN, never an exception:
 
     - Td, Tr: NaN if the 50 % (for Tr: the 90 %) level is never reached.
-    - Tp: NaN if the response never moves towards the target (``max p <= 0``).
+    - Tp: NaN if the response never moves towards the target (``max p <= 0``), or if it has
+      no peak (``max(p) - p[-1] <= settling_threshold``, e.g. a monotone rise).
     - Ts: NaN unless at least the last two samples lie inside the band. With
       ``y_final = y[-1]`` the last sample always does, so it alone proves nothing. A response
       still moving at the end of a run whose last samples are closer together than the band
@@ -226,7 +234,10 @@ def step_metrics(
         return StepMetrics(nan, delay, rise, nan, nan, nan)
 
     peak_idx = int(np.argmax(progress))
-    peak_time = float(t[peak_idx]) if progress[peak_idx] > 0.0 else math.nan
+    # A peak is a turn: the response ends more than the settling band below its largest
+    # progress. A monotone response has none (its "peak" would be the end of the run).
+    peaked = progress[peak_idx] > 0.0 and progress[peak_idx] - progress[-1] > settling_threshold
+    peak_time = float(t[peak_idx]) if peaked else math.nan
     overshoot = max(0.0, float(np.max((y - target) / step)))
     ess = abs(target - float(y[-1]))
 
@@ -286,11 +297,14 @@ def _trapezoid(f: np.ndarray, t: np.ndarray) -> np.ndarray:
 
 
 def error_measures(t: np.ndarray, e: np.ndarray) -> ErrorMeasures:
-    """Integral error measures IAE, ISE and ITAE by the trapezoidal rule.
+    """Integral error measures IAE, ISE and ITAE by the trapezoidal rule, and the largest
+    error.
 
     ``IAE = ∫ |e| dt``, ``ISE = ∫ e² dt``, ``ITAE = ∫ t |e| dt`` over ``[t[0], t[-1]]``, with
-    ``t`` as given (pass ``t - t_step`` to weight by the time since a step that comes later).
-    A single sample integrates to 0. Non-finite errors propagate (the result is NaN or inf).
+    ``t`` as given (pass ``t - t_step`` to weight by the time since a step that comes later);
+    ``max_abs = max |e|`` over the samples (a held joint's largest deviation, a ramp's
+    largest lag). A single sample integrates to 0. Non-finite errors propagate (the result
+    is NaN or inf).
 
     Parameters
     ----------
@@ -312,6 +326,8 @@ def error_measures(t: np.ndarray, e: np.ndarray) -> ErrorMeasures:
         iae=_per_column(_trapezoid(abs_e, t)),
         ise=_per_column(_trapezoid(e * e, t)),
         itae=_per_column(_trapezoid(tt * abs_e, t)),
+        # np.max ignores no NaN: a NaN anywhere gives NaN, as the integrals do.
+        max_abs=_per_column(np.max(abs_e, axis=0)),
     )
 
 

@@ -6,7 +6,12 @@ Each per-joint reference is a small frozen dataclass with
   no numpy on this path);
 - ``ref.sample(t) -> ndarray (3, N)``: the same values for an array of times, vectorised,
   equal to the scalar path sample for sample;
-- ``ref.final``: the value the reference settles at (the target used by the step metrics).
+- ``ref.final``: the value the reference settles at (the target used by the step metrics);
+- ``ref.derivatives(t, n)`` and ``ref.sample_derivatives(t, n)``: position and its first
+  ``n`` derivatives (n <= 4: jerk and snap too), what feedback linearisation of the
+  flexible-joint arm needs (``controllers/flexible.py``). Not part of the protocol: a
+  reference without them is refused there, not guessed. Derivatives are those of the
+  segment in force (the impulses at a step or corner are never fed forward).
 
 Every piecewise reference is right-continuous: at a switching time (``t0`` of a step, the
 corners of a ramp) it takes the value of the segment that starts there. Times are assumed
@@ -29,6 +34,7 @@ __all__ = [
     "JointReference",
     "Quintic",
     "Ramp",
+    "Septic",
     "Sine",
     "Step",
     "make_reference",
@@ -77,6 +83,19 @@ def _as_times(t: np.ndarray | float) -> np.ndarray:
     return np.asarray(t, dtype=float)
 
 
+MAX_ORDER = 4  # snap: the highest derivative ``derivatives`` gives
+
+
+def _check_order(n: int) -> None:
+    if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= MAX_ORDER:
+        raise ValueError(f"derivative order must be an integer 0..{MAX_ORDER}, got {n!r}")
+
+
+def _held(value: float, n: int) -> tuple[float, ...]:
+    """A value held still: it and ``n`` zero derivatives."""
+    return (value,) + (0.0,) * n
+
+
 @dataclass(frozen=True, slots=True)
 class Step:
     """A step from ``initial`` to ``final`` at time ``t0``.
@@ -114,6 +133,18 @@ class Step:
         t = _as_times(t)
         out = np.zeros((3, *t.shape))
         out[0] = np.where(t < self.t0, self.initial, self.final)
+        return out
+
+    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
+        """Position and its first ``n`` derivatives at ``t`` (all zero: impulses not fed)."""
+        _check_order(n)
+        return _held(self.initial if t < self.t0 else self.final, n)
+
+    def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
+        """Vectorised :meth:`derivatives`: shape (n + 1, *t.shape)."""
+        _check_order(n)
+        out = np.zeros((n + 1, *np.shape(t)))
+        out[:3] = self.sample(t)[: n + 1]
         return out
 
 
@@ -169,6 +200,18 @@ class Ramp:
         out[1] = np.where(during, slope, 0.0)
         return out
 
+    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
+        """Position and its first ``n`` derivatives at ``t`` (zero beyond the velocity)."""
+        _check_order(n)
+        return (*self(t), 0.0, 0.0)[: n + 1]
+
+    def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
+        """Vectorised :meth:`derivatives`: shape (n + 1, *t.shape)."""
+        _check_order(n)
+        out = np.zeros((n + 1, *np.shape(t)))
+        out[: min(n + 1, 3)] = self.sample(t)[: n + 1]
+        return out
+
 
 @dataclass(frozen=True, slots=True)
 class Sine:
@@ -217,6 +260,27 @@ class Sine:
         arg = w * _as_times(t) + self.phase
         s = self.amplitude * np.sin(arg)
         return np.stack([self.offset + s, self.amplitude * w * np.cos(arg), -(w * w) * s])
+
+    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
+        """Position and its first ``n`` derivatives at ``t`` (the first three as
+        :meth:`__call__`, to the bit)."""
+        _check_order(n)
+        w = 2.0 * math.pi * self.frequency_hz
+        arg = w * t + self.phase
+        s = self.amplitude * math.sin(arg)
+        c = self.amplitude * w * math.cos(arg)
+        w2 = w * w
+        return (self.offset + s, c, -w2 * s, -w2 * c, w2 * w2 * s)[: n + 1]
+
+    def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
+        """Vectorised :meth:`derivatives`: shape (n + 1, *t.shape)."""
+        _check_order(n)
+        w = 2.0 * math.pi * self.frequency_hz
+        arg = w * _as_times(t) + self.phase
+        s = self.amplitude * np.sin(arg)
+        c = self.amplitude * w * np.cos(arg)
+        w2 = w * w
+        return np.stack([self.offset + s, c, -w2 * s, -w2 * c, w2 * w2 * s][: n + 1])
 
 
 @dataclass(frozen=True, slots=True)
@@ -282,6 +346,131 @@ class Quintic:
         out[2] = np.where(during, d * a / (self.duration * self.duration), 0.0)
         return out
 
+    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
+        """Position and its first ``n`` derivatives at ``t``. The jerk jumps at both ends
+        (from 0 to ``60 (final - initial) / duration^3`` at ``t0``, and back at the end): a
+        step that feedback linearisation of a flexible joint cannot follow."""
+        _check_order(n)
+        s = (t - self.t0) / self.duration
+        if s < 0.0:
+            return _held(self.initial, n)
+        if s >= 1.0:
+            return _held(self.final, n)
+        T = self.duration
+        d = self.final - self.initial
+        j = 60.0 + s * (-360.0 + s * 360.0)
+        snap = -360.0 + s * 720.0
+        return (*self(t), d * j / (T * T * T), d * snap / (T * T * T * T))[: n + 1]
+
+    def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
+        """Vectorised :meth:`derivatives`: shape (n + 1, *t.shape)."""
+        _check_order(n)
+        s = (_as_times(t) - self.t0) / self.duration
+        during = (s >= 0.0) & (s < 1.0)
+        T = self.duration
+        d = self.final - self.initial
+        out = np.zeros((n + 1, *s.shape))
+        out[: min(n + 1, 3)] = self.sample(t)[: n + 1]
+        if n >= 3:
+            out[3] = np.where(during, d * (60.0 + s * (-360.0 + s * 360.0)) / (T * T * T), 0.0)
+        if n >= 4:
+            out[4] = np.where(during, d * (-360.0 + s * 720.0) / (T * T * T * T), 0.0)
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class Septic:
+    """A rest-to-rest move with continuous jerk: the 7th-order polynomial with zero velocity,
+    acceleration and jerk at both ends.
+
+    With ``s = (t - t0) / duration`` in [0, 1] the position is
+    ``initial + (final - initial) (35 s^4 - 84 s^5 + 70 s^6 - 20 s^7)``; before ``t0`` it
+    holds ``initial`` and after ``t0 + duration`` it holds ``final``. Position, velocity,
+    acceleration and jerk are continuous everywhere; the snap (4th derivative) jumps at
+    both ends, by ``840 (final - initial) / duration^4``. Feedback linearisation of the
+    flexible-joint arm feeds the snap forward and needs the jerk continuous
+    (``docs/control.md``, "Flexible-joint controllers").
+
+    Parameters
+    ----------
+    initial, final : float
+        Start and end values; ``initial`` defaults to 0.0, ``final`` is required.
+    duration : float
+        Duration of the move [s], > 0.
+    t0 : float, default 0.0
+        Start time [s].
+    """
+
+    kind: ClassVar[str] = "septic"
+
+    initial: float = 0.0
+    final: float = REQUIRED
+    duration: float = REQUIRED
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        _validate_fields(self, positive=("duration",))
+
+    def __call__(self, t: float) -> tuple[float, float, float]:
+        """Return ``(position, velocity, acceleration)`` at time ``t``."""
+        return self.derivatives(t, 2)  # type: ignore[return-value]
+
+    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
+        """Position and its first ``n`` derivatives (n <= 4) at time ``t``."""
+        _check_order(n)
+        s = (t - self.t0) / self.duration
+        if s < 0.0:
+            return _held(self.initial, n)
+        if s >= 1.0:
+            return _held(self.final, n)
+        T = self.duration
+        d = self.final - self.initial
+        # Horner forms, written identically in sample_derivatives().
+        s2 = s * s
+        p = s2 * s2 * (35.0 + s * (-84.0 + s * (70.0 - 20.0 * s)))
+        v = s2 * s * (140.0 + s * (-420.0 + s * (420.0 - 140.0 * s)))
+        a = s2 * (420.0 + s * (-1680.0 + s * (2100.0 - 840.0 * s)))
+        j = s * (840.0 + s * (-5040.0 + s * (8400.0 - 4200.0 * s)))
+        snap = 840.0 + s * (-10080.0 + s * (25200.0 - 16800.0 * s))
+        return (
+            self.initial + d * p,
+            d * v / T,
+            d * a / (T * T),
+            d * j / (T * T * T),
+            d * snap / (T * T * T * T),
+        )[: n + 1]
+
+    def sample(self, t: np.ndarray) -> np.ndarray:
+        """Vectorised ``__call__``: rows (position, velocity, acceleration), shape (3, *t.shape)."""
+        return self.sample_derivatives(t, 2)
+
+    def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
+        """Vectorised :meth:`derivatives`: shape (n + 1, *t.shape)."""
+        _check_order(n)
+        s = (_as_times(t) - self.t0) / self.duration
+        before = s < 0.0
+        after = s >= 1.0
+        during = ~before & ~after
+        T = self.duration
+        d = self.final - self.initial
+        s2 = s * s
+        rows = (
+            s2 * s2 * (35.0 + s * (-84.0 + s * (70.0 - 20.0 * s))),
+            s2 * s * (140.0 + s * (-420.0 + s * (420.0 - 140.0 * s))),
+            s2 * (420.0 + s * (-1680.0 + s * (2100.0 - 840.0 * s))),
+            s * (840.0 + s * (-5040.0 + s * (8400.0 - 4200.0 * s))),
+            840.0 + s * (-10080.0 + s * (25200.0 - 16800.0 * s)),
+        )
+        out = np.zeros((n + 1, *s.shape))
+        out[0] = np.where(
+            before, self.initial, np.where(after, self.final, self.initial + d * rows[0])
+        )
+        scale = 1.0
+        for k in range(1, n + 1):
+            scale = scale * T
+            out[k] = np.where(during, d * rows[k] / scale, 0.0)
+        return out
+
 
 @dataclass(frozen=True, slots=True)
 class ArmReference:
@@ -302,7 +491,7 @@ class ArmReference:
             if not isinstance(ref, JointReference):
                 raise ValueError(
                     f"ArmReference.{name} must be a joint reference (Step, Ramp, Sine, "
-                    f"Quintic, ...), got {ref!r}"
+                    f"Quintic, Septic, ...), got {ref!r}"
                 )
 
     def __call__(
@@ -338,22 +527,22 @@ class ArmReference:
 
 
 def _reference_classes() -> dict[str, type]:
-    return {cls.kind: cls for cls in (Step, Ramp, Sine, Quintic)}
+    return {cls.kind: cls for cls in (Step, Ramp, Sine, Quintic, Septic)}
 
 
-def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic:
+def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic | Septic:
     """Build a joint reference from its kind name and parameters.
 
     Parameters
     ----------
-    kind : {"step", "ramp", "sine", "quintic"}
+    kind : {"step", "ramp", "sine", "quintic", "septic"}
         Which reference.
     **params
         The class's fields, e.g. ``make_reference("ramp", initial=0, final=1, duration=5)``.
 
     Returns
     -------
-    Step or Ramp or Sine or Quintic
+    Step or Ramp or Sine or Quintic or Septic
 
     Raises
     ------
@@ -383,7 +572,7 @@ def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic:
     return cls(**params)
 
 
-def reference_params(ref: Step | Ramp | Sine | Quintic) -> dict[str, Any]:
+def reference_params(ref: Step | Ramp | Sine | Quintic | Septic) -> dict[str, Any]:
     """The inverse of :func:`make_reference`: ``{"kind": ..., **fields}``.
 
     ``make_reference(**reference_params(ref)) == ref``; handy for writing a resolved config.

@@ -126,16 +126,36 @@ def _check_run(manifest: Manifest, spec: RunSpec) -> None:
         raise  # --set
 
 
+# The other joint's metrics in a row (``other_<key>``): its largest deviation and final
+# error, defined whether it moves or is held (a held joint has no step metrics).
+OTHER_JOINT_KEYS = ("max_error_rad", "final_error_rad")
+
+
+def _reference_kind(scenario: Scenario, joint: int) -> str:
+    """A joint's reference kind ("step", "ramp", ...), "held" where it does not move."""
+    ref = getattr(scenario.reference, f"joint{joint}")
+    start = scenario.q0[joint - 1]
+    held = ref.final == start and getattr(ref, "initial", start) == start  # NaN: not held
+    return "held" if held else ref.kind
+
+
 def _row(spec: RunSpec, scenario: Scenario, status: str, metrics: Any) -> dict[str, Any]:
-    """The metrics row of one run: the report's and metrics.csv's."""
+    """The metrics row of one run: the report's and metrics.csv's. Every metric of the
+    experiment's joint, then the other joint's reference ("held" where it holds its start)
+    and its :data:`OTHER_JOINT_KEYS`, so both joints are reported."""
+    joint = spec.experiment.joint
+    other = joint_values(metrics, 3 - joint)
     return {
         "variant": spec.variant.name,
         "experiment": spec.experiment.key,
         "controller": spec.controller,
-        "joint": spec.experiment.joint,
+        "joint": joint,
+        "reference": _reference_kind(scenario, joint),
         "status": status,
         "outcome": classify_run(scenario, metrics),
-        **joint_values(metrics, spec.experiment.joint),
+        **joint_values(metrics, joint),
+        "other_reference": _reference_kind(scenario, 3 - joint),
+        **{f"other_{key}": other[key] for key in OTHER_JOINT_KEYS},
     }
 
 
@@ -248,7 +268,8 @@ def describe_choices(
         "arm": f"two uniform rods, m1 = {a.m1:g} kg, m2 = {a.m2:g} kg, L1 = {a.l1:g} m, "
         f"L2 = {a.l2:g} m, g = {a.g:g} m/s² (runs/paper/base.toml)",
         "CTC gains": f"Kp = {c.kp} s⁻², Kd = {c.kd} s⁻¹: ωn = {wn[0]:.3g} rad/s, "
-        f"ζ = {zeta[0]:.3g}, for responses on the paper's seconds time scale",
+        f"ζ = {zeta[0]:.3g}, torque limit {c.torque_limit} N·m, from the gain study's rule "
+        "(section below; docs/control.md)",
         "references": "; ".join(references) + "; the other joint holds at its start",
         "uncertainty": "the plant's "
         + "; ".join(scales)
@@ -258,15 +279,19 @@ def describe_choices(
         f = fuzzy.fuzzy
         choices["fuzzy term"] = (
             "normalised universes [-1, 1], 7 triangular labels, min/max Mamdani, centroid; "
-            f"ke = {f.ke:g} /rad, kde = {f.kde:g} s/rad, ku = {f.ku:g} rad/s², mode "
-            f"{f.mode!r}: inside the CTC bracket (docs/control.md)"
+            f"ke = {f.ke:.4g} /rad, kde = {f.kde:.4g} s/rad, ku = {f.ku:.4g} rad/s², mode "
+            f"{f.mode!r}: inside the CTC bracket (docs/control.md); by the scaling rule "
+            f"(docs/fuzzy.md) span E = {f.span:.3g} rad (the PD term's unsaturated range), "
+            f"ke = 1/E, kde = ke/ωn, ku = {f.authority:g} · Kp · E"
         )
         choices["no rule fires"] = "zero fuzzy correction: the CTC term alone acts"
     choices["FCM design"] = (
         f"c = {design_config.clusters}, m = {design_config.fuzzifier:g}, "
         f"ε = {design_config.tolerance:g}, seed {design_config.seed}, on the 7x7 "
-        f"fuzzy-CTC's runs of {', '.join(s.name for s in design_config.scenarios)} "
-        "(runs/paper/design.toml)"
+        f"fuzzy-CTC's {len(design_config.scenarios)} design runs (steps up and down on both "
+        "joints, coupled moves, disturbed starts); settled tail: "
+        f"{design_config.settled!r} (|e| + |ė|), odd symmetry: {design_config.symmetry!r}; "
+        f"{len(design_config.validation)} held-out moves (runs/paper/design.toml)"
     )
     if flex:
         choices["flexible joints"] = "; ".join(flex)
@@ -378,7 +403,9 @@ def _reproduce(
     from twolink import report
     from twolink.design import design_or_load
     from twolink.executors import open_executor
+    from twolink.gains import report_section
     from twolink.io import atomic_write_json, atomic_write_text
+    from twolink.report_sections import design_section, oscillation_section
 
     phase = _Phases(progress, 4 + trace + (manifest.claims_study is not None))
     workers = workers or os.cpu_count() or 1
@@ -433,7 +460,7 @@ def _reproduce(
                         if sp.experiment is exp and sp.variant is variant
                     }
                     name = f"figures/{variant.name}_{exp.key}.png"
-                    label = f"Table {exp.table}" if exp.table else f"Figure {exp.figure}"
+                    label = exp.label
                     title = f"{label}: {exp.title}\n({variant.title})"
                     drawing.append(
                         pool.submit(_response_figure, out, runs, exp.joint, title, out / name)
@@ -444,10 +471,12 @@ def _reproduce(
             if trace:
                 phase(f"recording: reproduction.rrd ({len(specs)} runs)")
                 _combined_recording(out, specs, scenarios, trajectories)
-            design_section = _oscillation_section(specs, scenarios, trajectories, rows)
-            design_section += _design_section(result)
+            sections = oscillation_section(specs, scenarios, trajectories, rows)
+            if manifest.gain_study is not None:
+                sections += report_section(manifest.gain_study, out, pool)
+            sections += design_section(result, specs, scenarios, rows)
             if study is not None:
-                design_section += study.result()
+                sections += study.result()
             for fut in drawing:
                 fut.result()
         except KeyboardInterrupt:
@@ -461,7 +490,7 @@ def _reproduce(
             manifest,
             describe_choices(specs, scenarios, config),
             figures,
-            design_section,
+            sections,
             lead_sections=claims,
         ),
     )
@@ -473,6 +502,8 @@ def _reproduce(
 def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> list[str]:
     """Run the claims sweep on ``pool`` into ``out/claims_study``, judge the paper's claims
     on its plants (``claims.csv``), and return the report's section on them."""
+    import pandas as pd
+
     from twolink import report, sweep
     from twolink.claims import paired_claims
     from twolink.io import atomic_write_text
@@ -488,70 +519,19 @@ def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> list[st
     atomic_write_text(out / "claims.csv", table.to_csv(index=False))
     source = f"{manifest.claims_study.parent.name}/{manifest.claims_study.name}"
     met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
-    return report.claims_section(table, manifest, plan.samples, source, met)
-
-
-OSCILLATING = 0.05  # rad: a sustained oscillation worth explaining in the report
-
-
-def _oscillation_section(
-    specs: list[RunSpec],
-    scenarios: dict[str, Scenario],
-    trajectories: dict[str, Trajectory],
-    rows: list[dict[str, Any]],
-) -> list[str]:
-    """The runs that end in a sustained oscillation (``oscillation_rad`` above
-    :data:`OSCILLATING` on the experiment's joint), and for fuzzy ones which rules fire
-    over that window (the dominant rule per sample; "none": the CTC term alone acts)."""
-    import numpy as np
-
-    from controllers.fuzzy import fired_rule_labels
-    from twolink.metrics import OSCILLATION_WINDOW
-    from twolink.vocabulary import format_value
-
-    lines = []
-    for spec, row in zip(specs, rows, strict=True):
-        if not row["oscillation_rad"] > OSCILLATING:
-            continue
-        traj, j = trajectories[spec.folder], spec.experiment.joint - 1
-        tail = traj.t >= traj.t[-1] * (1 - OSCILLATION_WINDOW)
-        rules = "(no fuzzy term)"
-        controller = build_controller(scenarios[spec.folder])
-        engine = getattr(controller, "engine", None)
-        if engine is not None:
-            labels = fired_rule_labels(
-                engine, controller.ke * traj.e[tail, j], controller.kde * traj.de[tail, j]
-            )
-            names, counts = np.unique(labels, return_counts=True)
-            order = np.argsort(-counts)
-            rules = ", ".join(
-                f"{names[k]} {100 * counts[k] / counts.sum():.0f} %" for k in order[:4]
-            )
-        lines.append(
-            f"| {spec.folder} | θ{j + 1} | {format_value(row['oscillation_rad'])} | "
-            f"{format_value(row['steady_state_error_rad'])} | {rules} |"
+    # Who wins on what: every controller of the sweep against the baseline, on one table.
+    versus = {
+        name: paired_claims(
+            outcome.results, name, manifest.baseline, report.WINNER_METRICS, plan.joints
         )
-    if not lines:
-        return []
-    return [
-        "",
-        "## Sustained oscillations",
-        "",
-        f"Runs whose error still swings by more than {OSCILLATING} rad (half peak-to-peak)",
-        f"over the last {100 * OSCILLATION_WINDOW:.0f} % of the run, and for the fuzzy ones",
-        'the dominant fuzzy rule over that window (share of samples; "none": no rule',
-        'fires). Reading it: where a fuzzy CTC\'s window is mostly "none" (CTC alone, which',
-        "keeps the model mismatch's offset) cut by a rule or two, those rules switch on",
-        "while the error is large, push θ by at most ku (the fuzzy term's scale, rad/s²),",
-        "and switch off as the error leaves their support: an on-off correction that keeps",
-        "the cycle going instead of settling. A fuzzy term without the model cannot hold",
-        "the arm up at these scalings (docs/control.md); an integrator at low gains may not",
-        "settle within the run.",
-        "",
-        "| run | joint | osc [rad] | ess [rad] | rules firing over the window |",
-        "|---|---|---|---|---|",
-        *lines,
-    ]
+        for name in plan.controller_names
+        if name != manifest.baseline
+    }
+    every = pd.concat([t.assign(controller=n) for n, t in versus.items()], ignore_index=True)
+    atomic_write_text(out / "claims_all.csv", every.to_csv(index=False))
+    return report.winners_section(versus, manifest.baseline, met, plan.samples) + (
+        report.claims_section(table, manifest, plan.samples, source, met)
+    )
 
 
 def _design_figures(result: Any, out: Path) -> None:
@@ -611,34 +591,3 @@ def _combined_recording(
         every=COMBINED_TRACE_EVERY,
         groups=[sp.controller for sp in specs],
     )
-
-
-def _design_section(result: Any) -> list[str]:
-    """The report's section on the FCM design: our kept rules beside the paper's Table 1."""
-    from controllers import fuzzy
-
-    paper_engine = fuzzy.paper_fuzzy_pd()
-
-    design_section = [
-        "",
-        "## The FCM design (the paper's Table 1 and Figure 2)",
-        "",
-        "Rules kept by our design procedure (e = θd − θ; u > 0 pushes θ up), beside the",
-        "paper's Table 1 read in the same convention (the paper's error is θ − θd, so its",
-        "input labels are mirrored; docs/fuzzy.md):",
-        "",
-        "| kept by our design (e, ė → u) | paper's Table 1 (e, ė → u) |",
-        "|---|---|",
-    ]
-    paper_rules = paper_engine.rules
-    for k in range(max(len(result.rules), len(paper_rules))):
-        ours = " ".join(result.rules[k]) if k < len(result.rules) else ""
-        theirs = " ".join(paper_rules[k]) if k < len(paper_rules) else ""
-        design_section.append(f"| {ours} | {theirs} |")
-    design_section += [
-        "",
-        "![phase plane](figures/design_phase_plane.png)",
-        "",
-        "![control surfaces](figures/control_surfaces.png)",
-    ]
-    return design_section

@@ -76,6 +76,12 @@ class Trajectory:
         return self.qd_ref - self.qd
 
     @property
+    def twist(self) -> np.ndarray:
+        """Spring twist φ − θ of the flexible arm (rotor minus link angle), (N, 2); an
+        empty (0, 2) array for the rigid arm."""
+        return self.motor_q - self.q if len(self.motor_q) else np.empty((0, 2))
+
+    @property
     def ok(self) -> bool:
         return self.status == STATUS_OK
 
@@ -161,6 +167,7 @@ def simulate(
     qd0: tuple[float, float] = (0.0, 0.0),
     bounds: Bounds = Bounds(),
     noise: np.ndarray | None = None,
+    motor_q0: tuple[float, float] | None = None,
 ) -> Trajectory:
     """Run ``controller`` against ``plant`` for ``duration`` seconds.
 
@@ -169,7 +176,9 @@ def simulate(
     plant : Plant
         The MuJoCo plant; it is reset to (q0, qd0) with relaxed springs.
     controller : Controller
-        Called every ``control_dt`` seconds; its torques are held in between.
+        Called every ``control_dt`` seconds; its torques are held in between. One whose
+        ``needs_motor`` is true is called ``controller(t, q, qd, motor_q, motor_qd)`` with
+        the rotor angles and rates too (flexible plants only; noise is on link angles).
     duration, control_dt : float
         Length of the run and control period [s]; ``control_dt`` must be a whole
         number of physics timesteps.
@@ -180,6 +189,9 @@ def simulate(
     noise : ndarray (N + 1, 2), optional
         Measurement noise added to the angles the controller sees (not to the
         recorded state), one row per control instant.
+    motor_q0 : pair of float, optional
+        Initial rotor angles of a flexible plant (default: at the links, springs relaxed);
+        e.g. ``q0 + G(q0) / K`` starts the arm at rest holding itself up.
 
     Returns
     -------
@@ -189,10 +201,17 @@ def simulate(
         its bounds), so even one that diverges at once has one sample.
     """
     n, substeps = control_steps(duration, control_dt, plant.dt)
+    # A controller of flexible joints (controllers/flexible.py) also reads the rotors.
+    needs_motor = bool(getattr(controller, "needs_motor", False))
+    if needs_motor and not plant.flexible:
+        raise ValueError(
+            f"{type(controller).__name__} reads the motor states of flexible joints; "
+            "this plant is rigid (build it with a Flexibility)"
+        )
     if noise is not None and np.shape(noise) != (n + 1, 2):
         raise ValueError(f"noise must have shape {(n + 1, 2)}, got {np.shape(noise)}")
     noise_rows = None if noise is None else noise.tolist()
-    plant.reset(q0, qd0)
+    plant.reset(q0, qd0, motor_q=motor_q0)
     controller.reset()
     qpos, qvel = plant.data.qpos, plant.data.qvel
     step = plant.step
@@ -212,11 +231,15 @@ def simulate(
                 if plant.flexible:
                     motor.append((float(qpos[2]), float(qpos[3])))
             break
-        if noise_rows is None:
-            tau1, tau2 = controller(t, (q1, q2), (w1, w2))
-        else:
+        seen = (q1, q2)
+        if noise_rows is not None:
             n1, n2 = noise_rows[k]
-            tau1, tau2 = controller(t, (q1 + n1, q2 + n2), (w1, w2))
+            seen = (q1 + n1, q2 + n2)
+        if needs_motor:
+            motor_q = (float(qpos[2]), float(qpos[3]))
+            tau1, tau2 = controller(t, seen, (w1, w2), motor_q, (float(qvel[2]), float(qvel[3])))
+        else:
+            tau1, tau2 = controller(t, seen, (w1, w2))
         rows.append((t, q1, q2, w1, w2, tau1, tau2))
         if plant.flexible:
             motor.append((float(qpos[2]), float(qpos[3])))

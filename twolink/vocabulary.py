@@ -37,6 +37,9 @@ CONTROLLER_LABELS = {
     "pd_gravity": "PD+G",
     "ctc_integral": "CTC+I",
     "fuzzy_pd": "fuzzy-PD",
+    "motor_pd": "motor-PD",
+    "composite": "composite",
+    "flexible_fl": "flexible-FL",
 }
 
 
@@ -54,8 +57,9 @@ class Metric:
         Unit as printed.
     source : str
         Where the value comes from in :class:`twolink.experiment.RunMetrics`:
-        ``"step.<field>"``, ``"errors.<field>"``, ``"torque.<field>"`` (per joint) or
-        ``"final_error"``.
+        ``"step.<field>"``, ``"errors.<field>"``, ``"torque.<field>"`` (per joint) or a
+        per-joint field of its own (``"final_error"``, ``"oscillation"``,
+        ``"settling_target"``).
     scale : float
         Factor from the source's unit to ``unit`` (100 for a fraction shown in percent).
     """
@@ -77,6 +81,7 @@ METRICS: tuple[Metric, ...] = (
     Metric("delay_time_s", "Td", "s", "step.delay_time"),
     Metric("rise_time_s", "Tr", "s", "step.rise_time"),
     Metric("settling_time_s", "Ts", "s", "step.settling_time"),
+    Metric("settling_time_target_s", "Ts→θd", "s", "settling_target"),
     Metric("overshoot_pct", "Mp", "%", "step.overshoot", 100.0),
     Metric("steady_state_error_rad", "ess", "rad", "step.steady_state_error"),
     Metric("final_error_rad", "e(T)", "rad", "final_error"),
@@ -84,6 +89,7 @@ METRICS: tuple[Metric, ...] = (
     Metric("iae_rad_s", "IAE", "rad·s", "errors.iae"),
     Metric("ise_rad2_s", "ISE", "rad²·s", "errors.ise"),
     Metric("itae_rad_s2", "ITAE", "rad·s²", "errors.itae"),
+    Metric("max_error_rad", "max|e|", "rad", "errors.max_abs"),
     Metric("torque_rms_Nm", "τ rms", "N·m", "torque.rms"),
     Metric("torque_peak_Nm", "τ peak", "N·m", "torque.peak"),
 )

@@ -90,7 +90,8 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
     """Compute every (sample, controller) of one chunk, as one batch of arms.
 
     The controllers are built once per chunk (they are modelled on the nominal arm,
-    which does not change); every (sample, controller) is one arm of the batch engine
+    which does not change; a flexible-joint controller is given each sample's joints,
+    ``with_joints``); every (sample, controller) is one arm of the batch engine
     (:func:`twolink.experiment.iter_scenarios`). A sample that raises or diverges gives
     rows with status "error" or "diverged" and the message; it never stops the chunk.
     """
@@ -119,12 +120,15 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
             if error:
                 rows.append(_error_row(i, name, head, error))
             else:
-                arms.append((len(rows), s))
+                controller = controllers[name]
+                if getattr(controller, "needs_motor", False):  # models the sample's joints
+                    controller = controller.with_joints(s.plant.flexibility)
+                arms.append((len(rows), s, controller))
                 rows.append((i, name, head))
     # Measured as each batch ends: one trajectory at a time is ever held.
-    runs = iter_scenarios([s for _, s in arms], [controllers[rows[r][1]] for r, _ in arms])
+    runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms])
     for k, traj in runs:
-        r, s = arms[k]
+        r, s, _ = arms[k]
         i, name, head = rows[r]
         rows[r] = _measured_row(i, name, head, s, traj)
     return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
@@ -271,10 +275,11 @@ def _prepare_out(plan: SweepPlan, out: Path, fresh: bool) -> None:
     manifest_path = out / "manifest.json"
     chunk_dir = out / "chunks"
     chunks = sorted(chunk_dir.glob("chunk_*.parquet")) if chunk_dir.is_dir() else []
-    digest = None
+    digest = old_format = None
     if manifest_path.is_file():
         try:
-            digest = json.loads(manifest_path.read_text()).get("digest")
+            saved = json.loads(manifest_path.read_text())
+            digest, old_format = saved.get("digest"), saved.get("format")
         except (OSError, ValueError, AttributeError):
             digest = None  # a damaged manifest: each chunk's seal says whose it is
     if digest is None:
@@ -282,9 +287,15 @@ def _prepare_out(plan: SweepPlan, out: Path, fresh: bool) -> None:
         digest = next(iter(sealed - {plan.digest}), plan.digest if sealed else None)
     foreign = digest is not None and digest != plan.digest
     if foreign and not fresh:
+        older = (
+            f", written in results format {old_format} (this version writes {FORMAT_VERSION}: "
+            "other columns)"
+            if old_format is not None and old_format != FORMAT_VERSION
+            else ""
+        )
         raise SweepOutputError(
             f"{out} holds results of a different sweep (its digest "
-            f"{str(digest)[:12]} != {plan.digest[:12]} of {plan.file}); "
+            f"{str(digest)[:12]} != {plan.digest[:12]} of {plan.file}{older}); "
             "use another --out, or --fresh to discard them"
         )
     if foreign or fresh:

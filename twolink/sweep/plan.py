@@ -80,7 +80,10 @@ from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
 
 __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan", "load_sweep"]
 
-FORMAT_VERSION = 3  # chunk files and manifest (2: Parquet, 3: oscillation_rad); in the digest
+# Chunk files and manifest (2: Parquet, 3: oscillation_rad, 4: settling_time_target_s,
+# max_error_rad and Tp only where there is a peak); in the digest, so older chunks are
+# not resumed.
+FORMAT_VERSION = 4
 # Samples per task: each task is one batch of arms (samples x controllers) on the batch
 # engine, whose per-step cost is mostly fixed below ~100 arms (docs/sweeps.md).
 DEFAULT_CHUNK_SIZE = 100
