@@ -477,6 +477,5 @@ def report_section(path: Path, out: Path, pool: Any) -> list[str]:
         "A raw step at a stiff ωn asks for far more torque than the actuator has, and CTC "
         "saturated no longer linearises the arm (overshoot grows with ωn); the quintic move "
         "asks for the same torque at every ωn. The steps of the experiments above are "
-        "therefore quintic moves; `CTC-paper` keeps the paper's slow gains to show the sag "
-        "they leave.",
+        "therefore quintic moves.",
     ]

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 import sys
+import time
 from concurrent.futures import as_completed
 from dataclasses import dataclass
 from pathlib import Path
@@ -328,15 +329,18 @@ def flexible_study(sweep_file: Path, out: Path) -> list[str]:
 
 
 class _Phases:
-    """A status line on stderr as each phase of the reproduction starts: "[3/6] figures"."""
+    """A status line on stderr as each phase of the reproduction starts, with the time
+    since the start: "[3/6] +12.4 s figures" (where the time goes, at a glance)."""
 
     def __init__(self, on: bool, total: int) -> None:
         self.on, self.total, self.done = on, total, 0
+        self.start = time.perf_counter()
 
     def __call__(self, what: str) -> None:
         self.done += 1
         if self.on:
-            print(f"[{self.done}/{self.total}] {what}", file=sys.stderr, flush=True)
+            elapsed = f"+{time.perf_counter() - self.start:.1f} s"
+            print(f"[{self.done}/{self.total}] {elapsed} {what}", file=sys.stderr, flush=True)
 
 
 @dataclass(frozen=True)
