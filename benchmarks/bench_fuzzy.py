@@ -8,6 +8,8 @@ only the ratios are claimed; each engine figure is the best of several repeats.
 (a) one (e, de) pair per call:              target >= 300x faster than skfuzzy
 (b) per sample in a batch of 10,000 inputs: target >= 10,000x faster than skfuzzy's
     per-call compute(); skfuzzy's own array-input compute() is printed beside it.
+(d) the lookup table (201 x 201, bilinear) per sample on 10^6 inputs: target <= 0.1 us
+    and >= 1,000x faster than skfuzzy's array-input compute() of the same rule base.
 
 Also printed: the control loop's call (both joints at once, arrays of length 2) next
 to one ``mujoco.mj_step`` of the arm, when ``twolink.plant`` is importable.
@@ -124,6 +126,7 @@ def main() -> None:
     print(f"(a) per call, one pair vs skfuzzy:      {t_sk / t_one:10.0f}x  (target >= 300x)")
     print(f"(b) batch per sample vs skfuzzy call:   {t_sk / t_batch:10.0f}x  (target >= 10000x)")
     print(f"    batch per sample vs skfuzzy arrays: {t_sk_array / t_batch:10.0f}x")
+    table_ratios(engine, system, t_sk_array, t_batch)
     t_step = mj_step_time()
     if t_step is not None:
         print(
@@ -131,6 +134,28 @@ def main() -> None:
             f"{t_two / t_step:.1f} mj_steps"
         )
         closed_loop_ratio()
+
+
+def table_ratios(engine, system, t_sk_array: float, t_batch: float) -> None:
+    """(d) the lookup table (``engine = "table"``, 201 x 201) per sample on 10^6 inputs:
+    target <= 0.1 us per sample and >= 1000x faster than skfuzzy's array compute()."""
+    from controllers.fuzzy.table import FuzzyTable, table_bound
+
+    table = FuzzyTable(engine, 201)
+    rng = np.random.default_rng(7)
+    e, de = rng.uniform(-1.0, 1.0, (2, 1_000_000))
+    best = np.inf
+    for _ in range(REPEATS):
+        start = time.perf_counter()
+        table.evaluate_batch(e, de)
+        best = min(best, (time.perf_counter() - start) / e.size)
+    err = np.abs(table(e[:100_000], de[:100_000]) - engine(e[:100_000], de[:100_000])).max()
+    bound = table_bound(table).bound
+    print(f"table 201x201, per sample on 10^6 inputs: {best * 1e6:9.4f} us  (target <= 0.1 us)")
+    print(f"(d) table vs skfuzzy arrays:            {t_sk_array / best:10.0f}x  (target >= 1000x)")
+    print(f"    table vs exact batch path:          {t_batch / best:10.1f}x")
+    print(f"    table error: max {err:.2e} on 10^5 random inputs, bound {bound:.2e}")
+    assert err <= bound, "table outside its bound"
 
 
 def closed_loop_ratio() -> None:

@@ -88,8 +88,20 @@ def test_version_and_short_help():
     assert result.exit_code == 0 and "twolink, version" in result.output
     result = CliRunner().invoke(main, ["--help"])
     listed = result.output.split("Commands:")[1].strip().splitlines()
-    assert len(listed) == 7 and not [line for line in listed if line.endswith("...")]
-    for command in ("design", "gains", "models", "reproduce", "run", "sweep", "validate"):
+    commands = (
+        "calibrate",
+        "coverage",
+        "design",
+        "gains",
+        "models",
+        "reproduce",
+        "run",
+        "sweep",
+        "validate",
+    )
+    assert len(listed) == len(commands)
+    assert not [line for line in listed if line.endswith("...")]
+    for command in commands:
         help_text = CliRunner().invoke(main, [command, "--help"]).output
         assert "Examples:" in help_text, command
 

@@ -26,7 +26,14 @@ def shipped_text() -> str:
 
 def paper_paths(text: str) -> str:
     """A copy of the shipped manifest, elsewhere: its files still the shipped ones."""
-    for key in ("scenario", "design", "flexible_study", "claims_study", "gain_study"):
+    for key in (
+        "scenario",
+        "design",
+        "flexible_study",
+        "claims_study",
+        "gain_study",
+        "calibration",
+    ):
         text = text.replace(f'{key} = "', f'{key} = "{PAPER}/')
     return text
 

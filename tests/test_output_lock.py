@@ -28,7 +28,7 @@ def test_a_held_folder_refuses_a_second_holder(tmp_path):
 @pytest.mark.parametrize(
     "args",
     [
-        ["sweep", str(REPO / "runs/sweeps/flexible_stiffness.toml"), "-n", "1", "--no-plots"],
+        ["sweep", str(REPO / "runs/sweeps/flexible_map.toml"), "-n", "1", "--no-plots"],
         ["reproduce", "--no-trace"],
     ],
     ids=["sweep", "reproduce"],

@@ -43,8 +43,9 @@ def test_every_paper_table_is_in_the_report_beside_the_papers_values(reproductio
         len(manifest.experiments) * len(manifest.controllers) * len(manifest.variants)
     )
     assert (reproduction.out / "figures" / "design_phase_plane.png").stat().st_size > 10_000
-    # beyond the paper: the flexible-joint stiffness study, table and figure
-    assert "## Beyond the paper: flexible joints from stiff to soft" in report
+    # beyond the paper: the flexible-joint stiffness x bandwidth map, table and figure
+    assert "## Beyond the paper: flexible joints, stiffness x bandwidth" in report
+    assert "| ωn [rad/s] | rigid arm Ts [s], Mp [%] | CTC: k ≥ (rigid-like k ≥)" in report
     assert (reproduction.out / "figures" / "flexible_study.png").is_file()
 
 
@@ -179,7 +180,7 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     assert run["controller"] == "FCM-CTC"
     assert list(run["joint1"]) == list(run["joint2"]) == keys
     sweep = pd.read_parquet(reproduction.out / "flexible_study" / "results.parquet")
-    assert set(sweep["controller"]) == names
+    assert set(sweep["controller"]) == names | {"motor-PD", "composite", "flexible-FL"}
     metric_columns = [c for c in sweep.columns if c.startswith("joint")]
     assert metric_columns == [f"joint{j}_{k}" for j in (1, 2) for k in keys]
     report = (reproduction.out / "report.md").read_text()

@@ -399,6 +399,52 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
     click.echo(f"-> {out}" + (f" and {study_module.table_path(study)}" if install else ""))
 
 
+@main.command(short_help="Fit the paper's unstated parameters to its tables.")
+@click.argument("study_file", required=False, type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("results/calibrate"),
+    show_default=True,
+    help="Folder for calibrated.toml and the profile figure (calibration_profile.png).",
+)
+@click.option(
+    "--install",
+    is_flag=True,
+    help="Also write the shipped result (runs/paper/calibrated.toml) that the report reruns.",
+)
+@set_option
+def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> None:
+    """Fit the paper's unstated parameters (gains, step and ramp sizes, model mismatch,
+    fuzzy scaling) to its nominal tables by differential evolution (docs/reproduction.md,
+    "Calibrating to the paper's tables").
+
+    \b
+    Examples:
+      twolink calibrate                     # runs/paper/calibrate.toml -> results/calibrate/
+      twolink calibrate --set maxiter=2 --set popsize=4   # a tiny, quick fit
+      twolink calibrate --install                   # update runs/paper/calibrated.toml
+    """
+    from twolink import calibrate as cal
+    from twolink.config import ConfigError, parse_set
+    from twolink.io import check_output_folder
+
+    try:
+        study = cal.load_calibration(study_file or cal.DEFAULT_STUDY, parse_set(settings))
+        check_output_folder(out)
+    except (ConfigError, OSError) as exc:
+        _fail_input(str(exc))
+    if install and parse_set(settings):
+        _fail_input("--install writes the shipped result of the study file as it is; drop --set")
+    result = cal.calibrate(study, log=lambda msg: click.echo(msg, err=True))
+    cal.save_result(result, out / "calibrated.toml")
+    cal.profile_figure(study, result, out / "calibration_profile.png")
+    if install:
+        cal.save_result(result, cal.result_path(study))
+    click.echo("\n".join(cal.summary_lines(study, result, result["rows"])))
+    click.echo(f"-> {out}" + (f" and {cal.result_path(study)}" if install else ""))
+
+
 @main.command(short_help="Reproduce the paper's tables and figures.")
 @click.option(
     "--out",
@@ -586,6 +632,11 @@ def sweep_command(
         f"results in {outcome.table}"
     )
     click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")
+
+
+from twolink.cli_fuzzy import coverage_command  # noqa: E402
+
+main.add_command(coverage_command)
 
 
 if __name__ == "__main__":

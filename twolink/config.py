@@ -31,6 +31,7 @@ Schema (all keys optional except the reference)::
     rule_base = "paper"      # fcm_ctc, fuzzy_pd: "paper", "designed", "default" or a path
     [controller.fuzzy]       # u = ku f(ke e, kde de); "auto": tied to the gains (docs/fuzzy.md)
     ke = "auto"  kde = "auto"  ku = "auto"  span = "auto"  authority = 1.0  mode = "add"
+    engine = "exact"        # or "table": bilinear lookup, table_points = 201 per axis
     [reference.joint1]
     kind = "step"  initial = 0.0  final = 1.0
     [reference.joint2]
@@ -67,6 +68,7 @@ CONTROLLER_KINDS = (
 FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc", "fuzzy_pd")  # controllers with a fuzzy engine
 RULE_BASE_KINDS = ("fcm_ctc", "fuzzy_pd")  # those whose rule base is the rule_base key
 FUZZY_MODES = ("add", "replace")
+FUZZY_ENGINES = ("exact", "table")  # [controller.fuzzy] engine: docs/fuzzy.md
 
 
 RULEBASE_DIR = Path(__file__).resolve().parents[1] / "controllers" / "rulebases"
@@ -114,6 +116,8 @@ class FuzzyConfig:
     mode: str = "add"
     span: float = 1.0  # rad: E, the error that reaches the edge of the input universe
     authority: float = 1.0  # fuzzy full scale / PD term at full-scale error ("auto")
+    engine: str = "exact"  # "exact" (the Mamdani engine) or "table" (bilinear lookup)
+    table_points: int = 201  # engine = "table": grid points per axis
 
 
 AUTO = "auto"
@@ -224,6 +228,8 @@ class Scenario:
             plant["flexibility"] = {k: list(v) for k, v in asdict(self.plant.flexibility).items()}
         ctrl = asdict(self.controller)
         ctrl["kp"], ctrl["kd"], ctrl["ki"] = list(ctrl["kp"]), list(ctrl["kd"]), list(ctrl["ki"])
+        if self.controller.fuzzy.engine == "exact":  # the default: digests stay as they were
+            del ctrl["fuzzy"]["engine"], ctrl["fuzzy"]["table_points"]
         return {
             "name": self.name,
             "duration": self.duration,
@@ -522,7 +528,11 @@ def _fuzzy(
         mode=f.string("mode", fd.mode, FUZZY_MODES),
         span=span,
         authority=authority,
+        engine=f.string("engine", fd.engine, FUZZY_ENGINES),
+        table_points=f.integer("table_points", fd.table_points),
     )
+    if fuzzy.table_points < 2:
+        f.fail("table_points", f"must be >= 2, got {fuzzy.table_points}")
     f.done()
     return fuzzy
 

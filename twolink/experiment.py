@@ -68,6 +68,8 @@ def build_controller(s: Scenario) -> Controller:
         stat = path.stat()
         engine = _engine(str(path), stat.st_mtime_ns, stat.st_size)
     f = c.fuzzy
+    if f.engine == "table":
+        engine = _table(engine, f.table_points)
     if c.kind == "fuzzy_pd":
         return baselines.FuzzyPD(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku)
     from controllers.fuzzy_ctc import FuzzyComputedTorque
@@ -85,6 +87,14 @@ def _engine(rule_base: str | None, *version: int):
     if rule_base is None:
         return fuzzy.default_fuzzy_pd()
     return fuzzy.default_fuzzy_pd().with_rules(fuzzy.load_rule_base(rule_base))
+
+
+@functools.lru_cache(maxsize=32)
+def _table(engine, points: int):
+    """The lookup table of a cached engine (one per engine and size, shared like it)."""
+    from controllers.fuzzy.table import FuzzyTable
+
+    return FuzzyTable(engine, points)
 
 
 def measurement_noise(s: Scenario) -> np.ndarray | None:

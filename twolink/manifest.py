@@ -95,6 +95,7 @@ class Manifest:
     baseline: str = "CTC"
     claims_study: Path | None = None
     gain_study: Path | None = None
+    calibration: Path | None = None  # twolink.calibrate's study file, rerun by the report
 
 
 def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]) -> str:
@@ -245,6 +246,12 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     gain_study = None
     if gains:
         gain_study = _referenced_file(top, "gain_study", gains, path.parent, "gain-study file")
+    cal = top.raw("calibration")
+    if cal is not None and not isinstance(cal, str):
+        top.fail("calibration", f"must be a calibration file path, got {cal!r}")
+    calibration = (
+        _referenced_file(top, "calibration", cal, path.parent, "calibration file") if cal else None
+    )
     top.done()
     return Manifest(
         path,
@@ -257,4 +264,5 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         baseline,
         claims_study,
         gain_study,
+        calibration,
     )

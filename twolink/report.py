@@ -223,7 +223,8 @@ def commentary(
         "- **Flexible joints**: the paper's model is rigid despite its title. On our "
         "Spong-model arm (" + settings.get("flexible joints", "") + "), with both "
         "controllers still using the rigid model: " + "; ".join(flexible) + ". The "
-        "stiffness sweep above shows where they degrade as the joints soften.",
+        "stiffness x bandwidth map above shows where each controller, the flexible-joint "
+        "ones included, holds and where it goes unstable.",
     ]
 
 

@@ -87,6 +87,7 @@ def design_section(
     Table 1, the data, the symmetry check and the held-out table (docs/fuzzy.md), and each
     downward step's overshoot beside its mirrored upward one (:func:`up_and_down`)."""
     from twolink.design import design_evidence, design_markdown
+    from twolink.validity import validity_markdown
 
     return [
         "",
@@ -100,6 +101,7 @@ def design_section(
         "",
         *design_markdown(result.rules, design_evidence(result)),
         *up_and_down(specs, scenarios or {}, rows),
+        *validity_markdown(result),
         "",
         "![phase plane](figures/design_phase_plane.png)",
         "",

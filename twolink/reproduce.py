@@ -305,24 +305,42 @@ def describe_choices(
 
 
 def flexible_study(sweep_file: Path, out: Path) -> list[str]:
-    """Run the stiffness sweep into ``out/flexible_study`` in this process (a worker
-    task: its arms are one or two batches); its report section."""
+    """Run the flexible-joint sweep into ``out/flexible_study`` in this process (a worker
+    task: its arms are one or two batches); its report section. A sweep over ``k`` and
+    ``wn`` is the stiffness x bandwidth map (``twolink.sweep.flexmap``), with the rigid
+    arm's Ts and Mp under CTC as its yardstick; a sweep over ``k`` alone, the stiffness
+    study."""
     from twolink import plots, sweep
 
     plan = sweep.load_sweep(sweep_file)
     outcome = sweep.run_sweep(plan, out / "flexible_study", executor="inprocess", plots=False)
-    plots.save_figure(
-        sweep.flexible_study_figure(outcome.results), out / "figures/flexible_study.png"
-    )
+    figure = out / "figures/flexible_study.png"
+    if "wn" not in plan.parameter_names:
+        plots.save_figure(sweep.flexible_study_figure(outcome.results), figure)
+        return ["", "## Beyond the paper: flexible joints from stiff to soft", "",
+                f"On Spong's flexible-joint arm, k swept from stiff to soft ({sweep_file.name}). "
+                "Medians per stiffness:", "", sweep.flexible_study_table(outcome.results), "",
+                "![flexible study](figures/flexible_study.png)"]  # fmt: skip
+    plots.save_figure(sweep.flexible_map_figure(outcome.results, plan.step), figure)
+    rigid = sweep.rigid_reference(plan, plan.controller_names[0])
     return [
         "",
-        "## Beyond the paper: flexible joints from stiff to soft",
+        "## Beyond the paper: flexible joints, stiffness x bandwidth",
         "",
-        f"CTC and FCM-CTC, both using the rigid model, on Spong's flexible-joint arm with "
-        f"the joint stiffness k swept from stiff to soft ({sweep_file.name}; θ1 and θ2 "
-        "step together). Medians per stiffness:",
+        f"Every controller on Spong's flexible-joint arm ({sweep_file.name}: realistic rotor "
+        "inertia and a joint damping ratio of 0.02 at every stiffness), the joint stiffness "
+        "k from stiff to soft against the closed loop's bandwidth ωn (ζ = 1). Per bandwidth, "
+        "the softest k down to which each controller meets the spec at every stiffer joint, "
+        f"and in brackets down to which its Ts and Mp also stay within the rigid arm's "
+        f"({plan.controller_names[0]}, no springs: Ts at most 10 % + 0.05 s later, Mp at most "
+        "1 point higher); — where even the stiffest joint fails (docs/control.md, "
+        '"The stiffness x bandwidth map"):',
         "",
-        sweep.flexible_study_table(outcome.results),
+        sweep.flexible_map_table(outcome.results, rigid, plan.step),
+        "",
+        "Red ×: unstable (a torque-limited limit cycle, or diverged); grey: bounded but off "
+        "target; colour: Ts to the target, number: Mp [%]; a dot: a spring twisted beyond "
+        "0.2 rad, no physical joint (docs/model.md).",
         "",
         "![flexible study](figures/flexible_study.png)",
     ]
@@ -478,6 +496,10 @@ def _reproduce(
             sections = oscillation_section(specs, scenarios, trajectories, rows)
             if manifest.gain_study is not None:
                 sections += report_section(manifest.gain_study, out, pool)
+            if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
+                from twolink.calibrate import report_section as calibration_section
+
+                sections += calibration_section(manifest.calibration, out)
             sections += design_section(result, specs, scenarios, rows)
             if study is not None:
                 sections += study.result()
@@ -556,6 +578,12 @@ def _design_figures(result: Any, out: Path) -> None:
             }
         ),
         out / "figures/control_surfaces.png",
+    )
+    from twolink.validity import validity_figure, validity_sweep  # c = 2..10, PC PE XB
+
+    rows = validity_sweep(result.points, result.weights)
+    plots.save_figure(
+        validity_figure(rows, result.clustering.n_clusters), out / "figures/design_validity.png"
     )
 
 

@@ -59,7 +59,7 @@ class Metric:
         Where the value comes from in :class:`twolink.experiment.RunMetrics`:
         ``"step.<field>"``, ``"errors.<field>"``, ``"torque.<field>"`` (per joint) or a
         per-joint field of its own (``"final_error"``, ``"oscillation"``,
-        ``"settling_target"``).
+        ``"settling_target"``, ``"max_twist"``).
     scale : float
         Factor from the source's unit to ``unit`` (100 for a fraction shown in percent).
     """
@@ -92,6 +92,7 @@ METRICS: tuple[Metric, ...] = (
     Metric("max_error_rad", "max|e|", "rad", "errors.max_abs"),
     Metric("torque_rms_Nm", "τ rms", "N·m", "torque.rms"),
     Metric("torque_peak_Nm", "τ peak", "N·m", "torque.peak"),
+    Metric("max_twist_rad", "twist", "rad", "max_twist"),  # flexible joints; NaN if rigid
 )
 STEP_KEYS = tuple(m.key for m in METRICS if m.source.startswith("step."))
 _BY_KEY = {m.key: m for m in METRICS}

@@ -8,6 +8,7 @@ One concern per module:
   Parquet) and its summary;
 - :mod:`twolink.sweep.figures`: the sweep's plots;
 - :mod:`twolink.sweep.studies`: studies built on sweeps (the flexible-joint study).
+- :mod:`twolink.sweep.flexmap`: the flexible-joint stiffness x bandwidth map.
 
 The command (``twolink sweep``) is in :mod:`twolink.cli`; ``docs/sweeps.md`` has the
 schema and the output folder.
@@ -23,6 +24,12 @@ from twolink.sweep.execution import (
     run_sweep,
 )
 from twolink.sweep.figures import save_sweep_plots, sweep_figures
+from twolink.sweep.flexmap import (
+    flexible_map_figure,
+    flexible_map_table,
+    map_cells,
+    rigid_reference,
+)
 from twolink.sweep.plan import DISTRIBUTIONS, PARAMETERS, Parameter, SweepPlan, load_sweep
 from twolink.sweep.results import (
     METRIC_COLUMNS,
@@ -46,11 +53,15 @@ __all__ = [
     "SweepOutputError",
     "SweepPlan",
     "SweepTaskError",
+    "flexible_map_figure",
+    "flexible_map_table",
     "flexible_study_figure",
     "flexible_study_table",
     "format_summary",
     "load_results",
     "load_sweep",
+    "map_cells",
+    "rigid_reference",
     "run_chunk",
     "run_sweep",
     "save_sweep_plots",

@@ -29,7 +29,7 @@ from twolink.executors import SweepExecutor, check_options, open_executor
 from twolink.experiment import build_controller, iter_scenarios, measure
 from twolink.io import atomic_write_json, atomic_write_text, output_lock
 from twolink.outcome import classify
-from twolink.sweep.plan import FORMAT_VERSION, SweepPlan
+from twolink.sweep.plan import FORMAT_VERSION, SweepPlan, gains
 from twolink.sweep.results import (
     METRIC_COLUMNS,
     STATUS_ERROR,
@@ -89,21 +89,25 @@ def _error_text(exc: BaseException) -> str:
 def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
     """Compute every (sample, controller) of one chunk, as one batch of arms.
 
-    The controllers are built once per chunk (they are modelled on the nominal arm,
-    which does not change; a flexible-joint controller is given each sample's joints,
-    ``with_joints``); every (sample, controller) is one arm of the batch engine
+    The controllers are built once per chunk, and once per swept ``wn`` (they are modelled
+    on the nominal arm, which does not change; a flexible-joint controller is given each
+    sample's joints, ``with_joints``); every (sample, controller) is one arm of the batch engine
     (:func:`twolink.experiment.iter_scenarios`). A sample that raises or diverges gives
     rows with status "error" or "diverged" and the message; it never stops the chunk.
     """
     start = time.perf_counter()
-    controllers: dict[str, Any] = {}
-    build_errors: dict[str, str] = {}
-    for name in plan.controller_names:
-        try:
-            s = scenario_from_dict(plan.controller_data(name), plan.file)
-            controllers[name] = build_controller(s)
-        except Exception as exc:  # recorded on every row of this controller
-            build_errors[name] = _error_text(exc)
+    controllers: dict[Any, Any] = {}  # (name, gains) -> the controller or its build error
+
+    def controller_of(name: str, values: dict[str, float]) -> Any:
+        key = (name, tuple(gains(values).items()))  # a swept ``wn``: one per bandwidth
+        if key not in controllers:
+            try:
+                s = scenario_from_dict(plan.controller_data(name, values), plan.file)
+                controllers[key] = build_controller(s)
+            except Exception as exc:  # recorded on every row of this controller
+                controllers[key] = _error_text(exc)
+        return controllers[key]
+
     # Rows in sample then controller order: an error now, or the arm that will fill it.
     rows: list[Any] = []
     arms: list[tuple[int, Any]] = []  # (row, scenario) of every arm to simulate
@@ -116,11 +120,11 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
         except Exception as exc:
             sample_error = _error_text(exc)
         for name in plan.controller_names:
-            error = sample_error or build_errors.get(name, "")
+            controller = controller_of(name, values)
+            error = sample_error or (controller if isinstance(controller, str) else "")
             if error:
                 rows.append(_error_row(i, name, head, error))
             else:
-                controller = controllers[name]
                 if getattr(controller, "needs_motor", False):  # models the sample's joints
                     controller = controller.with_joints(s.plant.flexibility)
                 arms.append((len(rows), s, controller))

@@ -42,7 +42,11 @@ Parameters: ``m1 m2 l1 l2 g`` are factors on the nominal arm (they replace the b
 ``plant.scale`` entry); ``payload`` is a tip mass [kg]; ``k d j`` set the flexible joints'
 stiffness [N m/rad], damping [N m s/rad] and rotor inertia [kg m^2] of both joints, ``k1 k2
 d1 d2 j1 j2`` one joint's. Sweeping any of them makes the plant flexible (the controllers
-keep the rigid model). Distributions: ``uniform`` (low, high), ``loguniform`` (low, high),
+keep the rigid model). ``zeta_joint`` sets both joints' damping from a damping ratio,
+d = 2 ζ sqrt(k j) with each joint's k and j (drawn or the base's): realistic light damping at
+every stiffness. ``wn`` is the closed loop's bandwidth [rad/s] at ζ = 1: every controller of
+the sample gets kp = wn², kd = 2 wn, ki = wn³ / 4 (the gain study's rule; over the
+controllers' own gains). Distributions: ``uniform`` (low, high), ``loguniform`` (low, high),
 ``normal`` (mean, std, optional low/high truncation by rejection), ``choice`` (values,
 optional weights), ``grid`` (values: sample i takes the (i mod size)-th point of the full
 grid over all grid parameters, the first parameter by name varying fastest).
@@ -82,8 +86,8 @@ __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan",
 
 # Chunk files and manifest (2: Parquet, 3: oscillation_rad, 4: settling_time_target_s,
 # max_error_rad and Tp only where there is a peak); in the digest, so older chunks are
-# not resumed.
-FORMAT_VERSION = 4
+# not resumed; 5: max_twist_rad).
+FORMAT_VERSION = 5
 # Samples per task: each task is one batch of arms (samples x controllers) on the batch
 # engine, whose per-step cost is mostly fixed below ~100 arms (docs/sweeps.md).
 DEFAULT_CHUNK_SIZE = 100
@@ -100,8 +104,12 @@ PARAMETERS: Mapping[str, str] = {
     "payload": "nonnegative",
     **{f"{p}{j}": dom for p, dom in zip("kdj", ("positive", "nonnegative", "positive"), strict=True)
        for j in ("", "1", "2")},
+    "zeta_joint": "nonnegative",  # the joints' damping ratio: d = 2 zeta sqrt(k j)
+    "wn": "positive",  # the controllers' bandwidth [rad/s], zeta = 1
 }  # fmt: skip
-FLEX_NAMES = frozenset(f"{p}{j}" for p in FLEX_PARAMETERS for j in ("", "1", "2"))
+FLEX_NAMES = frozenset(
+    {"zeta_joint"} | {f"{p}{j}" for p in FLEX_PARAMETERS for j in ("", "1", "2")}
+)
 TRUNCATION_TRIES = 10_000
 # A truncated normal must keep this share of the draws: with 10,000 tries per value, no
 # draw in the truncation is then a chance of (1 - 0.01)**10_000 ~ 1e-44.
@@ -284,12 +292,25 @@ class SweepPlan:
                 for j in (1, 2):
                     if f"{p}{j}" in values:
                         flex[p][j - 1] = values[f"{p}{j}"]
+            if "zeta_joint" in values:
+                z = values["zeta_joint"]
+                flex["d"] = [
+                    2.0 * z * math.sqrt(k * j) for k, j in zip(flex["k"], flex["j"], strict=True)
+                ]
             plant["flexibility"] = flex
         return merge(self.base, {"plant": plant, "seed": noise_seed})
 
-    def controller_data(self, name: str) -> dict[str, Any]:
-        """The base scenario with controller ``name``'s overrides."""
-        return merge(self.base, {"controller": dict(self.controllers)[name]})
+    def controller_data(self, name: str, values: Mapping[str, float] = {}) -> dict[str, Any]:  # noqa: B006
+        """The base scenario with controller ``name``'s overrides (and a sample's ``wn``)."""
+        return merge(self.base, {"controller": {**dict(self.controllers)[name], **gains(values)}})
+
+
+def gains(values: Mapping[str, float]) -> dict[str, float]:
+    """The controller gains a sample's ``wn`` sets (ζ = 1; ki by the gain study's rule)."""
+    if "wn" not in values:
+        return {}
+    wn = values["wn"]
+    return {"kp": wn**2, "kd": 2.0 * wn, "ki": 0.25 * wn**3}
 
 
 # ----------------------------------------------------------------------------- reading
@@ -538,6 +559,9 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         both = [f"{p}{j}" for j in (1, 2) if f"{p}{j}" in pt.data]
         if p in pt.data and both:
             pt.fail(both[0], f"conflicts with {p!r}, which sets both joints")
+    for name in ("d", "d1", "d2"):
+        if name in pt.data and "zeta_joint" in pt.data:
+            pt.fail(name, "conflicts with 'zeta_joint', which sets the damping of both joints")
     parameters = tuple(_parameter(n, pt.raw(n), file) for n in sorted(pt.data))
     pt.done()
 

@@ -1,0 +1,55 @@
+"""``twolink coverage``: where a rule base fires no rule (registered in :mod:`twolink.cli`).
+
+Exit codes: 0 the rule base covers the input box, 1 it has gaps, 2 bad input.
+"""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+
+@click.command("coverage", short_help="Where a rule base fires no rule.")
+@click.argument("rule_base", default="paper", required=False)
+@click.option(
+    "--threshold",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Count a point as uncovered where the total firing is at most this.",
+)
+@click.option(
+    "--grid", type=int, default=201, show_default=True, help="Grid points per axis (>= 2)."
+)
+def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
+    """Print the share of the normalised (e, de) input box where RULE_BASE fires no rule,
+    and the uncovered label cells. RULE_BASE is "paper" (default), "designed", "default"
+    (the 7x7) or a rule-base TOML file; the engine is the project's 7-label one.
+
+    \b
+    Examples:
+      twolink coverage                      # the paper's Table 1: exit 1, it has gaps
+      twolink coverage default              # the 7x7: exit 0
+      twolink coverage designed --threshold 0.1
+    """
+    from controllers.fuzzy import default_fuzzy_pd, load_rule_base
+    from controllers.fuzzy.coverage import coverage
+    from twolink.config import resolve_rule_base
+
+    path = resolve_rule_base(rule_base)
+    try:
+        engine = default_fuzzy_pd().with_rules(load_rule_base(path))
+        result = coverage(engine, threshold=threshold, grid=grid)
+    except (OSError, ValueError, KeyError) as exc:
+        click.echo(f"error: {rule_base}: {exc}", err=True)
+        sys.exit(2)
+    how = "exact area" if result.exact else f"on a {grid} x {grid} grid"
+    click.echo(
+        f"{path}: {result.n_rules} rules; no rule fires (total firing <= {threshold:g}) on "
+        f"{100 * result.uncovered_fraction:.2f} % of the input box ({how}; "
+        f"{100 * result.grid_fraction:.2f} % of the {grid} x {grid} grid points)"
+    )
+    for region in result.regions:
+        click.echo(f"  uncovered: {region}")
+    sys.exit(0 if result.complete else 1)
