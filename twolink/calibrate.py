@@ -467,10 +467,7 @@ def fit_counts(study: Calibration, rows: dict[str, dict[str, float]]) -> tuple[i
 
 def profile_figure(study: Calibration, result: dict[str, Any], path: Path) -> Path:
     """The objective along each parameter (others at the optimum), one panel each."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from twolink.plots import plt, save_figure
 
     panels = [(c, n, p) for c, prof in result["profile"].items() for n, p in prof.items()]
     cols = 5
@@ -487,9 +484,7 @@ def profile_figure(study: Calibration, result: dict[str, Any], path: Path) -> Pa
         ax.axis("off")
     fig.suptitle("Calibration objective along each parameter (others at the optimum; red: fit)")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save_figure(fig, path, dpi=100)  # atomic, as every output
     return path
 
 

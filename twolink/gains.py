@@ -339,10 +339,7 @@ def choose(table: pd.DataFrame, study: GainStudy) -> Choice:
 def tradeoff_figure(table: pd.DataFrame, study: GainStudy, choice: Choice | None, path: Path):
     """The trade-off figure: error under mismatch, torque demand, saturation and overshoot
     against ωn, for the step and the quintic move."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from twolink.plots import plt, save_figure
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
     ax_err, ax_tau, ax_sat, ax_mp = axes.ravel()
@@ -378,9 +375,7 @@ def tradeoff_figure(table: pd.DataFrame, study: GainStudy, choice: Choice | None
     ax_err.legend(fontsize=7)
     fig.suptitle("Gain study: computed-torque bandwidth against error, torque and saturation")
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save_figure(fig, path)  # atomic, as every output
     return path
 
 

@@ -82,8 +82,10 @@ def design_section(
     specs: list[RunSpec] = (),
     scenarios: dict[str, Scenario] | None = None,
     rows: list[dict[str, Any]] = (),
+    validity: Any = None,
 ) -> list[str]:
-    """The report's section on the FCM design: the designed rules beside the paper's
+    """The report's section on the FCM design (``validity``: the cluster-validity sweep
+    if already computed, else computed here): the designed rules beside the paper's
     Table 1, the data, the symmetry check and the held-out table (docs/fuzzy.md), and each
     downward step's overshoot beside its mirrored upward one (:func:`up_and_down`)."""
     from twolink.design import design_evidence, design_markdown
@@ -101,7 +103,7 @@ def design_section(
         "",
         *design_markdown(result.rules, design_evidence(result)),
         *up_and_down(specs, scenarios or {}, rows),
-        *validity_markdown(result),
+        *validity_markdown(result, validity),
         "",
         "![phase plane](figures/design_phase_plane.png)",
         "",

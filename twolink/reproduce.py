@@ -455,7 +455,7 @@ def _reproduce(
             rows, pending = run_all(
                 specs, out, pool, trace, None if designed else scenarios, busy=study is not None
             )
-            _design_figures(result, out)  # here, while the workers run
+            validity = _design_figures(result, out)  # here, while the workers run
             claims: list[str] = []
             if manifest.claims_study is not None:
                 phase(f"claims: {manifest.claims_study.name}, on the same pool")
@@ -500,7 +500,7 @@ def _reproduce(
                 from twolink.calibrate import report_section as calibration_section
 
                 sections += calibration_section(manifest.calibration, out)
-            sections += design_section(result, specs, scenarios, rows)
+            sections += design_section(result, specs, scenarios, rows, validity)
             if study is not None:
                 sections += study.result()
             for fut in drawing:
@@ -560,9 +560,10 @@ def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> list[st
     )
 
 
-def _design_figures(result: Any, out: Path) -> None:
-    """The design's evidence: phase plane with centres, membership functions, and the
-    control surfaces of the heuristic, the paper's and the designed rule base."""
+def _design_figures(result: Any, out: Path) -> list[Any]:
+    """The design's evidence: phase plane with centres, membership functions, the
+    control surfaces of the heuristic, the paper's and the designed rule base, and the
+    cluster-validity sweep (returned, for the report's table)."""
     from controllers import fuzzy
     from twolink import plots
 
@@ -585,6 +586,7 @@ def _design_figures(result: Any, out: Path) -> None:
     plots.save_figure(
         validity_figure(rows, result.clustering.n_clusters), out / "figures/design_validity.png"
     )
+    return rows
 
 
 def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, path: Path) -> None:

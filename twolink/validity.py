@@ -141,10 +141,11 @@ def validity_figure(rows: Sequence[ValidityRow], chosen: int):
     return fig
 
 
-def validity_markdown(result: Any) -> list[str]:
-    """The report's lines: validity indices per c, the design's c, and the full 7x7
-    surface against the reduced one."""
-    rows = validity_sweep(result.points, result.weights)
+def validity_markdown(result: Any, rows: Sequence[ValidityRow] | None = None) -> list[str]:
+    """The report's lines: validity indices per c (``rows``, or swept here), the design's
+    c, and the full 7x7 surface against the reduced one."""
+    if rows is None:
+        rows = validity_sweep(result.points, result.weights)
     chosen = int(result.clustering.n_clusters)
     best = {
         "PC": max(rows, key=lambda r: r.pc).clusters,
