@@ -99,10 +99,12 @@ def mujoco_step_us(n: int) -> float:
 def sweep_step_us() -> tuple[float, int]:
     """Wall time of an in-process robustness sweep (a fresh process, start-up included)
     per arm-step [µs], and its arm-steps."""
+    from twolink.config import scenario_from_dict
     from twolink.sweep import load_sweep
 
     plan = load_sweep(ROOT / "runs/sweeps/robustness.toml")
-    s = load_scenario(ROOT / "runs/paper/base.toml")
+    values, seed = plan.draw(0)  # a sample's scenario: the sweep's overrides (duration) apply
+    s = scenario_from_dict(plan.sample_data(values, seed), plan.file)
     arm_steps = plan.samples * len(plan.controller_names) * round(s.duration / s.control_dt)
     with tempfile.TemporaryDirectory() as tmp:
         start = time.perf_counter()

@@ -83,7 +83,11 @@ def _fuzzy_scalings(controllers: Sequence[Any]) -> tuple[np.ndarray, ...]:
 
 class BatchComputedTorque:
     """:class:`~controllers.ctc.ComputedTorque` for N arms, each with its own model,
-    gains, limits and reference."""
+    gains, limits and reference.
+
+    ``law(k, q, qd)`` is :meth:`finish` of the reference errors and model terms it computes
+    itself; :class:`_SharedTerms` computes those once for the laws of several kinds and
+    calls their :meth:`finish` on slices."""
 
     def __init__(self, controllers: Sequence[ComputedTorque], times: np.ndarray) -> None:
         self.reference = ReferenceTable([c.reference for c in controllers], times)
@@ -97,21 +101,27 @@ class BatchComputedTorque:
         r, v, a = self.reference.at(k)
         return a, r - q, v - qd
 
-    def unsaturated(self, q: np.ndarray, qd: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """``M^(q) v + H^ + G^`` (the scalar ``unsaturated``, arm by arm)."""
-        m11, m12, m22, b1, b2 = terms(
-            self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=np.cos, sin=np.sin
-        )
+    def terms(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The model's ``(M11, M12, M22, H1 + G1, H2 + G2)`` at (q, qd), each (N,)."""
+        return terms(self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=np.cos, sin=np.sin)
+
+    @staticmethod
+    def unsaturated(m: tuple[np.ndarray, ...], v: np.ndarray) -> np.ndarray:
+        """``M^(q) v + H^ + G^`` from the model terms ``m`` (the scalar ``unsaturated``)."""
+        m11, m12, m22, b1, b2 = m
         v1, v2 = v[:, 0], v[:, 1]
         return np.stack([m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2], axis=1)
 
-    def torque(self, q: np.ndarray, qd: np.ndarray, v: np.ndarray) -> np.ndarray:
+    def torque(self, m: tuple[np.ndarray, ...], v: np.ndarray) -> np.ndarray:
         """:meth:`unsaturated`, saturated."""
-        return np.clip(self.unsaturated(q, qd, v), -self.limit, self.limit)
+        return np.clip(self.unsaturated(m, v), -self.limit, self.limit)
 
     def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        a, e, de = self.errors(k, q, qd)
-        return self.torque(q, qd, a + self.kd * de + self.kp * e)
+        return self.finish(k, *self.errors(k, q, qd), self.terms(q, qd))
+
+    def finish(self, k: int, a, e, de, m) -> np.ndarray:
+        """The torques from the desired accelerations, errors and model terms."""
+        return self.torque(m, a + self.kd * de + self.kp * e)
 
 
 class BatchFuzzyComputedTorque(BatchComputedTorque):
@@ -124,12 +134,10 @@ class BatchFuzzyComputedTorque(BatchComputedTorque):
         self.add = controllers[0].mode == "add"
         self.ke, self.kde, self.ku = _fuzzy_scalings(controllers)
 
-    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        v, e, de = self.errors(k, q, qd)
-        if self.add:
-            v = v + (self.kp * e + self.kd * de)
+    def finish(self, k: int, a, e, de, m) -> np.ndarray:
+        v = a + (self.kp * e + self.kd * de) if self.add else a
         u = self.engine.evaluate_batch(self.ke * e, self.kde * de)
-        return self.torque(q, qd, v + self.ku * u)
+        return self.torque(m, v + self.ku * u)
 
 
 class BatchPDGravity(BatchComputedTorque):
@@ -157,13 +165,43 @@ class BatchIntegralComputedTorque(BatchComputedTorque):
         self.dt = np.array([[c.control_dt] for c in controllers])
         self.z = np.zeros((len(controllers), 2))
 
-    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        a, e, de = self.errors(k, q, qd)
+    def finish(self, k: int, a, e, de, m) -> np.ndarray:
         v = a + self.kd * de + self.kp * e + self.ki * self.z
-        raw = self.unsaturated(q, qd, v)
+        raw = self.unsaturated(m, v)
         tau = np.clip(raw, -self.limit, self.limit)
         free = (tau == raw) | ((e > 0) != (raw > 0))  # anti-windup, as the scalar law
         self.z = np.where(free, self.z + e * self.dt, self.z)
+        return tau
+
+
+class _SharedTerms:
+    """Computed-torque laws of several kinds (CTC, CTC-I, fuzzy CTC) as one law: the
+    reference errors and the model terms of all their arms are computed once per instant,
+    on arms ordered law by law, and each law finishes its own contiguous slice. Per arm the
+    arithmetic is the law's own (element-wise operations on longer arrays give the same
+    numbers); what is saved is numpy's fixed cost per call, paid once instead of per law."""
+
+    def __init__(
+        self, parts: Sequence[tuple[BatchComputedTorque, Sequence[Any]]], times: np.ndarray
+    ) -> None:
+        controllers = [c for _, group in parts for c in group]
+        self.reference = ReferenceTable([c.reference for c in controllers], times)
+        self.model = _Models.stack(controllers)
+        bounds = np.cumsum([0, *(len(group) for _, group in parts)])
+        self.parts = [
+            (slice(int(lo), int(hi)), law)
+            for (law, _), lo, hi in zip(parts, bounds[:-1], bounds[1:], strict=True)
+        ]
+
+    errors = BatchComputedTorque.errors
+    terms = BatchComputedTorque.terms
+
+    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        a, e, de = self.errors(k, q, qd)
+        m = self.terms(q, qd)
+        tau = np.empty_like(q)
+        for sl, law in self.parts:
+            tau[sl] = law.finish(k, a[sl], e[sl], de[sl], tuple(x[sl] for x in m))
         return tau
 
 
@@ -222,6 +260,9 @@ def _group_key(c: Controller) -> tuple[Any, ...]:
     return (_ArmByArm,)
 
 
+# The kinds whose laws share one evaluation of the reference errors and model terms.
+_SHARED_TERMS = (ComputedTorque, IntegralComputedTorque, FuzzyComputedTorque)
+
 _LAWS: dict[type, type] = {
     ComputedTorque: BatchComputedTorque,
     FuzzyComputedTorque: BatchFuzzyComputedTorque,
@@ -247,8 +288,18 @@ def batch_laws(
     groups: dict[tuple[Any, ...], list[int]] = {}
     for i, c in enumerate(controllers):
         groups.setdefault(_group_key(c), []).append(i)
-    laws = []
+    laws, shared = [], []
     for key, idx in groups.items():
         law = _LAWS.get(key[0]) or vars(key[0])["batch_law"]
-        laws.append((np.array(idx), law([controllers[i] for i in idx], times)))
+        members = [controllers[i] for i in idx]
+        if key[0] in _SHARED_TERMS:
+            shared.append((idx, law(members, times), members))
+        else:
+            laws.append((np.array(idx), law(members, times)))
+    if len(shared) == 1:
+        idx, law, _ = shared[0]
+        laws.append((np.array(idx), law))
+    elif shared:
+        order = np.array([i for idx, _, _ in shared for i in idx])
+        laws.append((order, _SharedTerms([(law, members) for _, law, members in shared], times)))
     return laws

@@ -140,6 +140,9 @@ class _Plan:
     order: np.ndarray  # rules sorted by consequent, for a max-reduceat per output term
     starts: np.ndarray
     used_u: np.ndarray
+    # The neighbouring output-peak pairs some rule can clip (the others add exactly 0 to
+    # the centroid's sums): the rows the batch centroid computes.
+    pair_span: slice
     # Fast path (triangular partitions + centroid); None when not applicable.
     peaks_u: np.ndarray | None
     peaks_e: tuple[float, ...] | None
@@ -157,6 +160,8 @@ def _plan_for(engine: MamdaniEngine) -> _Plan:
     r_u = np.array([engine.u.index(r.u) for r in engine.rules], dtype=np.intp)
     order = np.argsort(r_u, kind="stable")
     used_u, starts = np.unique(r_u[order], return_index=True)
+    n_pairs = len(engine.u.labels) - 1
+    pair_span = slice(max(int(used_u[0]) - 1, 0), min(int(used_u[-1]) + 1, n_pairs))
     pu = _partition_peaks(engine.u) if engine.defuzz == "centroid" else None
     pe, pd = _partition_peaks(engine.e), _partition_peaks(engine.de)
     small_ok = pu is not None and pe is not None and pd is not None
@@ -174,6 +179,7 @@ def _plan_for(engine: MamdaniEngine) -> _Plan:
         order=order,
         starts=starts,
         used_u=used_u,
+        pair_span=pair_span,
         peaks_u=None if pu is None else np.array(pu),
         peaks_e=pe if small_ok else None,
         peaks_de=pd if small_ok else None,
@@ -350,9 +356,17 @@ class MamdaniEngine:
 
     def _firing_rows(self, e: np.ndarray, de: np.ndarray) -> np.ndarray:
         """Firing strengths of 1-D inputs as (n_rules, N)."""
+        plan = self._plan
+        if plan.peaks_e is not None and plan.peaks_e == plan.peaks_de:
+            # One partition for both inputs: half the numpy calls, the same numbers.
+            both = np.concatenate([e, de])
+            if np.isnan(both).any():
+                raise ValueError("fuzzy engine inputs contain NaN")
+            rows = _partition_rows(both, plan.peaks_e_array)
+            a, b = rows[plan.rule_e, : e.size], rows[plan.rule_de, e.size :]
+            return np.minimum(a, b, out=a) if self.and_method == "min" else np.multiply(a, b, out=a)
         if np.isnan(e).any() or np.isnan(de).any():
             raise ValueError("fuzzy engine inputs contain NaN")
-        plan = self._plan
         if plan.peaks_e is not None:  # triangular partitions: _small's closed form
             a = _partition_rows(e, plan.peaks_e_array)[plan.rule_e]
             b = _partition_rows(de, plan.peaks_de_array)[plan.rule_de]
@@ -382,7 +396,7 @@ class MamdaniEngine:
         if self.defuzz == "mom":
             out = self._mom(rows.T)
         elif self._plan.peaks_u is not None:
-            out = self._centroid_rows(rows)
+            out = self._centroid_rows(rows, self._plan.pair_span)
         else:
             out = self._grid_defuzz(rows.T)
         return np.where(fired, out, self.no_fire_output)
@@ -391,7 +405,7 @@ class MamdaniEngine:
         """Closed-form centroid from clip levels (N, n_terms); see ``_centroid_rows``."""
         return self._centroid_rows(np.ascontiguousarray(cuts.T))
 
-    def _centroid_rows(self, cuts: np.ndarray) -> np.ndarray:
+    def _centroid_rows(self, cuts: np.ndarray, pairs: slice = slice(None)) -> np.ndarray:
         """Closed-form skfuzzy centroid for a triangular output partition (see docs/fuzzy.md).
 
         ``cuts`` is (n_terms, N). Between neighbouring output peaks p < q, in
@@ -401,12 +415,14 @@ class MamdaniEngine:
         the two clipped terms meet, and joins the grid neighbours tl <= s <= tr of s by a
         chord instead: that adds the triangle between chord and A, of area
         k (s - tl)(tr - s) / 2 with k the slope change of A at s, centroid (tl + s + tr) / 3.
+        Only the peak pairs in ``pairs`` are summed: the others must have both cuts 0 (a
+        pair with a = b = 0 adds exactly 0 to both sums).
         """
         peaks = self._plan.peaks_u
         grid = self.u.grid
-        p, q = peaks[:-1, None], peaks[1:, None]
+        p, q = peaks[:-1, None][pairs], peaks[1:, None][pairs]
         h = q - p
-        a, b = cuts[:-1], cuts[1:]
+        a, b = cuts[:-1][pairs], cuts[1:][pairs]
         aa, bb = a * a, b * b
         c = np.minimum(np.minimum(a, b), 0.5)  # the value of A at s
         cc = c - c * c

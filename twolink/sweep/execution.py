@@ -48,6 +48,7 @@ __all__ = [
     "SweepOutputError",
     "SweepTaskError",
     "run_chunk",
+    "run_chunks",
     "run_sweep",
 ]
 
@@ -95,6 +96,13 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
     (:func:`twolink.experiment.iter_scenarios`). A sample that raises or diverges gives
     rows with status "error" or "diverged" and the message; it never stops the chunk.
     """
+    return run_chunks(plan, [chunk])[0]
+
+
+def run_chunks(plan: SweepPlan, chunks: list[int]) -> list[ChunkResult]:
+    """:func:`run_chunk` of several chunks, their arms in one batch: the batch engine's
+    fixed cost per step is paid once for all of them (the in-process executor's task).
+    Each chunk's rows are exactly those it gets alone; ``wall_s`` is shared out by arms."""
     start = time.perf_counter()
     controllers: dict[Any, Any] = {}  # (name, gains) -> the controller or its build error
 
@@ -109,33 +117,39 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
         return controllers[key]
 
     # Rows in sample then controller order: an error now, or the arm that will fill it.
-    rows: list[Any] = []
-    arms: list[tuple[int, Any]] = []  # (row, scenario) of every arm to simulate
-    for i in plan.chunk_samples(chunk):
-        values, noise_seed = plan.draw(i)
-        head = list(values.values())
-        try:
-            s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
-            sample_error = ""
-        except Exception as exc:
-            sample_error = _error_text(exc)
-        for name in plan.controller_names:
-            controller = controller_of(name, values)
-            error = sample_error or (controller if isinstance(controller, str) else "")
-            if error:
-                rows.append(_error_row(i, name, head, error))
-            else:
-                if getattr(controller, "needs_motor", False):  # models the sample's joints
-                    controller = controller.with_joints(s.plant.flexibility)
-                arms.append((len(rows), s, controller))
-                rows.append((i, name, head))
+    rows: list[list[Any]] = [[] for _ in chunks]
+    arms: list[tuple[int, int, Any, Any]] = []  # (chunk, row, scenario, controller)
+    for c, chunk in enumerate(chunks):
+        for i in plan.chunk_samples(chunk):
+            values, noise_seed = plan.draw(i)
+            head = list(values.values())
+            try:
+                s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
+                sample_error = ""
+            except Exception as exc:
+                sample_error = _error_text(exc)
+            for name in plan.controller_names:
+                controller = controller_of(name, values)
+                error = sample_error or (controller if isinstance(controller, str) else "")
+                if error:
+                    rows[c].append(_error_row(i, name, head, error))
+                else:
+                    if getattr(controller, "needs_motor", False):  # the sample's joints
+                        controller = controller.with_joints(s.plant.flexibility)
+                    arms.append((c, len(rows[c]), s, controller))
+                    rows[c].append((i, name, head))
     # Measured as each batch ends: one trajectory at a time is ever held.
-    runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms])
+    runs = iter_scenarios([a[2] for a in arms], [a[3] for a in arms])
     for k, traj in runs:
-        r, s, _ = arms[k]
-        i, name, head = rows[r]
-        rows[r] = _measured_row(i, name, head, s, traj)
-    return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
+        c, r, s, _ = arms[k]
+        i, name, head = rows[c][r]
+        rows[c][r] = _measured_row(i, name, head, s, traj)
+    wall = time.perf_counter() - start
+    total = sum(len(r) for r in rows) or 1
+    return [
+        ChunkResult(chunk, tuple(r), wall * len(r) / total, os.getpid())
+        for chunk, r in zip(chunks, rows, strict=True)
+    ]
 
 
 _NAN_METRICS = [math.nan] * len(METRIC_COLUMNS)
@@ -527,6 +541,12 @@ def _classify(plan: SweepPlan, results: pd.DataFrame) -> None:
     results.attrs["success"] = {**asdict(plan.success), "step_rad": plan.step}
 
 
+# In-process, chunks are run together up to this many arms (samples x controllers): past
+# the knee of the batch engine's cost per arm-step (docs/batch.md), one batch's fixed cost
+# per step is paid once for all of them.
+IN_PROCESS_ARMS = 1000
+
+
 def _drive(
     plan: SweepPlan,
     out: Path,
@@ -537,39 +557,44 @@ def _drive(
     bar: Any,
     stops: _StopSignals,
 ) -> None:
-    """Keep a bounded window of chunks in flight; write each chunk as it finishes."""
-    todo = iter(missing)
+    """Keep a bounded window of tasks in flight; write each chunk as it finishes. A task is
+    one chunk on a pool (the unit of resuming and of spreading over workers); in-process,
+    consecutive chunks up to :data:`IN_PROCESS_ARMS` arms are one task and one batch."""
+    per_chunk = max(1, plan.chunk_size * len(plan.controller_names))
+    group = max(1, IN_PROCESS_ARMS // per_chunk) if ex.name == "inprocess" else 1
+    todo = iter([missing[i : i + group] for i in range(0, len(missing), group)])
     # Enough queued work that no worker waits on the client, little to cancel on Ctrl-C.
     window = 1 if ex.name == "inprocess" else 2 * ex.workers
     pending: set[futures.Future] = set()
 
     def fill() -> None:
         while len(pending) < window:
-            chunk = next(todo, None)
-            if chunk is None:
+            chunks = next(todo, None)
+            if chunks is None:
                 return
-            pending.add(ex.submit(run_chunk, plan, chunk))
+            pending.add(ex.submit(run_chunks, plan, chunks))
 
     fill()
     while pending:
         done, pending = futures.wait(pending, return_when=futures.FIRST_COMPLETED)
         for future in done:
             try:
-                result: ChunkResult = future.result()
+                results: list[ChunkResult] = future.result()
             except futures.BrokenExecutor:
                 raise
             except Exception as exc:  # outside run_chunk's per-sample net: a real bug
                 raise SweepTaskError(f"a chunk task failed: {_error_text(exc)}") from exc
-            with stops.critical():
-                frame = _chunk_frame(plan, result.rows)
-                _seal(plan, write_table(_chunk_path(out, result.chunk), frame))
-                with open(out / "computed.log", "a") as log:
-                    samples = plan.chunk_samples(result.chunk)
-                    log.write(
-                        f"{result.chunk} samples={samples.start}-{samples.stop - 1} "
-                        f"wall_s={result.wall_s:.3f} pid={result.pid} executor={ex.name}\n"
-                    )
-            frames[result.chunk] = frame
-            computed.append((result.chunk, result.wall_s))
-            bar.update(len(plan.chunk_samples(result.chunk)))
+            for result in results:
+                with stops.critical():
+                    frame = _chunk_frame(plan, result.rows)
+                    _seal(plan, write_table(_chunk_path(out, result.chunk), frame))
+                    with open(out / "computed.log", "a") as log:
+                        samples = plan.chunk_samples(result.chunk)
+                        log.write(
+                            f"{result.chunk} samples={samples.start}-{samples.stop - 1} "
+                            f"wall_s={result.wall_s:.3f} pid={result.pid} executor={ex.name}\n"
+                        )
+                frames[result.chunk] = frame
+                computed.append((result.chunk, result.wall_s))
+                bar.update(len(plan.chunk_samples(result.chunk)))
         fill()
