@@ -57,13 +57,18 @@ class SweepExecutor(futures.Executor):
 
 
 class InProcessExecutor(SweepExecutor):
-    """Runs each task at ``submit``, in the calling thread; the future is already done."""
+    """Runs each task at ``submit``, in the calling process; the future is already done.
+
+    ``workers`` is the number of threads a sweep task may step batches in (a sweep gives
+    this executor that many chunks per task, :func:`twolink.sweep.execution.run_chunks`):
+    MuJoCo releases the GIL while it steps, so threads use several cores without pickling
+    anything (default: all cores)."""
 
     name = "inprocess"
-    workers = 1
 
-    def __init__(self) -> None:
+    def __init__(self, threads: int | None = None) -> None:
         self._shutdown = False
+        self.workers = threads or os.cpu_count() or 1
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> futures.Future:
         if self._shutdown:
@@ -245,8 +250,8 @@ def open_executor(
     kind : {"inprocess", "process", "dask"}
         The back end.
     workers : int, optional
-        Worker processes for "process" and a local Dask cluster (default: all cores).
-        Ignored by "inprocess" and by a remote Dask scheduler.
+        Worker processes for "process" and a local Dask cluster, threads for "inprocess"
+        (default: all cores). Ignored by a remote Dask scheduler.
     scheduler : str, optional
         Address of a running Dask scheduler (``tcp://host:8786``); only with "dask".
 
@@ -263,7 +268,7 @@ def open_executor(
     """
     check_options(kind, workers, scheduler)
     if kind == "inprocess":
-        return InProcessExecutor()
+        return InProcessExecutor(workers)
     if kind == "process":
         return ProcessExecutor(workers)
     return DaskExecutor(workers, scheduler)

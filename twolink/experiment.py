@@ -145,7 +145,7 @@ def iter_scenarios(
     when yielded, so memory stays bounded whatever the number of scenarios. An arm that
     cannot be built (MuJoCo refuses it) yields its exception; the others still run.
     """
-    from twolink.batch import BatchPlant, record_bytes, simulate_batch
+    from twolink.batch import record_bytes
 
     controllers = controllers or [build_controller(s) for s in scenarios]
     groups: dict[tuple[float, float], list[int]] = {}
@@ -155,36 +155,62 @@ def iter_scenarios(
         cost = max(_arm_bytes(scenarios[i], control_dt, record_bytes) for i in members)
         size = max(1, BATCH_RECORD_BYTES // cost)
         for start in range(0, len(members), size):
-            arms = {}
-            for i in members[start : start + size]:
-                try:
-                    arms[i] = _arm(scenarios[i])
-                except Exception as exc:  # this arm's error, not the batch's
-                    yield i, exc
-            try:
-                plant = BatchPlant(list(arms.values()), timestep) if arms else None
-            except ValueError:  # find the arms MuJoCo refuses; run the rest
-                for i in list(arms):
-                    try:
-                        BatchPlant([arms[i]], timestep)
-                    except ValueError as exc:
-                        del arms[i]
-                        yield i, exc
-                plant = BatchPlant(list(arms.values()), timestep) if arms else None
-            if plant is None:
-                continue
-            batch = list(arms)
-            run = simulate_batch(
-                plant,
-                [controllers[i] for i in batch],
-                [scenarios[i].duration for i in batch],
-                control_dt,
-                q0=np.array([scenarios[i].q0 for i in batch]),
-                qd0=np.array([scenarios[i].qd0 for i in batch]),
-                noise=[measurement_noise(scenarios[i]) for i in batch],
+            batch = members[start : start + size]
+            yield from _trajectories(
+                *_simulate_batch(scenarios, controllers, batch, timestep, control_dt)
             )
-            for k, i in enumerate(batch):
-                yield i, run.trajectory(k)
+
+
+def _simulate_batch(
+    scenarios: Sequence[Scenario],
+    controllers: Sequence[Controller],
+    members: list[int],
+    timestep: float,
+    control_dt: float,
+) -> tuple[list[tuple[int, Exception]], list[int], Any]:
+    """One batch of :func:`iter_scenarios`: the arms MuJoCo refuses with their errors, and
+    the arms simulated with their records (a :class:`twolink.batch.BatchResult`)."""
+    from twolink.batch import BatchPlant, simulate_batch
+
+    errors: list[tuple[int, Exception]] = []
+    arms = {}
+    for i in members:
+        try:
+            arms[i] = _arm(scenarios[i])
+        except Exception as exc:  # this arm's error, not the batch's
+            errors.append((i, exc))
+    try:
+        plant = BatchPlant(list(arms.values()), timestep) if arms else None
+    except ValueError:  # find the arms MuJoCo refuses; run the rest
+        for i in list(arms):
+            try:
+                BatchPlant([arms[i]], timestep)
+            except ValueError as exc:
+                del arms[i]
+                errors.append((i, exc))
+        plant = BatchPlant(list(arms.values()), timestep) if arms else None
+    if plant is None:
+        return errors, [], None
+    batch = list(arms)
+    run = simulate_batch(
+        plant,
+        [controllers[i] for i in batch],
+        [scenarios[i].duration for i in batch],
+        control_dt,
+        q0=np.array([scenarios[i].q0 for i in batch]),
+        qd0=np.array([scenarios[i].qd0 for i in batch]),
+        noise=[measurement_noise(scenarios[i]) for i in batch],
+    )
+    return errors, batch, run
+
+
+def _trajectories(
+    errors: list[tuple[int, Exception]], batch: list[int], run: Any
+) -> Iterator[tuple[int, Trajectory | Exception]]:
+    """A simulated batch's ``(i, trajectory)``, each made only when it is asked for."""
+    yield from errors
+    for k, i in enumerate(batch):
+        yield i, run.trajectory(k)
 
 
 def _arm_bytes(s: Scenario, control_dt: float, record_bytes) -> int:

@@ -433,7 +433,7 @@ def _reproduce(
     workers = workers or os.cpu_count() or 1
     kind = "inprocess" if workers <= 1 else "process"
     # The pool starts first: its workers import while the design runs.
-    with open_executor(kind, None if kind == "inprocess" else workers) as pool:
+    with open_executor(kind, workers) as pool:
         try:
             phase("design: the FCM rule base (reused when its inputs are unchanged)")
             result, designed = design_or_load(config, out / "design")

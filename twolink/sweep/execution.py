@@ -96,13 +96,6 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
     (:func:`twolink.experiment.iter_scenarios`). A sample that raises or diverges gives
     rows with status "error" or "diverged" and the message; it never stops the chunk.
     """
-    return run_chunks(plan, [chunk])[0]
-
-
-def run_chunks(plan: SweepPlan, chunks: list[int]) -> list[ChunkResult]:
-    """:func:`run_chunk` of several chunks, their arms in one batch: the batch engine's
-    fixed cost per step is paid once for all of them (the in-process executor's task).
-    Each chunk's rows are exactly those it gets alone; ``wall_s`` is shared out by arms."""
     start = time.perf_counter()
     controllers: dict[Any, Any] = {}  # (name, gains) -> the controller or its build error
 
@@ -117,39 +110,44 @@ def run_chunks(plan: SweepPlan, chunks: list[int]) -> list[ChunkResult]:
         return controllers[key]
 
     # Rows in sample then controller order: an error now, or the arm that will fill it.
-    rows: list[list[Any]] = [[] for _ in chunks]
-    arms: list[tuple[int, int, Any, Any]] = []  # (chunk, row, scenario, controller)
-    for c, chunk in enumerate(chunks):
-        for i in plan.chunk_samples(chunk):
-            values, noise_seed = plan.draw(i)
-            head = list(values.values())
-            try:
-                s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
-                sample_error = ""
-            except Exception as exc:
-                sample_error = _error_text(exc)
-            for name in plan.controller_names:
-                controller = controller_of(name, values)
-                error = sample_error or (controller if isinstance(controller, str) else "")
-                if error:
-                    rows[c].append(_error_row(i, name, head, error))
-                else:
-                    if getattr(controller, "needs_motor", False):  # the sample's joints
-                        controller = controller.with_joints(s.plant.flexibility)
-                    arms.append((c, len(rows[c]), s, controller))
-                    rows[c].append((i, name, head))
+    rows: list[Any] = []
+    arms: list[tuple[int, Any]] = []  # (row, scenario) of every arm to simulate
+    for i in plan.chunk_samples(chunk):
+        values, noise_seed = plan.draw(i)
+        head = list(values.values())
+        try:
+            s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
+            sample_error = ""
+        except Exception as exc:
+            sample_error = _error_text(exc)
+        for name in plan.controller_names:
+            controller = controller_of(name, values)
+            error = sample_error or (controller if isinstance(controller, str) else "")
+            if error:
+                rows.append(_error_row(i, name, head, error))
+            else:
+                if getattr(controller, "needs_motor", False):  # models the sample's joints
+                    controller = controller.with_joints(s.plant.flexibility)
+                arms.append((len(rows), s, controller))
+                rows.append((i, name, head))
     # Measured as each batch ends: one trajectory at a time is ever held.
-    runs = iter_scenarios([a[2] for a in arms], [a[3] for a in arms])
+    runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms])
     for k, traj in runs:
-        c, r, s, _ = arms[k]
-        i, name, head = rows[c][r]
-        rows[c][r] = _measured_row(i, name, head, s, traj)
-    wall = time.perf_counter() - start
-    total = sum(len(r) for r in rows) or 1
-    return [
-        ChunkResult(chunk, tuple(r), wall * len(r) / total, os.getpid())
-        for chunk, r in zip(chunks, rows, strict=True)
-    ]
+        r, s, _ = arms[k]
+        i, name, head = rows[r]
+        rows[r] = _measured_row(i, name, head, s, traj)
+    return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
+
+
+def run_chunks(plan: SweepPlan, chunks: list[int], threads: int = 1) -> list[ChunkResult]:
+    """:func:`run_chunk` of several chunks, ``threads`` at a time in threads of this process
+    (the in-process executor's task): MuJoCo releases the GIL while it steps, so one
+    process steps several batches on several cores. Each chunk is its own batch, as on a
+    pool, so its rows do not depend on the executor or the number of threads."""
+    if threads <= 1 or len(chunks) == 1:
+        return [run_chunk(plan, c) for c in chunks]
+    with futures.ThreadPoolExecutor(min(threads, len(chunks))) as pool:
+        return list(pool.map(run_chunk, [plan] * len(chunks), chunks))
 
 
 _NAN_METRICS = [math.nan] * len(METRIC_COLUMNS)
@@ -541,12 +539,6 @@ def _classify(plan: SweepPlan, results: pd.DataFrame) -> None:
     results.attrs["success"] = {**asdict(plan.success), "step_rad": plan.step}
 
 
-# In-process, chunks are run together up to this many arms (samples x controllers): past
-# the knee of the batch engine's cost per arm-step (docs/batch.md), one batch's fixed cost
-# per step is paid once for all of them.
-IN_PROCESS_ARMS = 1000
-
-
 def _drive(
     plan: SweepPlan,
     out: Path,
@@ -559,9 +551,8 @@ def _drive(
 ) -> None:
     """Keep a bounded window of tasks in flight; write each chunk as it finishes. A task is
     one chunk on a pool (the unit of resuming and of spreading over workers); in-process,
-    consecutive chunks up to :data:`IN_PROCESS_ARMS` arms are one task and one batch."""
-    per_chunk = max(1, plan.chunk_size * len(plan.controller_names))
-    group = max(1, IN_PROCESS_ARMS // per_chunk) if ex.name == "inprocess" else 1
+    as many chunks as the executor has threads, stepped at once."""
+    group = ex.workers if ex.name == "inprocess" else 1
     todo = iter([missing[i : i + group] for i in range(0, len(missing), group)])
     # Enough queued work that no worker waits on the client, little to cancel on Ctrl-C.
     window = 1 if ex.name == "inprocess" else 2 * ex.workers
@@ -572,7 +563,7 @@ def _drive(
             chunks = next(todo, None)
             if chunks is None:
                 return
-            pending.add(ex.submit(run_chunks, plan, chunks))
+            pending.add(ex.submit(run_chunks, plan, chunks, group))
 
     fill()
     while pending:
