@@ -294,11 +294,16 @@ class MamdaniEngine:
         return self.evaluate_batch(e_arr, de_arr)
 
     def evaluate_batch(self, e: np.ndarray, de: np.ndarray) -> np.ndarray:
-        """``engine(e, de)`` always on the numpy path, whatever the number of inputs: the
-        batch controllers' call (``controllers/batch.py``), whose cost per call is then
-        nearly fixed up to hundreds of inputs. Equal to ``engine(e, de)`` to 1e-12."""
+        """``engine(e, de)`` for arrays, returning an array: the batch controllers' call
+        (``controllers/batch.py``). Up to ``_SMALL_N`` inputs it takes the pure-Python path
+        (the single-arm loop's, cheaper than numpy's fixed cost per call there), beyond it
+        the numpy path, whose cost per call is nearly fixed up to hundreds of inputs. Equal
+        to ``engine(e, de)`` to 1e-12."""
         e_arr, de_arr = self._prepare(e, de)
         flat_e, flat_de = e_arr.ravel(), de_arr.ravel()
+        if flat_e.size <= _SMALL_N and self._plan.pair_table is not None:
+            out_small = self._small(flat_e.tolist(), flat_de.tolist())
+            return np.array(out_small, dtype=float).reshape(e_arr.shape)
         out = np.empty(flat_e.size)
         for s in range(0, flat_e.size, _CHUNK):
             sl = slice(s, s + _CHUNK)
