@@ -51,7 +51,11 @@ def recording_id(
             h.update(np.ascontiguousarray(getattr(traj, name), dtype=float).tobytes())
         h.update(f"{traj.status}\0{traj.message}\0{sorted(extras)!r}".encode())
         for key in sorted(extras):
-            h.update(repr(np.asarray(extras[key]).tolist()).encode())
+            value = np.asarray(extras[key])
+            if value.dtype.kind in "biufU":  # numbers and strings: their bytes, fast
+                h.update(f"{value.dtype.str}{value.shape}".encode() + value.tobytes())
+            else:
+                h.update(repr(value.tolist()).encode())
     return str(uuid.uuid5(_ID_NAMESPACE, h.hexdigest()))
 
 
