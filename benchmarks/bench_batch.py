@@ -96,9 +96,10 @@ def mujoco_step_us(n: int) -> float:
     return (time.perf_counter() - start) / (n * steps) * 1e6
 
 
-def sweep_step_us() -> tuple[float, int]:
+def sweep_step_us(threads: int | None = None) -> tuple[float, int]:
     """Wall time of an in-process robustness sweep (a fresh process, start-up included)
-    per arm-step [µs], and its arm-steps."""
+    per arm-step [µs], and its arm-steps; ``threads``: its ``--workers`` (default: all
+    cores)."""
     from twolink.config import scenario_from_dict
     from twolink.sweep import load_sweep
 
@@ -110,7 +111,8 @@ def sweep_step_us() -> tuple[float, int]:
         start = time.perf_counter()
         subprocess.run(
             [sys.executable, "-m", "twolink", "sweep", str(ROOT / "runs/sweeps/robustness.toml"),
-             "--executor", "inprocess", "--out", tmp, "--no-plots", "--no-progress"],
+             "--executor", "inprocess", "--out", tmp, "--no-plots", "--no-progress",
+             *(["--workers", str(threads)] if threads else [])],
             check=True, capture_output=True,
         )  # fmt: skip
         wall = time.perf_counter() - start
@@ -135,11 +137,13 @@ def main() -> None:
             results[name].append(us)
             print(f"{n:>7}  {name:<14}  {us:>11.2f}  {us / bare:>5.2f}x", flush=True)
     if args.sweep:
-        us, arm_steps = sweep_step_us()
-        print(
-            f"\nin-process sweep runs/sweeps/robustness.toml ({arm_steps:,} arm-steps, start-up"
-            f" included): {us:.2f} µs per arm-step, {us / bare:.2f}x the bare loop"
-        )
+        for threads, label in ((1, "one thread"), (None, "threads on all cores")):
+            us, arm_steps = sweep_step_us(threads)
+            print(
+                f"\nin-process sweep runs/sweeps/robustness.toml, {label} ({arm_steps:,} "
+                f"arm-steps, start-up included): {us:.2f} µs per arm-step, "
+                f"{us / bare:.2f}x the bare loop"
+            )
 
     import matplotlib
 

@@ -313,7 +313,10 @@ def flexible_study(sweep_file: Path, out: Path) -> list[str]:
     from twolink import plots, sweep
 
     plan = sweep.load_sweep(sweep_file)
-    outcome = sweep.run_sweep(plan, out / "flexible_study", executor="inprocess", plots=False)
+    # One thread: this is one task of the reproduction's pool, beside the others.
+    outcome = sweep.run_sweep(
+        plan, out / "flexible_study", executor="inprocess", workers=1, plots=False
+    )
     figure = out / "figures/flexible_study.png"
     if "wn" not in plan.parameter_names:
         plots.save_figure(sweep.flexible_study_figure(outcome.results), figure)
