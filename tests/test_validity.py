@@ -62,3 +62,22 @@ def test_surface_difference_of_an_engine_with_itself_is_zero():
     e = default_fuzzy_pd()
     d = surface_difference(e, e, np.zeros((3, 2)), n=11)
     assert d["box_max"] == d["visited_max"] == 0.0
+
+
+def test_design_figure_writes_the_validity_figure_beside_it(tmp_path):
+    """`twolink design --figure PATH` also writes PATH's <stem>_validity.png: PC, PE and XB
+    for c = 2..10 with the design's c marked (the figure the report's design section
+    shows); here on a stand-in design result."""
+    from types import SimpleNamespace
+
+    from twolink.cli_fuzzy import validity_figure_path, write_validity_figure
+
+    path = validity_figure_path(tmp_path / "phase.png")
+    assert path == tmp_path / "phase_validity.png"
+    x = blobs(4)
+    result = SimpleNamespace(
+        points=x, weights=np.ones(len(x)), clustering=SimpleNamespace(n_clusters=3)
+    )
+    rows = write_validity_figure(result, path)
+    assert [r.clusters for r in rows] == list(range(2, 11))
+    assert path.stat().st_size > 10_000

@@ -263,7 +263,8 @@ def run(
     "--figure",
     type=click.Path(dir_okay=False, path_type=Path),
     default=None,
-    help="Also save the phase-plane figure (the paper's Figure 2) here.",
+    help="Also save the phase-plane figure (the paper's Figure 2) here, and the "
+    "cluster-validity figure (PC, PE, XB for c = 2..10) beside it as <stem>_validity.png.",
 )
 def design(config_path: Path | None, out: Path | None, install: bool, figure: Path | None) -> None:
     """Design the reduced FCM rule base (the paper's steps 1-6) and write it with evidence.
@@ -271,7 +272,7 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
     \b
     Examples:
       twolink design                       # into results/design/rule_base.toml
-      twolink design --figure phase.png    # also the paper's Figure 2
+      twolink design --figure phase.png    # also the paper's Figure 2, phase_validity.png
       twolink design --install             # update controllers/rulebases/designed.toml
     """
     from twolink.config import RULEBASE_DIR, ConfigError
@@ -288,7 +289,10 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
         config = load_design_config(config_path or DEFAULT_DESIGN)
         check_output_file(target, "--out")
         if figure:
+            from twolink.cli_fuzzy import validity_figure_path
+
             check_output_file(figure, "--figure")
+            check_output_file(validity_figure_path(figure), "--figure")
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
     try:
@@ -331,6 +335,16 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
 
         save_figure(phase_plane_figure(result), figure)
         click.echo(f"phase plane -> {figure}")
+        from twolink.cli_fuzzy import validity_figure_path, write_validity_figure
+
+        rows = write_validity_figure(result, validity_figure_path(figure))
+        indices = "; ".join(
+            f"c={r.clusters} PC {r.pc:.3f} PE {r.pe:.3f} XB {r.xb:.3g}" for r in rows
+        )
+        click.echo(
+            f"cluster validity (design c = {result.clustering.n_clusters}): {indices}"
+            f" -> {validity_figure_path(figure)}"
+        )
 
 
 @main.command(short_help="Run the gain study and apply its design rule.")

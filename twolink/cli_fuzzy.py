@@ -1,11 +1,14 @@
-"""``twolink coverage``: where a rule base fires no rule (registered in :mod:`twolink.cli`).
+"""``twolink coverage``: where a rule base fires no rule (registered in :mod:`twolink.cli`),
+and the cluster-validity figure that ``twolink design --figure`` writes.
 
-Exit codes: 0 the rule base covers the input box, 1 it has gaps, 2 bad input.
+Exit codes of ``coverage``: 0 the rule base covers the input box, 1 it has gaps, 2 bad input.
 """
 
 from __future__ import annotations
 
 import sys
+from pathlib import Path
+from typing import Any
 
 import click
 
@@ -53,3 +56,21 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     for region in result.regions:
         click.echo(f"  uncovered: {region}")
     sys.exit(0 if result.complete else 1)
+
+
+def validity_figure_path(figure: Path) -> Path:
+    """Where ``twolink design --figure PATH`` writes the cluster-validity figure: beside
+    PATH, named ``<stem>_validity.png``."""
+    return figure.with_name(f"{figure.stem}_validity.png")
+
+
+def write_validity_figure(result: Any, path: Path) -> tuple:
+    """The cluster-validity sweep of a design (PC, PE and XB for c = 2..10 on its data,
+    weighted as it weighs; twolink/validity.py) plotted to ``path`` with the design's c
+    marked, as the report's design section shows it. Returns the sweep's rows."""
+    from twolink.plots import save_figure
+    from twolink.validity import validity_figure, validity_sweep
+
+    rows = validity_sweep(result.points, result.weights)
+    save_figure(validity_figure(rows, int(result.clustering.n_clusters)), path)
+    return rows
