@@ -61,6 +61,7 @@ __all__ = [
     "error_polynomial",
     "fast_damping_gain",
     "motor_pd_bound",
+    "spring_frequency",
 ]
 
 # Damping ratio of the composite control's fast (spring) mode: 0.7, the usual choice for a
@@ -346,22 +347,33 @@ class MotorPD(_FlexibleJointController):
         )
 
 
+def spring_frequency(model, joints: Flexibility) -> tuple[float, float]:
+    """ωf per joint [rad/s]: the frequency of the spring's (fast) mode with the links'
+    slow motion frozen, ``sqrt(K (1/J + μ))``, μ = (M̂⁻¹)ii at θ2 = 0 (the rotor and the
+    link swinging against each other on the spring)."""
+    m11, m12, m22, _, _ = terms(model, 0.0, 0.0, 0.0, 0.0)
+    det = m11 * m22 - m12 * m12
+    return tuple(  # type: ignore[return-value]
+        math.sqrt(k * (1 / j + mu))
+        for k, j, mu in zip(joints.k, joints.j, (m22 / det, m11 / det), strict=True)
+    )
+
+
 def fast_damping_gain(model, joints: Flexibility, zeta: float) -> tuple[float, float]:
     """The composite control's Kv per joint [N m s/rad]: the gain that gives the fast
     (spring) mode the damping ratio ``zeta``.
 
     With the links' slow motion frozen, joint i's deflection δ obeys
     ``δ̈ ≈ −(1/J + μ) (K δ + D δ̇) − (Kv / J) δ̇`` (μ = (M̂⁻¹)ii at θ2 = 0): a mode of
-    frequency ``ωf = sqrt(K (1/J + μ))``, whose damping ratio is ``zeta`` when
-    ``Kv = J (2 zeta ωf − (1/J + μ) D)`` (0 where the joint's own damping already gives
-    more).
+    frequency ``ωf = sqrt(K (1/J + μ))`` (:func:`spring_frequency`), whose damping ratio is
+    ``zeta`` when ``Kv = J (2 zeta ωf − (1/J + μ) D)`` (0 where the joint's own damping
+    already gives more).
     """
-    m11, m12, m22, _, _ = terms(model, 0.0, 0.0, 0.0, 0.0)
-    det = m11 * m22 - m12 * m12
     out = []
-    for k, d, j, mu in zip(joints.k, joints.d, joints.j, (m22 / det, m11 / det), strict=True):
-        inv = 1 / j + mu
-        out.append(max(0.0, j * (2 * zeta * math.sqrt(k * inv) - inv * d)))
+    for wf, k, d, j in zip(spring_frequency(model, joints), joints.k, joints.d, joints.j,
+                           strict=True):  # fmt: skip
+        inv = wf * wf / k  # 1/J + μ
+        out.append(max(0.0, j * (2 * zeta * wf - inv * d)))
     return out[0], out[1]
 
 
@@ -395,14 +407,11 @@ class CompositeControl(_FlexibleJointController):
         self._gains = (kp1, kp2, kd1, kd2, *self.kv)
 
     def separation(self) -> tuple[float, float]:
-        """ωf / ωn per joint: the spring mode's frequency over the loop's (√Kp)."""
-        m11, m12, m22, _, _ = terms(self.model, 0.0, 0.0, 0.0, 0.0)
-        det = m11 * m22 - m12 * m12
+        """ωf / ωn per joint: the spring mode's frequency (:func:`spring_frequency`) over
+        the loop's (√Kp)."""
         return tuple(  # type: ignore[return-value]
-            math.sqrt(k * (1 / j + mu)) / math.sqrt(kp) if kp > 0 else math.inf
-            for k, j, mu, kp in zip(
-                self.joints.k, self.joints.j, (m22 / det, m11 / det), self.kp, strict=True
-            )
+            wf / math.sqrt(kp) if kp > 0 else math.inf
+            for wf, kp in zip(spring_frequency(self.model, self.joints), self.kp, strict=True)
         )
 
     def __call__(self, t, q, qd, motor_q, motor_qd) -> tuple[float, float]:
@@ -426,39 +435,64 @@ class CompositeControl(_FlexibleJointController):
         )
 
 
-def error_polynomial(kp: float, kd: float) -> tuple[float, float, float, float]:
+def error_polynomial(
+    kp: float, kd: float, fast: tuple[float, float] | None = None
+) -> tuple[float, float, float, float]:
     """Coefficients (c0, c1, c2, c3) of the feedback linearisation's error dynamics
-    ``e⁗ + c3 e⃛ + c2 ë + c1 ė + c0 e = 0``: CTC's ``s² + Kd s + Kp`` squared, so that the
-    fourth-order loop has CTC's poles, each twice (ζ = 1, ωn = 10: (s + 10)⁴)."""
-    return kp * kp, 2 * kd * kp, kd * kd + 2 * kp, 2 * kd
+    ``e⁗ + c3 e⃛ + c2 ë + c1 ė + c0 e = 0``: CTC's ``s² + Kd s + Kp`` times a second pair.
+
+    ``fast = (ωp, ζp)``: the second pair is ``s² + 2 ζp ωp s + ωp²`` (the default design,
+    :class:`FlexibleFeedbackLinearisation`, puts it at the spring's own frequency). Without
+    ``fast``: CTC's polynomial squared, its poles each twice ((s + 10)⁴ at ωn = 10, ζ = 1),
+    which asks the law to slow the spring's mode down to the loop's bandwidth: see
+    ``docs/control.md``, "Why not CTC's poles twice"."""
+    if fast is None:
+        a1, a0 = kd, kp
+    else:
+        wp, zp = fast
+        a1, a0 = 2 * zp * wp, wp * wp
+    return kp * a0, kd * a0 + kp * a1, kp + a0 + kd * a1, kd + a1
 
 
 @dataclass
 class FlexibleFeedbackLinearisation(_FlexibleJointController):
     """Exact feedback linearisation of the flexible-joint arm (Spong 1987).
 
-    With an exact model, each link error obeys ``e⁗ + c3 e⃛ + c2 ë + c1 ė + c0 e = 0``, the
-    square of CTC's ``s² + Kd s + Kp`` (:func:`error_polynomial`), for any K > 0: the
-    law inverts the spring, so it has no stiffness bound, but its torque grows as J/K
-    times the links' snap and it relies on the model of K, J and D. The reference must
-    give its jerk and snap (``derivatives(t, 4)``: every built-in reference does; a jerk
-    that jumps, as the quintic's at its ends, is an error the loop cannot avoid, so use
-    ``Septic``). For D > 0 the law is dynamic: τ is filtered with the joint's own time
-    constant D/K (see :func:`_feedback_linearisation`), over ``control_dt``.
+    With an exact model, each link error obeys ``e⁗ + c3 e⃛ + c2 ë + c1 ė + c0 e = 0``
+    (:meth:`error_polynomials`) for any K > 0: CTC's ``s² + Kd s + Kp`` (the slow,
+    dominant pair: the link error follows CTC's design) times a fast pair
+    ``s² + 2 ζp ωp s + ωp²`` at the spring's own frequency ``ωp = max(ωf, √Kp)``
+    (:func:`spring_frequency`) with the damping ratio ``fast_damping``, as the composite
+    control gives it. The law inverts the spring, so it has no stiffness bound, but its
+    torque grows as J/K times the links' snap and it relies on the model of K, J and D.
+    The reference must give its jerk and snap (``derivatives(t, 4)``: every built-in
+    reference does; a jerk that jumps, as the quintic's at its ends, is an error the loop
+    cannot avoid, so use ``Septic``). For D > 0 the law is dynamic: τ is filtered with
+    the joint's own time constant D/K (see :func:`_feedback_linearisation`), over
+    ``control_dt``.
 
     Parameters
     ----------
     control_dt : float
         The control period [s], the step of the torque filter when D > 0.
+    fast_damping : float or None
+        ζp of the fast pair, > 0 (default 0.7). None: no fast pair, CTC's polynomial
+        squared, ``(s² + Kd s + Kp)²``, which a sampled law cannot realise on stiff joints
+        at a low bandwidth (``docs/control.md``, "Why not CTC's poles twice").
     (others as :class:`~controllers.ctc.ComputedTorque`, plus ``joints``)
     """
 
     control_dt: float = 1e-3
+    fast_damping: float | None = DEFAULT_FAST_DAMPING
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if not (math.isfinite(self.control_dt) and self.control_dt > 0):
             raise ValueError(f"control_dt must be > 0, got {self.control_dt!r}")
+        if self.fast_damping is not None and not (
+            math.isfinite(self.fast_damping) and self.fast_damping > 0
+        ):
+            raise ValueError(f"fast_damping must be > 0 or None, got {self.fast_damping!r}")
         for name in ("joint1", "joint2"):
             ref = getattr(self.reference, name)
             if not callable(getattr(ref, "derivatives", None)):
@@ -466,13 +500,20 @@ class FlexibleFeedbackLinearisation(_FlexibleJointController):
                     f"feedback linearisation needs the jerk and snap of the reference; "
                     f"{name} ({type(ref).__name__}) has no derivatives(t, n) method"
                 )
-        (kp1, kp2), (kd1, kd2) = self.kp, self.kd
-        (c01, c11, c21, c31), (c02, c12, c22, c32) = (
-            error_polynomial(kp1, kd1),
-            error_polynomial(kp2, kd2),
-        )
+        (c01, c11, c21, c31), (c02, c12, c22, c32) = self.error_polynomials()
         self._gains = (c01, c02, c11, c12, c21, c22, c31, c32)
         self.reset()
+
+    def error_polynomials(self) -> tuple[tuple[float, float, float, float], ...]:
+        """(c0, c1, c2, c3) per joint: the designed error dynamics (:func:`error_polynomial`)."""
+        wf = spring_frequency(self.model, self.joints)
+        out = []
+        for kp, kd, w in zip(self.kp, self.kd, wf, strict=True):
+            fast = None
+            if self.fast_damping is not None:
+                fast = (max(w, math.sqrt(kp)), self.fast_damping)
+            out.append(error_polynomial(kp, kd, fast))
+        return tuple(out)
 
     def reset(self) -> None:
         """Forget the held torque: the first call takes the springs' torque on the rotors
