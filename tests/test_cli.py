@@ -145,6 +145,9 @@ def test_ctrl_c_exits_130_with_one_line_in_every_command(tmp_path, command):
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        # Ctrl-C as a terminal sends it, whatever this test runs under: a shell starts
+        # background jobs with SIGINT ignored, and Python then leaves it ignored.
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
     time.sleep(2.5)  # past start-up, inside the work
     assert proc.poll() is None, proc.communicate()
