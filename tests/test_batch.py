@@ -137,11 +137,30 @@ def test_every_controller_kind(controller):
 
 
 def test_mixed_controllers_durations_noise_and_starts_in_one_batch():
+    # CTC, CTC-I and both fuzzy CTCs share one evaluation of the model terms (arms in
+    # another order than the laws'), PD-G has its own law.
     scenarios = [
         scenario(duration=0.7),
         scenario(controller={"kind": "fcm_ctc", "rule_base": "paper"}, duration=1.2),
         scenario(plant={"noise_std": 0.01}, seed=7, initial={"q": [0.3, -0.2], "qd": [0.5, 0.0]}),
+        scenario(controller={"kind": "ctc_integral", "ki": 12.5, "torque_limit": 20.0}),
         scenario(controller={"kind": "fuzzy_ctc"}, plant={"noise_std": 0.005}, seed=8),
+        scenario(controller={"kind": "pd_gravity", "kp": 25.0, "kd": 10.0}, duration=1.0),
+        scenario(controller={"kind": "ctc_integral"}, plant={"scale": {"m2": 1.2}}),
+    ]
+    check_against_single(scenarios)
+
+
+def test_fuzzy_laws_beyond_64_inputs_take_the_numpy_path_and_agree():
+    # 40 arms of one fuzzy law: 80 inputs per call, past the pure-Python path's 64.
+    rng = np.random.default_rng(5)
+    scenarios = [
+        scenario(
+            controller={"kind": "fcm_ctc", "rule_base": "paper"},
+            plant={"scale": {"m1": rng.uniform(0.8, 1.2), "m2": rng.uniform(0.8, 1.2)}},
+            duration=0.5,
+        )
+        for _ in range(40)
     ]
     check_against_single(scenarios)
 
