@@ -157,6 +157,47 @@ def test_ctrl_c_exits_130_with_one_line_in_every_command(tmp_path, command):
     assert "interrupted" in stderr and "Traceback" not in stderr and "Aborted" not in stderr
 
 
+def test_ctrl_c_that_a_compiled_extension_turns_into_another_error_still_exits_130():
+    # pybind11 reports a KeyboardInterrupt raised while it converts arguments as a
+    # TypeError (seen in matplotlib's transforms during the reproduction's figures).
+    code = """
+import os, signal, sys
+from twolink.cli import main
+
+@main.command()
+def mangled():
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(10**7):
+            pass
+    except KeyboardInterrupt:
+        raise TypeError("incompatible function arguments") from None
+
+main(["mangled"])
+"""
+    proc = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    assert proc.returncode == 130, proc.stderr
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr
+    # Without a Ctrl-C the same error is a bug, and shows as one.
+    plain = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            code.replace("os.kill(os.getpid(), signal.SIGINT)", "raise KeyboardInterrupt"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert plain.returncode == 1 and "TypeError" in plain.stderr
+
+
 def test_set_overrides_keys_and_the_saved_config_records_them(tmp_path):
     args = ["run", str(REPO / "runs/paper/theta1_step.toml"), "--out", str(tmp_path / "o")]
     args += ["--set", "controller.kp=25", "--set", "controller.kd=10", "--set", "duration=2"]

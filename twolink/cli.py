@@ -5,8 +5,11 @@ Exit codes: 0 ok, 1 a run failed or diverged (or a check failed), 2 bad input.
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -16,13 +19,33 @@ from twolink.params import ArmParams, Flexibility
 REPO_MODELS = Path(__file__).resolve().parents[1] / "models"
 
 
+_INTERRUPTED: list[int] = []  # the Ctrl-C this command received, if any
+
+
+def _on_sigint(signum: int, frame: Any) -> None:
+    _INTERRUPTED.append(signum)
+    raise KeyboardInterrupt
+
+
 class _Group(click.Group):
     """Ctrl-C ends every command with exit 130 and one line, in every phase (click's own
-    handling says "Aborted!" and exits 1, which this CLI means as "a run diverged")."""
+    handling says "Aborted!" and exits 1, which this CLI means as "a run diverged").
+
+    A Ctrl-C that lands inside a compiled extension can come out as another exception
+    (pybind11 reports a KeyboardInterrupt raised while it converts arguments as a
+    TypeError, e.g. in matplotlib's transforms): once a Ctrl-C was received, whatever
+    error ends the command is reported as the interruption it is."""
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
+        _INTERRUPTED.clear()
+        previous = signal.getsignal(signal.SIGINT)
+        # Not where Ctrl-C is ignored, and only where handlers can be set (the main thread).
+        if previous is signal.default_int_handler and threading.current_thread() is (
+            threading.main_thread()
+        ):
+            signal.signal(signal.SIGINT, _on_sigint)
         try:
             code = super().main(*args, standalone_mode=False, **kwargs)
         except click.exceptions.Abort:
@@ -31,6 +54,14 @@ class _Group(click.Group):
         except click.ClickException as exc:
             exc.show()
             sys.exit(exc.exit_code)
+        except Exception:
+            if not _INTERRUPTED:
+                raise
+            click.echo("interrupted: files written so far are whole; rerun to complete", err=True)
+            sys.exit(130)
+        finally:
+            if signal.getsignal(signal.SIGINT) is _on_sigint:
+                signal.signal(signal.SIGINT, previous)
         sys.exit(code if isinstance(code, int) else 0)
 
 

@@ -508,7 +508,7 @@ def _reproduce(
                 sections += study.result()
             for fut in drawing:
                 fut.result()
-        except KeyboardInterrupt:
+        except BaseException:  # Ctrl-C, or any failure: the workers' tasks are moot
             pool.abort()  # stop now, not after the queued tasks; written files are whole
             raise
     phase("report: report.md, metrics.csv, metrics.json")
