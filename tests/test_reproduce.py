@@ -49,6 +49,31 @@ def test_every_paper_table_is_in_the_report_beside_the_papers_values(reproductio
     assert (reproduction.out / "figures" / "flexible_study.png").is_file()
 
 
+def test_the_rigid_tables_calibrated_column_is_the_saved_calibration_rerun(reproduction):
+    """Tables 2, 3, 5 and 7 of the rigid arm print ours / calibrated / paper; the middle
+    value is the saved calibrated scenario (runs/paper/calibrated.toml) run again here."""
+    from twolink import calibrate
+    from twolink.report import CLAIMED_BETTER, calibrated_value, fmt
+
+    study = calibrate.load_calibration()
+    result, current = calibrate.load_result(study)
+    assert current
+    again = calibrate.rerun(study, result)  # independent of the report's own rerun
+    report = (reproduction.out / "report.md").read_text()
+    rigid = report[report.index("## Rigid arm") : report.index("## Flexible joints")]
+    for r in study.rows:
+        table = rigid[rigid.index(f"### Table {r.table}:") :]
+        table = table[: table.index("\n### ")]
+        assert "ours / calibrated / paper" in table
+        line = next(x for x in table.splitlines() if x.startswith(f"| {r.controller} |"))
+        cells = [c.strip() for c in line.split(" | ")[1 : 1 + len(CLAIMED_BETTER)]]
+        values = again[f"table{r.table} {r.controller}"]
+        for key, cell in zip(CLAIMED_BETTER, cells, strict=True):
+            assert cell.split(" / ")[1] == fmt(calibrated_value(values, key)), (r, key, cell)
+    flexible = report[report.index("## Flexible joints") :]
+    assert "ours / calibrated / paper" not in flexible
+
+
 def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(reproduction):
     """claims.csv is paired_claims of the saved sweep table, recomputed here, and the report
     shows it before the paper's tables."""

@@ -33,12 +33,15 @@ from twolink.metrics import step_metrics
 __all__ = [
     "Calibration",
     "Row",
+    "Shipped",
     "calibrate",
     "load_calibration",
     "load_result",
     "rerun",
+    "rerun_shipped",
     "report_section",
     "second_order_check",
+    "table_values",
 ]
 
 DEFAULT_STUDY = Path(__file__).resolve().parent.parent / "runs" / "paper" / "calibrate.toml"
@@ -85,6 +88,7 @@ class Calibration:
     floors: dict[str, float]
     within: float
     profile_points: int
+    refine_rounds: int
     bounds: dict[str, dict[str, tuple[float, float]]]  # stage key -> parameter -> bounds
 
     def digest(self) -> str:
@@ -150,10 +154,13 @@ def load_calibration(path: str | Path = DEFAULT_STUDY, overrides: dict | None = 
         floors=floors,
         within=t.number("within", 0.1, positive=True),
         profile_points=t.integer("profile_points", 13),
+        refine_rounds=t.integer("refine_rounds", 4),
         bounds=bounds,
     )
     if study.popsize < 1 or study.maxiter < 0 or study.profile_points < 2:
         t.fail("popsize", "popsize >= 1, maxiter >= 0 and profile_points >= 2 are needed")
+    if study.refine_rounds < 0:
+        t.fail("refine_rounds", f"must be >= 0, got {study.refine_rounds}")
     t.done()
     return study
 
@@ -272,7 +279,49 @@ def _fit_stage(study: Calibration, controller: str, fixed: dict[str, float], log
         callback=callback,
     )
     best = {**fixed, **{n: float(v) for n, v in zip(free, res.x, strict=True)}}
-    return best, float(res.fun), int(res.nfev)
+    best, cost, evals = _refine(study, controller, best, float(res.fun), free, log)
+    return best, cost, int(res.nfev) + evals
+
+
+# The refinement's stopping rule: a move must lower the objective by more than this (and
+# at most the study's ``refine_rounds`` rounds over the parameters, one batch each).
+REFINE_TOL = 1e-3
+REFINE_LOCAL = 4  # extra points next to the current value, within one grid step
+
+
+def refine_grid(study: Calibration, lo: float, hi: float, at: float) -> list[float]:
+    """The values a refinement round tries for one parameter: the profile's grid over the
+    bounds, the current value, and points within one grid step of it."""
+    step = (hi - lo) / (study.profile_points - 1)
+    local = at + step * np.linspace(-1.0, 1.0, REFINE_LOCAL + 2)[1:-1]
+    grid = {*np.linspace(lo, hi, study.profile_points).tolist(), at}
+    return sorted(grid | {float(v) for v in np.clip(local, lo, hi)})
+
+
+def _refine(study: Calibration, controller: str, best: dict, cost: float, free: list, log=None):
+    """Coordinate descent from differential evolution's optimum: each parameter in turn
+    moves to the best value of :func:`refine_grid` (the others held), until a whole round
+    improves the objective by at most :data:`REFINE_TOL`. Differential evolution stops on
+    its generation budget, not on convergence; after this, no point of the profile grid
+    along any parameter is better than the fit by more than the tolerance."""
+    key = STAGES[controller][0]
+    evals = 0
+    for round_ in range(study.refine_rounds):
+        start = cost
+        for name in free:
+            lo, hi = study.bounds[key][name]
+            values = refine_grid(study, lo, hi, best[name])
+            others = {k: v for k, v in best.items() if k != name}
+            objective = _objective(study, controller, others, [name])(np.array([values]))
+            evals += len(values)
+            k = int(np.argmin(objective))
+            if objective[k] < cost - REFINE_TOL:
+                best, cost = {**best, name: float(values[k])}, float(objective[k])
+        if log:
+            log(f"{controller}: refinement round {round_ + 1}: objective {cost:.4f}")
+        if cost >= start - REFINE_TOL:
+            break
+    return best, cost, evals
 
 
 def profile(study: Calibration, controller: str, best: dict[str, float]) -> dict[str, Any]:
@@ -303,13 +352,15 @@ def pinned(study: Calibration, controller: str, prof: dict[str, Any], best: floa
 
 
 def n_runs(study: Calibration) -> int:
-    """How many arms :func:`calibrate` runs: per stage (maxiter + 1) generations of popsize
-    x free parameters members, each on the stage's rows, then the profiles and the rerun."""
+    """How many arms :func:`calibrate` runs at most: per stage (maxiter + 1) generations of
+    popsize x free parameters members, each on the stage's rows, the refinement's rounds,
+    then the profiles and the rerun."""
     total = len(study.rows)
     for ctrl, (key, _names) in STAGES.items():
         free = sum(lo < hi for lo, hi in study.bounds[key].values())
         rows = len(study.stage_rows(ctrl))
         total += (study.maxiter + 1) * study.popsize * free * rows
+        total += study.refine_rounds * free * (study.profile_points + 1 + REFINE_LOCAL) * rows
         total += free * (study.profile_points + 1) * rows
     return total
 
@@ -518,17 +569,49 @@ def summary_lines(study: Calibration, result: dict[str, Any], rows) -> list[str]
     ]
 
 
-def report_section(path: Path, out: Path) -> list[str]:
-    """The calibration's part of the report: the shipped parameters rerun here (a few
-    runs), paper / calibrated per metric, the profile figure and the analytic check."""
-    path = Path(path)
-    study = load_calibration(path)
+@dataclass(frozen=True)
+class Shipped:
+    """The shipped calibration rerun: its study, saved result, whether the result is of
+    the study as it is now, and each row's metrics from the rerun."""
+
+    study: Calibration
+    result: dict[str, Any]
+    current: bool
+    rows: dict[str, dict[str, float]]
+
+
+def rerun_shipped(path: Path) -> Shipped | None:
+    """Load the study at ``path`` and rerun its shipped result (a few runs); None where
+    nothing is shipped. What the report's section and its calibrated column both show."""
+    study = load_calibration(Path(path))
     loaded = load_result(study)
-    head = ["", "## Calibrated against the paper", ""]
     if loaded is None:
-        return [*head, f"No calibration shipped: run `twolink calibrate --install` ({path.name})."]
+        return None
     result, current = loaded
-    rows = rerun(study, result)
+    return Shipped(study, result, current, rerun(study, result))
+
+
+def table_values(shipped: Shipped | None) -> dict[int, dict[str, dict[str, float]]]:
+    """The rerun's metrics per paper table and controller (symbol -> value, Mp a fraction):
+    the report's calibrated column (:func:`twolink.report.render`)."""
+    if shipped is None:
+        return {}
+    out: dict[int, dict[str, dict[str, float]]] = {}
+    for r in shipped.study.rows:
+        out.setdefault(r.table, {})[r.controller] = dict(shipped.rows[_key(r)])
+    return out
+
+
+def report_section(path: Path, out: Path, shipped: Shipped | None = None) -> list[str]:
+    """The calibration's part of the report: the shipped parameters rerun here (a few
+    runs; ``shipped`` if already rerun), paper / calibrated per metric, the profile figure
+    and the analytic check."""
+    path = Path(path)
+    shipped = shipped or rerun_shipped(path)
+    head = ["", "## Calibrated against the paper", ""]
+    if shipped is None:
+        return [*head, f"No calibration shipped: run `twolink calibrate --install` ({path.name})."]
+    study, result, current, rows = shipped.study, shipped.result, shipped.current, shipped.rows
     profile_figure(study, result, out / "figures" / "calibration_profile.png")
     fit, total = fit_counts(study, rows)
     whole = ", ".join(
@@ -545,7 +628,9 @@ def report_section(path: Path, out: Path) -> list[str]:
         f"{', '.join(str(t) for t in sorted({r.table for r in study.rows}))} (`{path.name}`; "
         "docs/reproduction.md, 'Calibrating to the paper's tables'); here the shipped "
         f"`{result_path(study).name}` is rerun ({len(study.rows)} runs: raw steps and "
-        f"saturating ramps, no torque limit).{stale} Cells: paper / calibrated (relative error).",
+        f"saturating ramps, no torque limit).{stale} Cells: paper / calibrated (relative error). "
+        "The rigid arm's tables above print the same calibrated values between ours and the "
+        "paper's.",
         "",
         *summary_lines(study, result, rows),
         "",

@@ -87,16 +87,27 @@ def _cell(text: str) -> str:
     return text.replace("|", "\\|")
 
 
-def experiment_table(rows, exp: Experiment, variant: str, controllers: Sequence[str]) -> str:
+def experiment_table(
+    rows,
+    exp: Experiment,
+    variant: str,
+    controllers: Sequence[str],
+    calibrated: dict[str, dict[str, float]] | None = None,
+) -> str:
     """One paper table: per controller, ours and the paper's values for each metric of the
     experiment's joint, its oscillation (and for a ramp or quintic move its max |e| and
-    IAE), then the other joint's largest deviation and final error, and the outcome."""
+    IAE), then the other joint's largest deviation and final error, and the outcome.
+
+    ``calibrated`` (controller -> the paper's symbol -> value, in the paper's units: Mp a
+    fraction), where given, is the calibrated run's value, printed between ours and the
+    paper's (``twolink.calibrate``)."""
     first = _lookup(rows, variant, exp, controllers[0])
     ours = [OURS_ONLY, *(TRACKING if first["reference"] in TRACKED_KINDS else ())]
     other = 3 - exp.joint
     held = "held" if first["other_reference"] == "held" else f"({first['other_reference']})"
+    middle = " / calibrated" if calibrated else ""
     labels = [
-        *(f"{metric(k).label} ours / paper" for k in CLAIMED_BETTER),
+        *(f"{metric(k).label} ours{middle} / paper" for k in CLAIMED_BETTER),
         *(metric(k).label for k in ours),
         *(f"θ{other} {held}: {metric(k).label}" for k in OTHER_JOINT),
         "outcome",
@@ -107,7 +118,13 @@ def experiment_table(rows, exp: Experiment, variant: str, controllers: Sequence[
     ]
     for ctrl in controllers:
         row = _lookup(rows, variant, exp, ctrl)
-        cells = [f"{fmt(row[k])} / {fmt(exp.paper_value(ctrl, k))}" for k in CLAIMED_BETTER]
+        cal = (calibrated or {}).get(ctrl)
+        cells = [
+            f"{fmt(row[k])}"
+            + (f" / {fmt(calibrated_value(cal, k))}" if calibrated else "")
+            + f" / {fmt(exp.paper_value(ctrl, k))}"
+            for k in CLAIMED_BETTER
+        ]
         cells += [fmt(row[k]) for k in ours]
         cells += [fmt(row[f"other_{k}"]) for k in OTHER_JOINT]
         lines.append(f"| {ctrl} | " + " | ".join(cells) + f" | {row['outcome']} |")
@@ -228,6 +245,16 @@ def commentary(
     ]
 
 
+def calibrated_value(values: dict[str, float] | None, key: str) -> float | None:
+    """Metric ``key`` of a calibrated run (symbol -> value in the paper's units), in the
+    key's unit; None where there is no calibrated run."""
+    if values is None:
+        return None
+    m = metric(key)
+    value = values.get(m.symbol)
+    return None if value is None else value * m.scale
+
+
 def render(
     rows,
     manifest: Manifest,
@@ -235,9 +262,13 @@ def render(
     figures: dict[str, str],
     extra_sections: Sequence[str] = (),
     lead_sections: Sequence[str] = (),
+    calibrated: dict[int, dict[str, dict[str, float]]] | None = None,
 ) -> str:
     """The whole report as markdown; ``lead_sections`` (the claims with intervals) come
-    first, as what a reader needs first."""
+    first, as what a reader needs first. ``calibrated`` (paper table -> controller ->
+    symbol -> value, :func:`twolink.calibrate.table_values`) adds the calibrated runs'
+    values to those tables of the variant that runs the scenarios unchanged (the paper's
+    own, rigid arm)."""
     controllers = list(manifest.controllers)
     out = [
         "# Reproduction of Devi, Ravi Kumar & Pydi: CTC vs FCM-CTC",
@@ -263,6 +294,18 @@ def render(
         "experiments): its largest deviation max|e| and its final error e(T)",
         "`final_error_rad`. The outcome is `off target` where a joint ends outside 2 % of",
         "the step or one overshoots by more than 20 %.",
+        *(
+            [
+                "",
+                "The rigid arm's Tables "
+                + ", ".join(str(t) for t in sorted(calibrated))
+                + " also print, between ours and the paper's, the value of the calibrated run "
+                "(ours / calibrated / paper): the paper's unstated parameters fitted to its "
+                'own tables ("Calibrated against the paper", below).',
+            ]
+            if calibrated
+            else []
+        ),
         *lead_sections,
         "",
         "## Our choices (the paper leaves them open)",
@@ -288,7 +331,8 @@ def render(
         for exp in manifest.experiments:
             label = exp.label
             out += ["", f"### {label}: {exp.title}", ""]
-            out.append(experiment_table(rows, exp, variant.name, controllers))
+            cal = (calibrated or {}).get(exp.table) if not variant.overrides else None
+            out.append(experiment_table(rows, exp, variant.name, controllers, cal))
             fig = figures.get(f"{variant.name}/{exp.key}")
             if fig:
                 out += ["", f"![{label}, {variant.title}]({fig})"]

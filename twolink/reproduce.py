@@ -499,10 +499,13 @@ def _reproduce(
             sections = oscillation_section(specs, scenarios, trajectories, rows)
             if manifest.gain_study is not None:
                 sections += report_section(manifest.gain_study, out, pool)
+            calibrated = None
             if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
-                from twolink.calibrate import report_section as calibration_section
+                from twolink import calibrate
 
-                sections += calibration_section(manifest.calibration, out)
+                shipped = calibrate.rerun_shipped(manifest.calibration)
+                sections += calibrate.report_section(manifest.calibration, out, shipped)
+                calibrated = calibrate.table_values(shipped)
             sections += design_section(result, specs, scenarios, rows, validity)
             if study is not None:
                 sections += study.result()
@@ -521,6 +524,7 @@ def _reproduce(
             figures,
             sections,
             lead_sections=claims,
+            calibrated=calibrated,
         ),
     )
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
