@@ -96,6 +96,18 @@ class BatchPlant:
         ]
         self.motor_index = np.array([[j.qposadr[0] for j in pair] for pair in motors])
         self.motor_v_index = np.array([[j.dofadr[0] for j in pair] for pair in motors])
+        # Each arm's spring stiffness (inf for a rigid arm: no twist), from the model.
+        self.stiffness = np.array(
+            [
+                [
+                    self.model.tendon_stiffness[self.model.tendon(f"arm{i}_spring{k}").id]
+                    for k in (1, 2)
+                ]
+                if flex
+                else [np.inf, np.inf]
+                for i, flex in enumerate(self.flexible)
+            ]
+        )
         self.ctrl_index = np.array(
             [[self.model.actuator(f"arm{i}_tau{k}").id for k in (1, 2)] for i in range(len(arms))]
         )
@@ -107,11 +119,21 @@ class BatchPlant:
         self.force_index = self.motor_v_index
         self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_ACTUATION
 
-    def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
-        """Every arm at rest-springs state (q0, qd0) (rotors at the links), time 0."""
+    def reset(self, q0: np.ndarray, qd0: np.ndarray, holding: np.ndarray | None = None) -> None:
+        """Every arm at (q0, qd0), time 0, its rotors at the links (springs relaxed) or,
+        for the flexible arms where ``holding`` is true, twisted to hold the arm at rest at
+        q0: φ = q0 + (qfrc_bias − qfrc_passive) / k at rest, as
+        :meth:`twolink.plant.Plant.holding_motor_q` (the passive part is the gravity
+        compensation that gives an arm its own g)."""
         mujoco.mj_resetData(self.model, self.data)
         for index, value in ((self.motor_index, q0), (self.q_index, q0)):
             self.data.qpos[index] = value
+        held = np.zeros(self.n_arms, bool) if holding is None else holding & self.flexible
+        if held.any():
+            mujoco.mj_forward(self.model, self.data)  # at rest, springs relaxed
+            v = self.v_index[held]
+            load = self.data.qfrc_bias[v] - self.data.qfrc_passive[v]
+            self.data.qpos[self.motor_index[held]] = q0[held] + load / self.stiffness[held]
         for index, value in ((self.motor_v_index, qd0), (self.v_index, qd0)):
             self.data.qvel[index] = value
         mujoco.mj_forward(self.model, self.data)
@@ -176,13 +198,15 @@ def simulate_batch(
     qd0: np.ndarray | None = None,
     bounds: Bounds | None = None,
     noise: Sequence[np.ndarray | None] | None = None,
+    holding: np.ndarray | None = None,
 ) -> BatchResult:
     """Run arm i of ``plant`` under ``controllers[i]`` for ``durations[i]`` seconds.
 
     The arguments are those of :func:`twolink.sim.simulate`, one per arm (a controller
     that reads the motors, ``needs_motor``, gets each arm's rotor states): ``q0`` and
     ``qd0`` of shape (N, 2) (default zeros), ``noise[i]`` of shape (steps_i + 1, 2) or
-    None. Every arm shares the plant's timestep and ``control_dt``.
+    None; ``holding`` (N,) bool: flexible arms that start with their springs holding them at
+    rest (:meth:`BatchPlant.reset`). Every arm shares the plant's timestep and ``control_dt``.
     """
     from controllers.batch import batch_laws
 
@@ -209,7 +233,7 @@ def simulate_batch(
             f"arm {rigid[0]}'s controller ({type(controllers[rigid[0]]).__name__}) reads the "
             "motor states of flexible joints; that arm is rigid"
         )
-    plant.reset(q0, qd0)
+    plant.reset(q0, qd0, None if holding is None else np.asarray(holding, bool))
     model, data = plant.model, plant.data
     qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
     q_index, v_index, force_index = plant.q_index, plant.v_index, plant.force_index

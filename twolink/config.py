@@ -22,6 +22,7 @@ Schema (all keys optional except the reference)::
     noise_std = 0.0          # rad, Gaussian noise on measured angles
     [plant.flexibility]      # present = Spong flexible joints
     k = [500, 500]  d = [1, 1]  j = [0.05, 0.05]
+    start = "holding"        # springs holding the arm at rest at q0, or "relaxed"
     [controller]
     kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules);
                              # baselines: "pd_gravity", "ctc_integral", "fuzzy_pd";
@@ -91,6 +92,9 @@ class ConfigError(ValueError):
     """An invalid scenario: the message names the file and the key."""
 
 
+SPRING_STARTS = ("holding", "relaxed")
+
+
 @dataclass(frozen=True)
 class PlantConfig:
     """How the simulated arm differs from the nominal one."""
@@ -99,6 +103,9 @@ class PlantConfig:
     payload: float = 0.0
     noise_std: float = 0.0
     flexibility: Flexibility | None = None
+    # A flexible arm's springs at t = 0: "holding" (twisted to hold the arm at rest at its
+    # start pose) or "relaxed" (rotors at the links: the arm starts to fall).
+    springs: str = "holding"
 
 
 @dataclass(frozen=True)
@@ -226,6 +233,7 @@ class Scenario:
         }
         if self.plant.flexibility is not None:
             plant["flexibility"] = {k: list(v) for k, v in asdict(self.plant.flexibility).items()}
+            plant["flexibility"]["start"] = self.plant.springs
         ctrl = asdict(self.controller)
         ctrl["kp"], ctrl["kd"], ctrl["ki"] = list(ctrl["kp"]), list(ctrl["kd"]), list(ctrl["ki"])
         if self.controller.fuzzy.engine == "exact":  # the default: digests stay as they were
@@ -454,7 +462,7 @@ def _plant(t: TomlTable) -> PlantConfig:
         if key not in ("m1", "m2", "l1", "l2", "g"):
             scale_t.fail(key, "unknown key (known here: ['g', 'l1', 'l2', 'm1', 'm2'])")
         scale[key] = scale_t.number(key, 1.0, positive=key != "g")
-    flexibility = None
+    flexibility, springs = None, PlantConfig.springs
     if "flexibility" in t.data:
         f = t.table("flexibility")
         d = Flexibility()
@@ -463,12 +471,14 @@ def _plant(t: TomlTable) -> PlantConfig:
             d=f.pair("d", d.d, minimum=0.0),
             j=f.pair("j", d.j, positive=True),
         )
+        springs = f.string("start", "holding", choices=SPRING_STARTS)
         f.done()
     plant = PlantConfig(
         scale=scale,
         payload=t.number("payload", 0.0, minimum=0.0),
         noise_std=t.number("noise_std", 0.0, minimum=0.0),
         flexibility=flexibility,
+        springs=springs,
     )
     t.done()
     return plant

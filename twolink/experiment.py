@@ -109,15 +109,23 @@ def run_scenario(
     s: Scenario, controller: Controller | None = None, plant: Plant | None = None
 ) -> Trajectory:
     """Simulate the scenario (deterministic for its seed)."""
+    plant = plant or build_plant(s)
     return simulate(
-        plant or build_plant(s),
+        plant,
         controller or build_controller(s),
         s.duration,
         control_dt=s.control_dt,
         q0=s.q0,
         qd0=s.qd0,
         noise=measurement_noise(s),
+        motor_q0=plant.holding_motor_q(s.q0) if holding_start(s) else None,
     )
+
+
+def holding_start(s: Scenario) -> bool:
+    """Whether the scenario's arm starts with its springs holding it at rest (a flexible
+    arm whose ``[plant.flexibility] start`` is "holding", the default)."""
+    return s.plant.flexibility is not None and s.plant.springs == "holding"
 
 
 BATCH_RECORD_BYTES = 256 * 2**20  # one batch's records (and noise): peak RSS < 1 GB
@@ -200,6 +208,7 @@ def _simulate_batch(
         q0=np.array([scenarios[i].q0 for i in batch]),
         qd0=np.array([scenarios[i].qd0 for i in batch]),
         noise=[measurement_noise(scenarios[i]) for i in batch],
+        holding=np.array([holding_start(scenarios[i]) for i in batch]),
     )
     return errors, batch, run
 

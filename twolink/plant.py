@@ -250,6 +250,19 @@ class Plant:
             self.data.qvel[2:] = qd if motor_qd is None else motor_qd
         mujoco.mj_forward(self.model, self.data)
 
+    def holding_motor_q(self, q=(0.0, 0.0)) -> tuple[float, float]:
+        """Rotor angles that hold a flexible arm at rest at ``q``: each spring twisted by
+        the weight it carries, φ = q + (qfrc_bias − qfrc_passive) / k on the links at rest
+        with relaxed springs (MuJoCo's own gravity, payload included; the passive part is
+        gravity compensation where there is any). Leaves the plant reset to (q, 0) with
+        relaxed springs."""
+        if not self.flexible:
+            raise ValueError("a rigid arm has no springs to twist")
+        self.reset(q, (0.0, 0.0))
+        load = self.data.qfrc_bias[:2] - self.data.qfrc_passive[:2]
+        twist = load / self.model.tendon_stiffness[:2]
+        return (float(q[0] + twist[0]), float(q[1] + twist[1]))
+
     def step(self, tau1: float, tau2: float) -> None:
         """Hold the torques [N m] and advance one timestep."""
         ctrl = self.data.ctrl
