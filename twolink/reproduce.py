@@ -260,7 +260,8 @@ def describe_choices(
     flex = sorted(
         {
             f"k = {sc.plant.flexibility.k} N·m/rad, d = {sc.plant.flexibility.d} N·m·s/rad, "
-            f"j = {sc.plant.flexibility.j} kg·m² (the scenario keys of [plant.flexibility])"
+            f"j = {sc.plant.flexibility.j} kg·m², start {sc.plant.springs!r} (the scenario "
+            "keys of [plant.flexibility])"
             for sc in scenarios.values()
             if sc.plant.flexibility is not None
         }
@@ -331,7 +332,8 @@ def flexible_study(sweep_file: Path, out: Path) -> list[str]:
         "## Beyond the paper: flexible joints, stiffness x bandwidth",
         "",
         f"Every controller on Spong's flexible-joint arm ({sweep_file.name}: realistic rotor "
-        "inertia and a joint damping ratio of 0.02 at every stiffness), the joint stiffness "
+        "inertia and a joint damping ratio of 0.02 at every stiffness; every run starts at "
+        "rest, its springs holding the arm), the joint stiffness "
         "k from stiff to soft against the closed loop's bandwidth ωn (ζ = 1). Per bandwidth, "
         "the softest k down to which each controller meets the spec at every stiffer joint, "
         f"and in brackets down to which its Ts and Mp also stay within the rigid arm's "
