@@ -29,7 +29,7 @@ import numpy as np
 
 from controllers.base import Controller
 from twolink.params import ArmParams, Flexibility
-from twolink.plant import add_arm, new_spec
+from twolink.plant import add_arm, holding_motor_q, new_spec
 from twolink.sim import (
     STATUS_DIVERGED,
     STATUS_OK,
@@ -80,6 +80,7 @@ class BatchPlant:
             raise ValueError(f"MuJoCo cannot build this batch of arms: {why}") from None
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
+        self.arms = list(arms)
         self.n_arms = len(arms)
         self.flexible = np.array([a.flexibility is not None for a in arms])
 
@@ -122,18 +123,16 @@ class BatchPlant:
     def reset(self, q0: np.ndarray, qd0: np.ndarray, holding: np.ndarray | None = None) -> None:
         """Every arm at (q0, qd0), time 0, its rotors at the links (springs relaxed) or,
         for the flexible arms where ``holding`` is true, twisted to hold the arm at rest at
-        q0: φ = q0 + (qfrc_bias − qfrc_passive) / k at rest, as
-        :meth:`twolink.plant.Plant.holding_motor_q` (the passive part is the gravity
-        compensation that gives an arm its own g)."""
+        q0 by its own gravity and payload: :func:`twolink.plant.holding_motor_q`, the
+        angles a single arm's run starts with (:func:`twolink.experiment.start_motor_q`)."""
         mujoco.mj_resetData(self.model, self.data)
-        for index, value in ((self.motor_index, q0), (self.q_index, q0)):
-            self.data.qpos[index] = value
+        motor_q0 = np.array(q0, dtype=float)
         held = np.zeros(self.n_arms, bool) if holding is None else holding & self.flexible
-        if held.any():
-            mujoco.mj_forward(self.model, self.data)  # at rest, springs relaxed
-            v = self.v_index[held]
-            load = self.data.qfrc_bias[v] - self.data.qfrc_passive[v]
-            self.data.qpos[self.motor_index[held]] = q0[held] + load / self.stiffness[held]
+        for i in np.flatnonzero(held):
+            a = self.arms[i]
+            motor_q0[i] = holding_motor_q(a.params, a.flexibility, q0[i], a.payload)
+        for index, value in ((self.motor_index, motor_q0), (self.q_index, q0)):
+            self.data.qpos[index] = value
         for index, value in ((self.motor_v_index, qd0), (self.v_index, qd0)):
             self.data.qvel[index] = value
         mujoco.mj_forward(self.model, self.data)

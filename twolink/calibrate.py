@@ -5,15 +5,18 @@ nominal tables (``runs/paper/calibrate.toml``) with :func:`scipy.optimize.differ
 (``vectorized=True``: one generation is one batch of arms on the batch engine), in two
 stages: the CTC rows (natural frequency and damping per joint, step and ramp sizes, the
 ramp's duration, the plant's mass against the controller's model), then the FCM-CTC rows
-(the fuzzy scaling ke, kde, ku) with the CTC parameters fixed. Each run uses the paper's
-own reference kinds (a raw step, a saturating ramp) with no torque limit.
+(the fuzzy scaling ke, kde, ku) with the CTC parameters fixed. Each stage runs
+differential evolution from ``starts`` seeds and refines the best to convergence
+(coordinate descent over the profile grid and a compass search, :func:`_refine`). Each run
+uses the paper's own reference kinds (a raw step, a saturating ramp) with no torque limit.
 
 Objective (docs/reproduction.md): per table row, the mean over the metrics the paper gives
 of ``min(|ours - paper| / max(|paper|, floor), penalty)``, a metric undefined in our
 response counting ``penalty``; a stage's objective is the mean over its rows. The result,
 ``runs/paper/calibrated.toml``, holds the parameters, each row's metrics, the objective's
 profile along each parameter, and the digest of the study it came from (the report reruns
-the calibrated rows from it, never the optimisation).
+the calibrated rows from it, never the optimisation; :mod:`twolink.calibration_report`
+writes the comparison and the analysis).
 """
 
 from __future__ import annotations
@@ -33,15 +36,10 @@ from twolink.metrics import step_metrics
 __all__ = [
     "Calibration",
     "Row",
-    "Shipped",
     "calibrate",
     "load_calibration",
     "load_result",
     "rerun",
-    "rerun_shipped",
-    "report_section",
-    "second_order_check",
-    "table_values",
 ]
 
 DEFAULT_STUDY = Path(__file__).resolve().parent.parent / "runs" / "paper" / "calibrate.toml"
@@ -82,6 +80,7 @@ class Calibration:
     timestep: float
     control_dt: float
     seed: int
+    starts: int
     popsize: int
     maxiter: int
     penalty: float
@@ -148,6 +147,7 @@ def load_calibration(path: str | Path = DEFAULT_STUDY, overrides: dict | None = 
         timestep=t.number("timestep", 0.005, positive=True),
         control_dt=t.number("control_dt", 0.01, positive=True),
         seed=t.integer("seed", 0),
+        starts=t.integer("starts", 1),
         popsize=t.integer("popsize", 5),
         maxiter=t.integer("maxiter", 25),
         penalty=t.number("penalty", 1.0, positive=True),
@@ -159,6 +159,8 @@ def load_calibration(path: str | Path = DEFAULT_STUDY, overrides: dict | None = 
     )
     if study.popsize < 1 or study.maxiter < 0 or study.profile_points < 2:
         t.fail("popsize", "popsize >= 1, maxiter >= 0 and profile_points >= 2 are needed")
+    if study.starts < 1:
+        t.fail("starts", f"must be >= 1, got {study.starts}")
     if study.refine_rounds < 0:
         t.fail("refine_rounds", f"must be >= 0, got {study.refine_rounds}")
     t.done()
@@ -236,12 +238,23 @@ def row_cost(study: Calibration, ours: dict[str, float], paper: dict[str, float]
     return float(np.mean([min(e, study.penalty) for e in errors]))
 
 
-def _objective(study: Calibration, controller: str, fixed: dict[str, float], free: list[str]):
+def _objective(
+    study: Calibration,
+    controller: str,
+    fixed: dict[str, float],
+    free: list[str],
+    count: list[int] | None = None,
+):
+    """The stage's objective as a vectorized function of the ``free`` parameters (one
+    column a parameter set; one batch of arms per call); ``count[0]`` adds up the
+    parameter sets evaluated."""
     rows = study.stage_rows(controller)
 
     def f(x: np.ndarray) -> np.ndarray:
         x = np.atleast_2d(np.asarray(x, dtype=float).T).T  # (N,) or (N, S) -> (N, S)
         members = [{**fixed, **dict(zip(free, x[:, k], strict=True))} for k in range(x.shape[1])]
+        if count is not None:
+            count[0] += len(members)
         jobs = [(row, p) for p in members for row in rows]
         metrics = run_rows(study, jobs)
         costs = [row_cost(study, m, row.paper) for (row, _), m in zip(jobs, metrics, strict=True)]
@@ -251,42 +264,66 @@ def _objective(study: Calibration, controller: str, fixed: dict[str, float], fre
 
 
 def _fit_stage(study: Calibration, controller: str, fixed: dict[str, float], log=None):
-    """Differential evolution over the stage's free parameters (the others ``fixed``)."""
+    """Differential evolution over the stage's free parameters (the others ``fixed``),
+    once per start (seeds ``seed``, ``seed + 1``, ...: the objective has several basins and
+    one run finds one), each start refined to convergence (:func:`_refine`); the best
+    refined start wins (ties: the earlier). Returns the parameters, the objective and how
+    many parameter sets were evaluated."""
     from scipy.optimize import differential_evolution
 
     key, names = STAGES[controller]
     bounds = study.bounds[key]
     free = [n for n in names if bounds[n][0] < bounds[n][1]]
     fixed = {**fixed, **{n: bounds[n][0] for n in names if n not in free}}
-    f = _objective(study, controller, fixed, free)
-    gen = [0]
+    count = [0]
+    f = _objective(study, controller, fixed, free, count)
+    best, cost = dict(fixed), math.inf
+    for start in range(study.starts):
+        seed = study.seed + start
+        gen = [0]
 
-    def callback(*_args, **_kw):
-        gen[0] += 1
+        def callback(*_args, _gen=gen, _start=start, **_kw):
+            _gen[0] += 1
+            if log:
+                log(
+                    f"{controller}: start {_start + 1} of {study.starts}: generation "
+                    f"{_gen[0]} of {study.maxiter}"
+                )
+
+        res = differential_evolution(
+            f,
+            [bounds[n] for n in free],
+            seed=seed,
+            popsize=study.popsize,
+            maxiter=study.maxiter,
+            polish=False,
+            vectorized=True,
+            updating="deferred",
+            tol=0.0,
+            callback=callback,
+        )
         if log:
-            log(f"{controller}: generation {gen[0]} of {study.maxiter}")
-
-    res = differential_evolution(
-        f,
-        [bounds[n] for n in free],
-        seed=study.seed,
-        popsize=study.popsize,
-        maxiter=study.maxiter,
-        polish=False,
-        vectorized=True,
-        updating="deferred",
-        tol=0.0,
-        callback=callback,
-    )
-    best = {**fixed, **{n: float(v) for n, v in zip(free, res.x, strict=True)}}
-    best, cost, evals = _refine(study, controller, best, float(res.fun), free, log)
-    return best, cost, int(res.nfev) + evals
+            log(f"{controller}: start {start + 1} (seed {seed}): objective {res.fun:.4f}")
+        found = {**fixed, **{n: float(v) for n, v in zip(free, res.x, strict=True)}}
+        found, found_cost, evals = _refine(study, controller, found, float(res.fun), free, log)
+        count[0] += evals
+        if found_cost < cost:
+            best, cost = found, found_cost
+    return best, cost, count[0]
 
 
-# The refinement's stopping rule: a move must lower the objective by more than this (and
-# at most the study's ``refine_rounds`` rounds over the parameters, one batch each).
+# The refinement's stopping rule: a round must lower the objective by more than this (and
+# at most the study's ``refine_rounds`` rounds). A round is one coordinate-descent pass
+# over the profile grid (one batch of arms per parameter), and where that finds nothing,
+# a compass search.
 REFINE_TOL = 1e-3
 REFINE_LOCAL = 4  # extra points next to the current value, within one grid step
+# The compass search: a poll moves when it lowers the objective by more than COMPASS_TOL,
+# else the step halves, from one profile grid step down to 2**-COMPASS_LEVELS of it, in
+# at most COMPASS_POLLS polls (each one batch of 2 x the free parameters).
+COMPASS_TOL = 1e-4
+COMPASS_LEVELS = 6
+COMPASS_POLLS = 15
 
 
 def refine_grid(study: Calibration, lo: float, hi: float, at: float) -> list[float]:
@@ -298,30 +335,72 @@ def refine_grid(study: Calibration, lo: float, hi: float, at: float) -> list[flo
     return sorted(grid | {float(v) for v in np.clip(local, lo, hi)})
 
 
-def _refine(study: Calibration, controller: str, best: dict, cost: float, free: list, log=None):
-    """Coordinate descent from differential evolution's optimum: each parameter in turn
-    moves to the best value of :func:`refine_grid` (the others held), until a whole round
-    improves the objective by at most :data:`REFINE_TOL`. Differential evolution stops on
-    its generation budget, not on convergence; after this, no point of the profile grid
-    along any parameter is better than the fit by more than the tolerance."""
+def _grid_round(study, controller, best, cost, free, count):
+    """One coordinate-descent pass: each parameter in turn moves to the best value of
+    :func:`refine_grid` (the others held) where that lowers the objective by more than
+    :data:`REFINE_TOL`."""
     key = STAGES[controller][0]
-    evals = 0
+    for name in free:
+        lo, hi = study.bounds[key][name]
+        values = refine_grid(study, lo, hi, best[name])
+        others = {k: v for k, v in best.items() if k != name}
+        objective = _objective(study, controller, others, [name], count)(np.array([values]))
+        k = int(np.argmin(objective))
+        if objective[k] < cost - REFINE_TOL:
+            best, cost = {**best, name: float(values[k])}, float(objective[k])
+    return best, cost
+
+
+def _compass(study, controller, best, cost, free, count):
+    """Compass search: poll ± h x (bound width) along every free parameter at once (one
+    batch), move to the best poll where it lowers the objective by more than
+    :data:`COMPASS_TOL`, else halve h; h starts at one profile grid step. Catches what the
+    grid's coordinate steps miss: moves of several parameters together, below the grid."""
+    key = STAGES[controller][0]
+    lo = np.array([study.bounds[key][n][0] for n in free])
+    hi = np.array([study.bounds[key][n][1] for n in free])
+    x = np.array([best[n] for n in free])
+    others = {k: v for k, v in best.items() if k not in free}
+    f = _objective(study, controller, others, free, count)
+    h, level = 1.0 / (study.profile_points - 1), 0
+    for _ in range(COMPASS_POLLS):
+        if level > COMPASS_LEVELS:
+            break
+        trial = np.clip(x + np.vstack([np.eye(len(x)), -np.eye(len(x))]) * h * (hi - lo), lo, hi)
+        trial = trial[np.any(trial != x, axis=1)]  # a poll clipped back onto x tells nothing
+        values = f(trial.T) if len(trial) else np.array([])
+        k = int(np.argmin(values)) if len(values) else -1
+        if k >= 0 and values[k] < cost - COMPASS_TOL:
+            x, cost = trial[k], float(values[k])
+        else:
+            h, level = h / 2, level + 1
+    return {**others, **{n: float(v) for n, v in zip(free, x, strict=True)}}, cost
+
+
+def _refine(study: Calibration, controller: str, best: dict, cost: float, free: list, log=None):
+    """Refinement from differential evolution's optimum, in rounds (at most the study's
+    ``refine_rounds``): a coordinate-descent pass over the profile grid
+    (:func:`_grid_round`); once a pass lowers the objective by at most
+    :data:`REFINE_TOL`, a compass search (:func:`_compass`) from there, and where that
+    lowers it by more, the grid again. It stops when neither does. Differential evolution
+    stops on its generation budget, not on convergence; after this, no point of the
+    profile grid along any parameter is better than the fit by more than the tolerance
+    (the last pass found none), nor any compass poll by more than :data:`COMPASS_TOL`.
+    Returns the parameters, the objective and the parameter sets evaluated."""
+    count = [0]
     for round_ in range(study.refine_rounds):
         start = cost
-        for name in free:
-            lo, hi = study.bounds[key][name]
-            values = refine_grid(study, lo, hi, best[name])
-            others = {k: v for k, v in best.items() if k != name}
-            objective = _objective(study, controller, others, [name])(np.array([values]))
-            evals += len(values)
-            k = int(np.argmin(objective))
-            if objective[k] < cost - REFINE_TOL:
-                best, cost = {**best, name: float(values[k])}, float(objective[k])
+        best, cost = _grid_round(study, controller, best, cost, free, count)
         if log:
-            log(f"{controller}: refinement round {round_ + 1}: objective {cost:.4f}")
+            log(f"{controller}: refinement round {round_ + 1}: grid: objective {cost:.4f}")
+        if cost < start - REFINE_TOL:
+            continue  # the grid still moves: another pass before the compass search
+        best, cost = _compass(study, controller, best, cost, free, count)
+        if log:
+            log(f"{controller}: refinement round {round_ + 1}: compass: objective {cost:.4f}")
         if cost >= start - REFINE_TOL:
             break
-    return best, cost, evals
+    return best, cost, count[0]
 
 
 def profile(study: Calibration, controller: str, best: dict[str, float]) -> dict[str, Any]:
@@ -352,15 +431,19 @@ def pinned(study: Calibration, controller: str, prof: dict[str, Any], best: floa
 
 
 def n_runs(study: Calibration) -> int:
-    """How many arms :func:`calibrate` runs at most: per stage (maxiter + 1) generations of
-    popsize x free parameters members, each on the stage's rows, the refinement's rounds,
-    then the profiles and the rerun."""
+    """How many arms :func:`calibrate` runs at most: per stage and start, (maxiter + 1)
+    generations of popsize x free parameters members, each on the stage's rows, and the
+    refinement's rounds (each the grid over every parameter and the compass search's
+    polls, all of them); then the profiles and the rerun. Fits use far fewer (the
+    refinement mostly stops after one or two rounds, the compass search after a dozen
+    polls)."""
     total = len(study.rows)
     for ctrl, (key, _names) in STAGES.items():
         free = sum(lo < hi for lo, hi in study.bounds[key].values())
         rows = len(study.stage_rows(ctrl))
-        total += (study.maxiter + 1) * study.popsize * free * rows
-        total += study.refine_rounds * free * (study.profile_points + 1 + REFINE_LOCAL) * rows
+        total += study.starts * (study.maxiter + 1) * study.popsize * free * rows
+        grid = free * (study.profile_points + 1 + REFINE_LOCAL)
+        total += study.starts * study.refine_rounds * (grid + COMPASS_POLLS * 2 * free) * rows
         total += free * (study.profile_points + 1) * rows
     return total
 
@@ -374,7 +457,7 @@ def calibrate(study: Calibration, log=None) -> dict[str, Any]:
         "study": Path(study.source).name,
         "digest": study.digest(),
         "objective": {"CTC": ctc_cost, "FCM-CTC": fcm_cost},
-        "evaluations": {"CTC": ctc_evals, "FCM-CTC": fcm_evals},
+        "evaluations": {"CTC": ctc_evals, "FCM-CTC": fcm_evals},  # parameter sets
         "parameters": {**ctc, **{k: fcm[k] for k in FCM_PARAMS}},
     }
     result["rows"] = rerun(study, result)
@@ -412,240 +495,3 @@ def load_result(study: Calibration, path: Path | None = None) -> tuple[dict[str,
         return None
     result = tomllib.loads(path.read_text())
     return result, result.get("digest") == study.digest()
-
-
-# ---- the analysis ---------------------------------------------------------------------
-
-
-def second_order_times(zeta: float) -> dict[str, float]:
-    """Td, Tr (10-90 %), Tp of the unit step response of ω² / (s² + 2ζωs + ω²) at ω = 1."""
-    t = np.linspace(0.0, 60.0, 600001)
-    wd = math.sqrt(1 - zeta * zeta)
-    y = 1 - np.exp(-zeta * t) * (np.cos(wd * t) + zeta / wd * np.sin(wd * t))
-    m = step_metrics(t, y, 1.0)
-    t10 = float(t[np.argmax(y >= 0.1)])
-    return {"Td": m.delay_time, "Tr": m.rise_time, "Tp": m.peak_time, "T10": t10}
-
-
-def second_order_check(paper: dict[str, float]) -> dict[str, float] | None:
-    """What a second-order step response with the paper's Mp implies, and a model-free
-    bound: with Mp > 0 the response passes 90 % before its peak, so T10 <= Tp - Tr, and
-    rising 10 -> 50 % takes at least Td - (Tp - Tr) while 50 -> 90 % takes at most Tp - Td.
-    None where the row has no overshoot (or no Tp, Td, Tr)."""
-    mp, tp, td, tr = (paper[s] for s in ("Mp", "Tp", "Td", "Tr"))
-    if not (0 < mp < 1) or any(math.isnan(v) for v in (tp, td, tr)):
-        return None
-    zeta = -math.log(mp) / math.sqrt(math.pi**2 + math.log(mp) ** 2)
-    so = second_order_times(zeta)
-    slow_half = so["Td"] - so["T10"]  # 10 -> 50 %
-    fast_half = so["T10"] + so["Tr"] - so["Td"]  # 50 -> 90 %
-    return {
-        "zeta": zeta,
-        "Td/Tp": td / tp,
-        "Td/Tp 2nd order": so["Td"] / so["Tp"],
-        "Tr/Tp": tr / tp,
-        "Tr/Tp 2nd order": so["Tr"] / so["Tp"],
-        "T10 max": tp - tr,
-        "10-50 min": td - (tp - tr),
-        "50-90 max": tp - td,
-        "ratio 2nd order": slow_half / fast_half,
-    }
-
-
-def check_lines(study: Calibration) -> list[str]:
-    """The analytic check of every step row with overshoot, as markdown (a ramp's own
-    slope shapes the rise, so the second-order ratios do not apply to it)."""
-    lines = [
-        "| row | Mp | implied ζ | Td/Tp paper / 2nd order | Tr/Tp paper / 2nd order "
-        "| T10 at most | 10→50 % at least / 50→90 % at most (2nd order: ratio) |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for r in study.rows:
-        c = second_order_check(r.paper) if r.kind == "step" else None  # a ramp delays 10 %
-        if c is None:
-            continue
-        lines.append(
-            f"| Table {r.table} {r.controller} ({r.kind}) | {r.paper['Mp']:g} | {c['zeta']:.3f} "
-            f"| {c['Td/Tp']:.2f} / {c['Td/Tp 2nd order']:.2f} "
-            f"| {c['Tr/Tp']:.2f} / {c['Tr/Tp 2nd order']:.2f} | {c['T10 max']:.2f} s "
-            f"| {c['10-50 min']:.2f} s / {c['50-90 max']:.2f} s "
-            f"({c['ratio 2nd order']:.2f}) |"
-        )
-    return lines
-
-
-# ---- the report -----------------------------------------------------------------------
-
-
-def comparison_lines(study: Calibration, rows: dict[str, dict[str, float]]) -> list[str]:
-    """Per table row: paper / calibrated (relative error) per metric, the row's best
-    relative error, and which metrics come within ``study.within``."""
-    lines = [
-        "| row | " + " | ".join(SYMBOLS) + f" | best | within {study.within:.0%} |",
-        "|---|" + "---|" * (len(SYMBOLS) + 2),
-    ]
-    for r in study.rows:
-        ours = rows[f"table{r.table} {r.controller}"]
-        err = relative_errors(study, ours, r.paper)
-        cells = []
-        for s in SYMBOLS:
-            p = "—" if math.isnan(r.paper[s]) else f"{r.paper[s]:.3g}"
-            e = f" ({err[s]:.0%})" if s in err and math.isfinite(err[s]) else ""
-            cells.append(f"{p} / {ours[s]:.3g}{e}")
-        best = min(err, key=err.get) if err else None
-        fits = [s for s, e in err.items() if e <= study.within]
-        lines.append(
-            f"| Table {r.table} {r.controller} ({r.kind}) | "
-            + " | ".join(cells)
-            + f" | {best} {err[best]:.0%} | {', '.join(fits) or 'none'} |"
-        )
-    return lines
-
-
-def _key(r: Row) -> str:
-    return f"table{r.table} {r.controller}"
-
-
-def fit_counts(study: Calibration, rows: dict[str, dict[str, float]]) -> tuple[int, int]:
-    """(metrics within ``study.within``, metrics the paper gives) over all rows."""
-    fit = total = 0
-    for r in study.rows:
-        err = relative_errors(study, rows[f"table{r.table} {r.controller}"], r.paper)
-        total += len(err)
-        fit += sum(e <= study.within for e in err.values())
-    return fit, total
-
-
-def profile_figure(study: Calibration, result: dict[str, Any], path: Path) -> Path:
-    """The objective along each parameter (others at the optimum), one panel each."""
-    from twolink.plots import plt, save_figure
-
-    panels = [(c, n, p) for c, prof in result["profile"].items() for n, p in prof.items()]
-    cols = 5
-    fig, axes = plt.subplots(
-        -(-len(panels) // cols), cols, figsize=(14, 2.6 * -(-len(panels) // cols))
-    )
-    for ax, (ctrl, name, p) in zip(np.ravel(axes), panels, strict=False):
-        ax.plot(p["values"], p["objective"], "o-", ms=3)
-        ax.axvline(result["parameters"][name], color="tab:red", lw=1)
-        ax.axhline(result["objective"][ctrl] + 0.05, color="k", lw=0.6, ls=":")
-        ax.set(title=f"{ctrl}: {name}", ylim=(0, None))
-        ax.grid(alpha=0.3)
-    for ax in np.ravel(axes)[len(panels) :]:
-        ax.axis("off")
-    fig.suptitle("Calibration objective along each parameter (others at the optimum; red: fit)")
-    fig.tight_layout()
-    save_figure(fig, path, dpi=100)  # atomic, as every output
-    return path
-
-
-def summary_lines(study: Calibration, result: dict[str, Any], rows) -> list[str]:
-    """Parameters with how well the tables pin them, and the per-row comparison."""
-    p = result["parameters"]
-    share = {}
-    for ctrl in STAGES:
-        share.update(pinned(study, ctrl, result["profile"][ctrl], result["objective"][ctrl]))
-    words = {n: f" ({'pinned' if v <= 0.3 else 'free'}: {v:.0%})" for n, v in share.items()}
-    params = ", ".join(f"{n} = {p[n]:.3g}{words.get(n, '')}" for n in (*CTC_PARAMS, *FCM_PARAMS))
-    better = [
-        f"{n} = {v:.3g} gives {o:.3f} ({ctrl})"
-        for ctrl in STAGES
-        for n, prof in result["profile"][ctrl].items()
-        for v, o in zip(prof["values"], prof["objective"], strict=True)
-        if o < result["objective"][ctrl] - 0.01 and o == min(prof["objective"])
-    ]
-    note = (
-        f" The fit is not the global optimum: along one parameter, {'; '.join(better)}."
-        if better
-        else ""
-    )
-    return [
-        f"Objective (mean capped relative error): CTC rows {result['objective']['CTC']:.3f}, "
-        f"FCM-CTC rows {result['objective']['FCM-CTC']:.3f}.{note}",
-        "",
-        f"Parameters (share of the bounds within 0.05 of the optimum): {params}.",
-        "",
-        *comparison_lines(study, rows),
-    ]
-
-
-@dataclass(frozen=True)
-class Shipped:
-    """The shipped calibration rerun: its study, saved result, whether the result is of
-    the study as it is now, and each row's metrics from the rerun."""
-
-    study: Calibration
-    result: dict[str, Any]
-    current: bool
-    rows: dict[str, dict[str, float]]
-
-
-def rerun_shipped(path: Path) -> Shipped | None:
-    """Load the study at ``path`` and rerun its shipped result (a few runs); None where
-    nothing is shipped. What the report's section and its calibrated column both show."""
-    study = load_calibration(Path(path))
-    loaded = load_result(study)
-    if loaded is None:
-        return None
-    result, current = loaded
-    return Shipped(study, result, current, rerun(study, result))
-
-
-def table_values(shipped: Shipped | None) -> dict[int, dict[str, dict[str, float]]]:
-    """The rerun's metrics per paper table and controller (symbol -> value, Mp a fraction):
-    the report's calibrated column (:func:`twolink.report.render`)."""
-    if shipped is None:
-        return {}
-    out: dict[int, dict[str, dict[str, float]]] = {}
-    for r in shipped.study.rows:
-        out.setdefault(r.table, {})[r.controller] = dict(shipped.rows[_key(r)])
-    return out
-
-
-def report_section(path: Path, out: Path, shipped: Shipped | None = None) -> list[str]:
-    """The calibration's part of the report: the shipped parameters rerun here (a few
-    runs; ``shipped`` if already rerun), paper / calibrated per metric, the profile figure
-    and the analytic check."""
-    path = Path(path)
-    shipped = shipped or rerun_shipped(path)
-    head = ["", "## Calibrated against the paper", ""]
-    if shipped is None:
-        return [*head, f"No calibration shipped: run `twolink calibrate --install` ({path.name})."]
-    study, result, current, rows = shipped.study, shipped.result, shipped.current, shipped.rows
-    profile_figure(study, result, out / "figures" / "calibration_profile.png")
-    fit, total = fit_counts(study, rows)
-    whole = ", ".join(
-        f"Table {r.table} {r.controller}"
-        for r in study.rows
-        if all(e <= study.within for e in relative_errors(study, rows[_key(r)], r.paper).values())
-    )
-    stale = (
-        "" if current else " **Stale**: the study changed since; run `twolink calibrate --install`."
-    )
-    return [
-        *head,
-        f"`twolink calibrate` fitted the paper's unstated parameters to Tables "
-        f"{', '.join(str(t) for t in sorted({r.table for r in study.rows}))} (`{path.name}`; "
-        "docs/reproduction.md, 'Calibrating to the paper's tables'); here the shipped "
-        f"`{result_path(study).name}` is rerun ({len(study.rows)} runs: raw steps and "
-        f"saturating ramps, no torque limit).{stale} Cells: paper / calibrated (relative error). "
-        "The rigid arm's tables above print the same calibrated values between ours and the "
-        "paper's.",
-        "",
-        *summary_lines(study, result, rows),
-        "",
-        "![calibration profile](figures/calibration_profile.png)",
-        "",
-        "**Which published numbers contradict each other.** With overshoot, a response "
-        "passes 90 % before its peak, so T10 <= Tp - Tr; a second-order response with the "
-        "paper's Mp has the damping ratio below and these time ratios:",
-        "",
-        *check_lines(study),
-        "",
-        f"**How close the paper can be reproduced**: at the best parameters {fit} of the "
-        f"{total} published metrics of these rows come within {study.within:.0%} (objective "
-        f"{result['objective']['CTC']:.2f} on the CTC rows, {result['objective']['FCM-CTC']:.2f} "
-        f"on the FCM-CTC rows); the fit reproduces {whole or 'no row'} whole, and some rows no "
-        "parameters can: Table 2's CTC row contradicts itself (above), and Table 5's negative "
-        "Mp is no overshoot.",
-    ]

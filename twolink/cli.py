@@ -471,6 +471,7 @@ def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> No
       twolink calibrate --install                   # update runs/paper/calibrated.toml
     """
     from twolink import calibrate as cal
+    from twolink import calibration_report
     from twolink.config import ConfigError, parse_set
     from twolink.io import check_output_folder
 
@@ -483,10 +484,10 @@ def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> No
         _fail_input("--install writes the shipped result of the study file as it is; drop --set")
     result = cal.calibrate(study, log=lambda msg: click.echo(msg, err=True))
     cal.save_result(result, out / "calibrated.toml")
-    cal.profile_figure(study, result, out / "calibration_profile.png")
+    calibration_report.profile_figure(study, result, out / "calibration_profile.png")
     if install:
         cal.save_result(result, cal.result_path(study))
-    click.echo("\n".join(cal.summary_lines(study, result, result["rows"])))
+    click.echo("\n".join(calibration_report.summary_lines(study, result, result["rows"])))
     click.echo(f"-> {out}" + (f" and {cal.result_path(study)}" if install else ""))
 
 

@@ -28,7 +28,7 @@ from twolink.metrics import (
     torque_measures,
 )
 from twolink.outcome import classify_run
-from twolink.plant import Plant
+from twolink.plant import Plant, holding_motor_q
 from twolink.sim import Trajectory, simulate
 from twolink.vocabulary import CONTROLLER_LABELS, joint_values
 
@@ -108,7 +108,9 @@ def measurement_noise(s: Scenario) -> np.ndarray | None:
 def run_scenario(
     s: Scenario, controller: Controller | None = None, plant: Plant | None = None
 ) -> Trajectory:
-    """Simulate the scenario (deterministic for its seed)."""
+    """Simulate the scenario (deterministic for its seed). A flexible arm starts as its
+    ``[plant.flexibility] start`` says (:func:`start_motor_q`, from the scenario's plant:
+    a ``plant`` passed in must be :func:`build_plant`'s)."""
     plant = plant or build_plant(s)
     return simulate(
         plant,
@@ -118,7 +120,7 @@ def run_scenario(
         q0=s.q0,
         qd0=s.qd0,
         noise=measurement_noise(s),
-        motor_q0=plant.holding_motor_q(s.q0) if holding_start(s) else None,
+        motor_q0=start_motor_q(s),
     )
 
 
@@ -126,6 +128,16 @@ def holding_start(s: Scenario) -> bool:
     """Whether the scenario's arm starts with its springs holding it at rest (a flexible
     arm whose ``[plant.flexibility] start`` is "holding", the default)."""
     return s.plant.flexibility is not None and s.plant.springs == "holding"
+
+
+def start_motor_q(s: Scenario) -> tuple[float, float] | None:
+    """The rotor angles a scenario's arm starts with: twisted to hold the simulated arm
+    (its own gravity and payload, not the controller's model) at rest at q0 for a holding
+    start (:func:`twolink.plant.holding_motor_q`), else None (at the links, or rigid)."""
+    if not holding_start(s):
+        return None
+    phi = holding_motor_q(s.plant_params, s.plant.flexibility, s.q0, s.plant.payload)
+    return (float(phi[0]), float(phi[1]))
 
 
 BATCH_RECORD_BYTES = 256 * 2**20  # one batch's records (and noise): peak RSS < 1 GB

@@ -24,6 +24,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from twolink.dynamics import gravity
 from twolink.params import ArmParams, Flexibility
 
 ROD_RADIUS = 0.02  # visual and for the rod's (irrelevant) spin inertia about its axis [m]
@@ -183,6 +184,25 @@ def build_model(
         raise ValueError(f"MuJoCo cannot build this arm ({p}): {why}") from None
 
 
+def holding_motor_q(
+    p: ArmParams, flexibility: Flexibility, q=(0.0, 0.0), payload: float = 0.0
+) -> np.ndarray:
+    """Rotor angles that hold a flexible arm at rest at ``q``: φ = q + K⁻¹ G(q), each
+    spring twisted by the gravity torque its link carries, K (φ − q) = G(q).
+
+    G is the analytic gravity of the simulated arm (:func:`twolink.dynamics.gravity` with
+    its own ``p``, g included) plus the tip payload's, m_p g (l1 cos q1 + l2 cos q12,
+    l2 cos q12): the point mass that :func:`add_arm` lumps into link 2. MuJoCo's own
+    gravity (``qfrc_bias`` at rest) is the independent check (tests/test_holding_start.py).
+    """
+    q = np.asarray(q, dtype=float)
+    load = gravity(p, q)
+    if payload:
+        tip = p.l2 * np.cos(q[..., 0] + q[..., 1])
+        load = load + payload * p.g * np.stack([p.l1 * np.cos(q[..., 0]) + tip, tip], -1)
+    return q + load / np.asarray(flexibility.k, dtype=float)
+
+
 def model_xml(p: ArmParams, flexibility: Flexibility | None = None, payload: float = 0.0) -> str:
     """MJCF text of the model built from ``p`` (what ``models/*.xml`` hold)."""
     return build_spec(p, flexibility, payload).to_xml()
@@ -241,7 +261,8 @@ class Plant:
         return cls(build_model(p, flexibility, payload, timestep))
 
     def reset(self, q=(0.0, 0.0), qd=(0.0, 0.0), motor_q=None, motor_qd=None) -> None:
-        """Set the state and time 0. Rotors default to the link state (springs relaxed)."""
+        """Set the state and time 0. Rotors default to the link state (springs relaxed);
+        :func:`holding_motor_q` gives the ``motor_q`` that holds the arm at rest."""
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:2] = q
         self.data.qvel[:2] = qd
@@ -249,19 +270,6 @@ class Plant:
             self.data.qpos[2:] = q if motor_q is None else motor_q
             self.data.qvel[2:] = qd if motor_qd is None else motor_qd
         mujoco.mj_forward(self.model, self.data)
-
-    def holding_motor_q(self, q=(0.0, 0.0)) -> tuple[float, float]:
-        """Rotor angles that hold a flexible arm at rest at ``q``: each spring twisted by
-        the weight it carries, φ = q + (qfrc_bias − qfrc_passive) / k on the links at rest
-        with relaxed springs (MuJoCo's own gravity, payload included; the passive part is
-        gravity compensation where there is any). Leaves the plant reset to (q, 0) with
-        relaxed springs."""
-        if not self.flexible:
-            raise ValueError("a rigid arm has no springs to twist")
-        self.reset(q, (0.0, 0.0))
-        load = self.data.qfrc_bias[:2] - self.data.qfrc_passive[:2]
-        twist = load / self.model.tendon_stiffness[:2]
-        return (float(q[0] + twist[0]), float(q[1] + twist[1]))
 
     def step(self, tau1: float, tau2: float) -> None:
         """Hold the torques [N m] and advance one timestep."""

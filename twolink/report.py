@@ -266,7 +266,7 @@ def render(
 ) -> str:
     """The whole report as markdown; ``lead_sections`` (the claims with intervals) come
     first, as what a reader needs first. ``calibrated`` (paper table -> controller ->
-    symbol -> value, :func:`twolink.calibrate.table_values`) adds the calibrated runs'
+    symbol -> value, :func:`twolink.calibration_report.table_values`) adds the calibrated runs'
     values to those tables of the variant that runs the scenarios unchanged (the paper's
     own, rigid arm)."""
     controllers = list(manifest.controllers)

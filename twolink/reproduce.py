@@ -503,11 +503,11 @@ def _reproduce(
                 sections += report_section(manifest.gain_study, out, pool)
             calibrated = None
             if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
-                from twolink import calibrate
+                from twolink import calibration_report
 
-                shipped = calibrate.rerun_shipped(manifest.calibration)
-                sections += calibrate.report_section(manifest.calibration, out, shipped)
-                calibrated = calibrate.table_values(shipped)
+                shipped = calibration_report.rerun_shipped(manifest.calibration)
+                sections += calibration_report.report_section(manifest.calibration, out, shipped)
+                calibrated = calibration_report.table_values(shipped)
             sections += design_section(result, specs, scenarios, rows, validity)
             if study is not None:
                 sections += study.result()

@@ -174,7 +174,7 @@ def simulate(
     Parameters
     ----------
     plant : Plant
-        The MuJoCo plant; it is reset to (q0, qd0) with relaxed springs.
+        The MuJoCo plant; it is reset to (q0, qd0), its rotors at ``motor_q0``.
     controller : Controller
         Called every ``control_dt`` seconds; its torques are held in between. One whose
         ``needs_motor`` is true is called ``controller(t, q, qd, motor_q, motor_qd)`` with
@@ -191,7 +191,8 @@ def simulate(
         recorded state), one row per control instant.
     motor_q0 : pair of float, optional
         Initial rotor angles of a flexible plant (default: at the links, springs relaxed);
-        e.g. ``q0 + G(q0) / K`` starts the arm at rest holding itself up.
+        :func:`twolink.plant.holding_motor_q` (``q0 + K⁻¹ G(q0)``) starts the arm at rest
+        holding itself up, as a scenario's ``start = "holding"`` does.
 
     Returns
     -------
