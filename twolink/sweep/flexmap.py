@@ -92,19 +92,23 @@ def rigid_reference(plan: SweepPlan, controller: str = "CTC") -> dict[float, tup
     """Ts [s] and Mp [%] (worse moving joint) of ``controller`` on the rigid arm, per
     bandwidth of the map's ``wn`` grid: what "within the rigid arm's values" compares to."""
     from twolink.config import scenario_from_dict
-    from twolink.experiment import measure, run_scenario
+    from twolink.experiment import iter_scenarios, measure
 
-    wn_grid = next(p.values for p in plan.parameters if p.name == "wn")
-    out = {}
+    wn_grid = [float(wn) for wn in next(p.values for p in plan.parameters if p.name == "wn")]
+    scenarios = []
     for wn in wn_grid:
         data = plan.controller_data(controller, {"wn": wn})
         data["plant"] = {k: v for k, v in data.get("plant", {}).items() if k != "flexibility"}
-        s = scenario_from_dict(data, plan.file)
-        m = measure(s, run_scenario(s))
+        scenarios.append(scenario_from_dict(data, plan.file))
+    out = {}
+    for i, traj in iter_scenarios(scenarios):  # one batch: each arm as run_scenario's
+        if isinstance(traj, Exception):
+            raise traj
+        m = measure(scenarios[i], traj)
         ts = [m.settling_target[j - 1] for j in plan.joints]
         mp = [100.0 * m.step[j - 1].overshoot for j in plan.joints]
-        out[float(wn)] = (max(ts), max(mp))
-    return out
+        out[wn_grid[i]] = (max(ts), max(mp))
+    return {wn: out[wn] for wn in wn_grid}
 
 
 def _matches_rigid(ts: float, mp: float, rigid: tuple[float, float]) -> bool:
