@@ -433,6 +433,7 @@ def _reproduce(
     from twolink.gains import report_section
     from twolink.io import atomic_write_json, atomic_write_text
     from twolink.report_sections import design_section, oscillation_section
+    from twolink.validity import validity_sweep
 
     phase = _Phases(progress, 4 + trace + (manifest.claims_study is not None))
     workers = workers or os.cpu_count() or 1
@@ -447,6 +448,8 @@ def _reproduce(
             scenarios = {
                 sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs
             }
+            # Computed while the pool's fork server imports (a first submit waits for it).
+            validity = validity_sweep(result.points, result.weights)  # c = 2..10, PC PE XB
             study = (
                 pool.submit(flexible_study, manifest.flexible_study, out)
                 if manifest.flexible_study is not None
@@ -460,7 +463,7 @@ def _reproduce(
             rows, pending = run_all(
                 specs, out, pool, trace, None if designed else scenarios, busy=study is not None
             )
-            validity = _design_figures(result, out)  # here, while the workers run
+            _design_figures(result, validity, out)  # here, while the workers run
             claims: list[str] = []
             if manifest.claims_study is not None:
                 phase(f"claims: {manifest.claims_study.name}, on the same pool")
@@ -569,10 +572,10 @@ def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> list[st
     )
 
 
-def _design_figures(result: Any, out: Path) -> list[Any]:
+def _design_figures(result: Any, validity: list[Any], out: Path) -> None:
     """The design's evidence: phase plane with centres, membership functions, the
     control surfaces of the heuristic, the paper's and the designed rule base, and the
-    cluster-validity sweep (returned, for the report's table)."""
+    cluster-validity sweep (``validity``, :func:`twolink.validity.validity_sweep`)."""
     from controllers import fuzzy
     from twolink import plots
 
@@ -589,13 +592,12 @@ def _design_figures(result: Any, out: Path) -> list[Any]:
         ),
         out / "figures/control_surfaces.png",
     )
-    from twolink.validity import validity_figure, validity_sweep  # c = 2..10, PC PE XB
+    from twolink.validity import validity_figure
 
-    rows = validity_sweep(result.points, result.weights)
     plots.save_figure(
-        validity_figure(rows, result.clustering.n_clusters), out / "figures/design_validity.png"
+        validity_figure(validity, result.clustering.n_clusters),
+        out / "figures/design_validity.png",
     )
-    return rows
 
 
 def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, path: Path) -> None:
