@@ -29,6 +29,17 @@ def children(pid: int) -> set[int]:
     return out
 
 
+def descendants(pid: int) -> set[int]:
+    """Live children of ``pid``, their children, and so on: forked pool workers are the
+    fork server's children, not the command's."""
+    found, todo = set(), [pid]
+    while todo:
+        new = children(todo.pop())
+        todo += new - found
+        found |= new
+    return found
+
+
 def alive(pid: int) -> bool:
     try:
         state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
@@ -63,12 +74,15 @@ def test_a_killed_command_leaves_no_worker_and_writes_nothing_after(tmp_path, co
     )
     deadline = time.monotonic() + 120
     workers: set[int] = set()
-    while len(workers) < 2:  # the pool is up and working
+    # The pool is up and working: a resource tracker and two workers, or a fork server, its
+    # resource tracker and at least one worker.
+    while len(workers) < 3:
         assert proc.poll() is None, "finished before the pool was seen"
         assert time.monotonic() < deadline, "no pool workers appeared"
-        workers = children(proc.pid)
+        workers = descendants(proc.pid)
         time.sleep(0.05)
     time.sleep(1.0)
+    workers |= descendants(proc.pid)
     os.kill(proc.pid, signum)
     proc.wait(timeout=60)
     before = snapshot(out)

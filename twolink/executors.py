@@ -23,6 +23,7 @@ import ctypes
 import multiprocessing
 import multiprocessing.forkserver
 import os
+import select
 import signal
 import sys
 import threading
@@ -108,12 +109,39 @@ def _worker_init(command: int) -> None:
     # A terminal's Ctrl-C reaches the whole process group; only the parent should act on it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _stop_worker)
-    # The worker's parent is the fork server (or, spawned, the command): the server exits
-    # when the command ends (its "alive" pipe closes, even on SIGKILL), so dying with the
-    # parent is dying with the command.
     die_with_parent(os.getppid())
+    # Forked, the parent is the fork server, and it does not end with the command: every
+    # worker is handed the server's "alive" pipe, so the server waits for its workers while
+    # they wait for it. The worker watches the command itself.
+    die_with_command(command)
+
+
+def die_with_command(command: int) -> None:
+    """End this process as soon as the process ``command`` ends, however it ends.
+
+    A daemon thread waits on a pidfd of ``command`` (Linux 5.3+: it wakes the moment the
+    command exits, zombie or not), elsewhere polls its pid twice a second; it removes this
+    worker's unfinished temporaries, then exits. A command already gone ends us now.
+    """
+    try:
+        pidfd: int | None = os.pidfd_open(command)
+    except (AttributeError, OSError):  # not Linux, an old kernel, or the command is gone
+        pidfd = None
     if not _alive(command):
         os._exit(1)
+    threading.Thread(
+        target=_exit_after, args=(command, pidfd), name="twolink-command-watch", daemon=True
+    ).start()
+
+
+def _exit_after(command: int, pidfd: int | None) -> None:
+    if pidfd is not None:
+        select.select([pidfd], [], [])
+    else:
+        while _alive(command):
+            time.sleep(0.5)
+    discard_pending()
+    os._exit(1)
 
 
 def _alive(pid: int) -> bool:
