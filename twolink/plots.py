@@ -217,9 +217,8 @@ def control_surface_figure(engines: dict[str, Any], n: int = 121) -> Figure:
     """Control surfaces u(e, de) of engines side by side (no-fire regions show as 0)."""
     import numpy as np
 
-    fig, axes = plt.subplots(
-        1, len(engines), figsize=(5.2 * len(engines), 4.6), constrained_layout=True, squeeze=False
-    )
+    fig, axes = plt.subplots(1, len(engines), figsize=(5.2 * len(engines), 4.6), squeeze=False)
+    fixed_layout(fig, left=0.05, right=0.98, top=0.86, bottom=0.11, wspace=0.3)
     x = np.linspace(-1, 1, n)
     e, de = np.meshgrid(x, x)
     for ax, (name, engine) in zip(axes[0], engines.items(), strict=True):

@@ -433,7 +433,6 @@ def _reproduce(
     from twolink.gains import report_section
     from twolink.io import atomic_write_json, atomic_write_text
     from twolink.report_sections import design_section, oscillation_section
-    from twolink.validity import validity_sweep
 
     phase = _Phases(progress, 4 + trace + (manifest.claims_study is not None))
     workers = workers or os.cpu_count() or 1
@@ -448,8 +447,6 @@ def _reproduce(
             scenarios = {
                 sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs
             }
-            # Computed while the pool's fork server imports (a first submit waits for it).
-            validity = validity_sweep(result.points, result.weights)  # c = 2..10, PC PE XB
             study = (
                 pool.submit(flexible_study, manifest.flexible_study, out)
                 if manifest.flexible_study is not None
@@ -463,7 +460,10 @@ def _reproduce(
             rows, pending = run_all(
                 specs, out, pool, trace, None if designed else scenarios, busy=study is not None
             )
-            _design_figures(result, validity, out)  # here, while the workers run
+            # A task, not drawn here: the main process then never imports matplotlib, and
+            # the runs do not wait for the validity sweep.
+            design_evidence = pool.submit(_design_figures, result, out)
+            drawing = [design_evidence]
             claims: list[str] = []
             if manifest.claims_study is not None:
                 phase(f"claims: {manifest.claims_study.name}, on the same pool")
@@ -479,9 +479,12 @@ def _reproduce(
                     for i, row in zip(pending[fut], fut.result(), strict=True):
                         rows[i] = row
                     bar.update(len(pending[fut]))
+            # The combined recording first (the longest task left), then the figures.
+            if trace:
+                phase(f"recording: reproduction.rrd ({len(specs)} runs), in a worker")
+                drawing.append(pool.submit(_combined_recording, out, specs, scenarios))
             phase("figures: responses, phase plane, membership functions, control surfaces")
             figures: dict[str, str] = {}
-            drawing = []
             for variant in manifest.variants:
                 for exp in manifest.experiments:
                     runs = {
@@ -496,11 +499,7 @@ def _reproduce(
                         pool.submit(_response_figure, out, runs, exp.joint, title, out / name)
                     )
                     figures[f"{variant.name}/{exp.key}"] = name
-            # Each run read back once: the report's choices and the combined recording.
             trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
-            if trace:
-                phase(f"recording: reproduction.rrd ({len(specs)} runs)")
-                _combined_recording(out, specs, scenarios, trajectories)
             sections = oscillation_section(specs, scenarios, trajectories, rows)
             if manifest.gain_study is not None:
                 sections += report_section(manifest.gain_study, out, pool)
@@ -511,6 +510,7 @@ def _reproduce(
                 shipped = calibration_report.rerun_shipped(manifest.calibration)
                 sections += calibration_report.report_section(manifest.calibration, out, shipped)
                 calibrated = calibration_report.table_values(shipped)
+            validity = design_evidence.result()
             sections += design_section(result, specs, scenarios, rows, validity)
             if study is not None:
                 sections += study.result()
@@ -572,12 +572,16 @@ def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> list[st
     )
 
 
-def _design_figures(result: Any, validity: list[Any], out: Path) -> None:
-    """The design's evidence: phase plane with centres, membership functions, the
-    control surfaces of the heuristic, the paper's and the designed rule base, and the
-    cluster-validity sweep (``validity``, :func:`twolink.validity.validity_sweep`)."""
+def _design_figures(result: Any, out: Path) -> list[Any]:
+    """The design's evidence (a worker task): phase plane with centres, membership
+    functions, the control surfaces of the heuristic, the paper's and the designed rule
+    base, and the cluster-validity sweep, which it returns
+    (:func:`twolink.validity.validity_sweep`: c = 2..10, PC, PE, XB)."""
     from controllers import fuzzy
     from twolink import plots
+    from twolink.validity import validity_figure, validity_sweep
+
+    validity = validity_sweep(result.points, result.weights)
 
     designed_engine = result.engine.with_rules(result.rules)
     plots.save_figure(plots.phase_plane_figure(result), out / "figures/design_phase_plane.png")
@@ -592,12 +596,11 @@ def _design_figures(result: Any, validity: list[Any], out: Path) -> None:
         ),
         out / "figures/control_surfaces.png",
     )
-    from twolink.validity import validity_figure
-
     plots.save_figure(
         validity_figure(validity, result.clustering.n_clusters),
         out / "figures/design_validity.png",
     )
+    return validity
 
 
 def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, path: Path) -> None:
@@ -611,13 +614,11 @@ def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, pa
     plots.save_figure(plots.response_figure(trajs, joint, title), path)
 
 
-def _combined_recording(
-    out: Path,
-    specs: list[RunSpec],
-    scenarios: dict[str, Scenario],
-    trajectories: dict[str, Trajectory],
-) -> None:
+def _combined_recording(out: Path, specs: list[RunSpec], scenarios: dict[str, Scenario]) -> None:
+    """reproduction.rrd: every run, read back from its folder (a worker task)."""
     from twolink import tracing
+
+    trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
 
     tracing.write_recording(
         out / "reproduction.rrd",
