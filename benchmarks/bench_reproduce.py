@@ -1,0 +1,107 @@
+"""Wall time of ``twolink reproduce`` on issue 17's scope and as shipped, beside a machine
+yardstick timed in the same run.
+
+The issue's scope is the reproduction as it was when the issue measured it (~28 s then):
+CTC and FCM-CTC on every experiment of ``runs/paper/reproduce.toml``, on both variants,
+with the stiffness x bandwidth map, the figures and the recordings, but without the
+baselines, the claims sweep, the gain study and the calibration section that came later.
+This script writes that manifest (absolute paths into ``runs/paper``) to a temporary
+folder and runs the command in a subprocess, start-up included, each time into a fresh
+output folder (so the design is computed, not reused).
+
+The yardstick is a bare single-arm ``mj_step`` loop (ctrl set each step) of 10^6 steps
+in this process: this VM's speed varies from day to day by up to 1.8x, so the times are
+also printed as multiples of it.
+
+    python benchmarks/bench_reproduce.py              # issue scope, 3 runs
+    python benchmarks/bench_reproduce.py --shipped    # and the shipped reproduction once
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from twolink.params import ArmParams
+from twolink.plant import Plant
+
+PAPER = Path(__file__).resolve().parents[1] / "runs" / "paper"
+# What issue 17 measured: the paper's two controllers, no later studies.
+LATER_KEYS = ("claims_study", "gain_study", "calibration", "proposed", "baseline")
+SCOPE_CONTROLLERS = ("CTC", "FCM-CTC")
+
+
+def scope_manifest(folder: Path) -> Path:
+    """The shipped manifest cut to issue 17's scope, written into ``folder``."""
+    text = (PAPER / "reproduce.toml").read_text()
+    text = re.sub(rf"^({'|'.join(LATER_KEYS)}) = .*$", "", text, flags=re.M)
+    lines, skip = [], False
+    for line in text.splitlines():
+        if line.startswith("["):
+            name = line.strip().removeprefix("[controllers.").removesuffix("]")
+            skip = line.startswith("[controllers.") and name not in SCOPE_CONTROLLERS
+        if not skip:
+            lines.append(line)
+    # Paths are relative to the manifest: make them absolute into runs/paper.
+    text = re.sub(
+        r'"([^"]+\.toml)"', lambda m: f'"{(PAPER / m.group(1)).resolve()}"', "\n".join(lines)
+    )
+    path = folder / "scope.toml"
+    path.write_text(text + "\n")
+    return path
+
+
+def yardstick(steps: int = 1_000_000) -> float:
+    """Seconds for ``steps`` bare single-arm ``mj_step`` calls (ctrl set each step)."""
+    plant = Plant.build(ArmParams())
+    model, data = plant.model, plant.data
+    ctrl = np.array([0.1, -0.1])
+    start = time.perf_counter()
+    for _ in range(steps):
+        data.ctrl[:] = ctrl
+        mujoco.mj_step(model, data)
+    return time.perf_counter() - start
+
+
+def reproduce(manifest: Path | None, out: Path) -> float:
+    command = [sys.executable, "-m", "twolink", "reproduce", "--out", str(out)]
+    if manifest is not None:
+        command += ["--manifest", str(manifest)]
+    start = time.perf_counter()
+    subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--shipped", action="store_true", help="also the shipped reproduction")
+    args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp)
+        manifest = scope_manifest(folder)
+        before = yardstick()
+        scope = [reproduce(manifest, folder / f"scope{i}") for i in range(args.repeats)]
+        shipped = reproduce(None, folder / "shipped") if args.shipped else None
+        after = yardstick()
+    unit = (before + after) / 2
+    print(f"yardstick: 10^6 bare single-arm mj_steps {before:.2f} s before, {after:.2f} s after")
+    print(
+        "reproduce, issue scope: "
+        + ", ".join(f"{t:.1f} s ({t / unit:.2f}x)" for t in scope)
+        + " (target 10 s)"
+    )
+    if shipped is not None:
+        print(f"reproduce, shipped: {shipped:.1f} s ({shipped / unit:.2f}x)")
+
+
+if __name__ == "__main__":
+    main()
