@@ -9,9 +9,9 @@ This script writes that manifest (absolute paths into ``runs/paper``) to a tempo
 folder and runs the command in a subprocess, start-up included, each time into a fresh
 output folder (so the design is computed, not reused).
 
-The yardstick is a bare single-arm ``mj_step`` loop (ctrl set each step) of 10^6 steps
-in this process: this VM's speed varies from day to day by up to 1.8x, so the times are
-also printed as multiples of it.
+The yardstick is the bare single-arm ``mj_step`` loop of ``bench_batch.py`` (ctrl set
+each step), as the time of 10^6 steps in this process: this VM's speed varies from day
+to day by up to 1.8x, so the times are also printed as multiples of it.
 
     python benchmarks/bench_reproduce.py              # issue scope, 3 runs
     python benchmarks/bench_reproduce.py --shipped    # and the shipped reproduction once
@@ -27,11 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
-import mujoco
-import numpy as np
-
-from twolink.params import ArmParams
-from twolink.plant import Plant
+from bench_batch import bare_step_us  # this folder is on the path when run as a script
 
 PAPER = Path(__file__).resolve().parents[1] / "runs" / "paper"
 # What issue 17 measured: the paper's two controllers, no later studies.
@@ -59,16 +55,10 @@ def scope_manifest(folder: Path) -> Path:
     return path
 
 
-def yardstick(steps: int = 1_000_000) -> float:
-    """Seconds for ``steps`` bare single-arm ``mj_step`` calls (ctrl set each step)."""
-    plant = Plant.build(ArmParams())
-    model, data = plant.model, plant.data
-    ctrl = np.array([0.1, -0.1])
-    start = time.perf_counter()
-    for _ in range(steps):
-        data.ctrl[:] = ctrl
-        mujoco.mj_step(model, data)
-    return time.perf_counter() - start
+def yardstick() -> float:
+    """Seconds for 10^6 bare single-arm ``mj_step`` calls: bench_batch's baseline (ctrl
+    set each step), the median of 5 runs of 200,000 steps."""
+    return bare_step_us(repeats=5, steps=200_000)  # µs per step = s per 10^6 steps
 
 
 def reproduce(manifest: Path | None, out: Path) -> float:
