@@ -198,6 +198,96 @@ main(["mangled"])
     assert plain.returncode == 1 and "TypeError" in plain.stderr
 
 
+def _exit_of_module(tmp_path, name: str, code: str) -> subprocess.CompletedProcess:
+    """Run ``code`` as ``python -m name``, with Ctrl-C's default action, as a shell would."""
+    (tmp_path / f"{name}.py").write_text(code)
+    return subprocess.run(
+        [sys.executable, "-m", name],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+
+
+def test_ctrl_c_inside_code_run_from_a_string_still_exits_130_under_python_m(tmp_path):
+    # CPython marks a KeyboardInterrupt that leaves an exec() of a string as unhandled for
+    # the whole process, and `python -m` then dies by SIGINT (-2) after the command exited
+    # 130. Dataclasses, scipy and MuJoCo's module init all run such strings.
+    code = """
+from twolink.cli import main
+
+@main.command()
+def stuck():
+    exec("import os, signal\\nos.kill(os.getpid(), signal.SIGINT)\\nfor _ in range(10**7): pass")
+
+main(["stuck"])
+"""
+    proc = _exit_of_module(tmp_path, "stopped_in_exec", code)
+    assert proc.returncode == 130, proc.stderr
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_ctrl_c_that_python_drops_is_sent_again(tmp_path):
+    # A KeyboardInterrupt raised in a weakref callback (or __del__) is printed as "Exception
+    # ignored" and dropped: the command would go on as if no Ctrl-C had come.
+    code = """
+import os, signal, weakref
+from twolink.cli import main
+
+class Thing:
+    pass
+
+def callback(ref):
+    os.kill(os.getpid(), signal.SIGINT)
+    for _ in range(10):  # the handler runs here, inside the callback
+        pass
+
+@main.command()
+def dropped():
+    thing = Thing()
+    ref = weakref.ref(thing, callback)
+    del thing
+    for _ in range(10**7):
+        pass
+    print("finished")
+
+main(["dropped"])
+"""
+    proc = _exit_of_module(tmp_path, "stopped_in_callback", code)
+    assert proc.returncode == 130, proc.stderr
+    assert "finished" not in proc.stdout
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+
+
+def test_ctrl_c_that_a_library_swallows_stops_the_reproduction_at_its_next_phase(tmp_path):
+    # numpy.random's module init (imported by pandas) was seen catching a KeyboardInterrupt.
+    code = """
+import os, signal
+from twolink.cli import main
+from twolink.reproduce import _Phases
+
+@main.command()
+def swallowed():
+    phase = _Phases(False, 2)
+    phase("one")
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(10**7):
+            pass
+    except KeyboardInterrupt:
+        pass  # what the library does
+    phase("two")
+    print("finished")
+
+main(["swallowed"])
+"""
+    proc = _exit_of_module(tmp_path, "swallowed_by_a_library", code)
+    assert proc.returncode == 130 and "finished" not in proc.stdout, proc.stderr
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr
+
+
 def test_set_overrides_keys_and_the_saved_config_records_them(tmp_path):
     args = ["run", str(REPO / "runs/paper/theta1_step.toml"), "--out", str(tmp_path / "o")]
     args += ["--set", "controller.kp=25", "--set", "controller.kd=10", "--set", "duration=2"]

@@ -24,12 +24,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from controllers.base import Controller
 from twolink.params import ArmParams, Flexibility
-from twolink.plant import add_arm, holding_motor_q, new_spec
+from twolink.plant import add_arm, holding_motor_q, mujoco, new_spec
 from twolink.sim import (
     STATUS_DIVERGED,
     STATUS_OK,

@@ -9,22 +9,19 @@ import signal
 import sys
 import threading
 from pathlib import Path
-from typing import Any
 
 import click
 
 from twolink.executors import EXECUTORS, open_executor
+from twolink.interrupts import (
+    CTRL_C_RECEIVED,
+    forget_escaped_interrupt,
+    on_ctrl_c,
+    resend_dropped_ctrl_c,
+)
 from twolink.params import ArmParams, Flexibility
 
 REPO_MODELS = Path(__file__).resolve().parents[1] / "models"
-
-
-_INTERRUPTED: list[int] = []  # the Ctrl-C this command received, if any
-
-
-def _on_sigint(signum: int, frame: Any) -> None:
-    _INTERRUPTED.append(signum)
-    raise KeyboardInterrupt
 
 
 class _Group(click.Group):
@@ -34,18 +31,20 @@ class _Group(click.Group):
     A Ctrl-C that lands inside a compiled extension can come out as another exception
     (pybind11 reports a KeyboardInterrupt raised while it converts arguments as a
     TypeError, e.g. in matplotlib's transforms): once a Ctrl-C was received, whatever
-    error ends the command is reported as the interruption it is."""
+    error ends the command is reported as the interruption it is. One that Python drops
+    is sent again (:func:`resend_dropped_ctrl_c`)."""
 
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
-        _INTERRUPTED.clear()
+        CTRL_C_RECEIVED.clear()
         previous = signal.getsignal(signal.SIGINT)
         # Not where Ctrl-C is ignored, and only where handlers can be set (the main thread).
         if previous is signal.default_int_handler and threading.current_thread() is (
             threading.main_thread()
         ):
-            signal.signal(signal.SIGINT, _on_sigint)
+            signal.signal(signal.SIGINT, on_ctrl_c)
+        previous_hook, sys.unraisablehook = sys.unraisablehook, resend_dropped_ctrl_c
         try:
             code = super().main(*args, standalone_mode=False, **kwargs)
         except click.exceptions.Abort:
@@ -55,13 +54,15 @@ class _Group(click.Group):
             exc.show()
             sys.exit(exc.exit_code)
         except Exception:
-            if not _INTERRUPTED:
+            if not CTRL_C_RECEIVED:
                 raise
             click.echo("interrupted: files written so far are whole; rerun to complete", err=True)
             sys.exit(130)
         finally:
-            if signal.getsignal(signal.SIGINT) is _on_sigint:
+            if signal.getsignal(signal.SIGINT) is on_ctrl_c:
                 signal.signal(signal.SIGINT, previous)
+            sys.unraisablehook = previous_hook
+            forget_escaped_interrupt()  # else `python -m twolink` ends by SIGINT, not 130
         sys.exit(code if isinstance(code, int) else 0)
 
 

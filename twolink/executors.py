@@ -32,6 +32,7 @@ from collections.abc import Callable
 from concurrent import futures
 from typing import Any
 
+from twolink.interrupts import interrupts_held
 from twolink.io import discard_pending
 
 EXECUTORS = ("inprocess", "process", "dask")
@@ -211,7 +212,9 @@ class ProcessExecutor(SweepExecutor):
         )
 
     def submit(self, fn: Callable[..., Any], /, *args: Any, **kwargs: Any) -> futures.Future:
-        return self._pool.submit(fn, *args, **kwargs)
+        # A submit can start a worker; Ctrl-C waits until the pool knows it (to end it).
+        with interrupts_held():
+            return self._pool.submit(fn, *args, **kwargs)
 
     def shutdown(self, wait: bool = True, *, cancel_futures: bool = False) -> None:
         self._pool.shutdown(wait=wait, cancel_futures=cancel_futures)

@@ -1,6 +1,7 @@
 """The arm as MuJoCo sees it: model building (MjSpec) and a small stepping wrapper.
 
-This is the only module that imports :mod:`mujoco`.
+This is the only module that imports :mod:`mujoco` (with Ctrl-C held back:
+:mod:`twolink.interrupts`); :mod:`twolink.batch` takes it from here.
 
 Frames: the paper's vertical plane (x, y) is MuJoCo's (x, z), so the arm stands up
 in the viewer; the paper's gravity along -y is MuJoCo's -z. Each hinge turns about
@@ -21,11 +22,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import mujoco
 import numpy as np
 
 from twolink.dynamics import gravity
+from twolink.interrupts import import_mujoco
 from twolink.params import ArmParams, Flexibility
+
+mujoco = import_mujoco()
 
 ROD_RADIUS = 0.02  # visual and for the rod's (irrelevant) spin inertia about its axis [m]
 ROTOR_MASS = 1e-3  # rotors sit on their axes: mass has no effect, MuJoCo needs it > 0 [kg]

@@ -29,6 +29,7 @@ from twolink.experiment import (
     trace_extras,
     write_run,
 )
+from twolink.interrupts import raise_if_dropped
 from twolink.io import to_toml
 from twolink.manifest import (
     DEFAULT_MANIFEST,
@@ -360,6 +361,7 @@ class _Phases:
         self.start = time.perf_counter()
 
     def __call__(self, what: str) -> None:
+        raise_if_dropped()  # a Ctrl-C stops the reproduction at the next phase at the latest
         self.done += 1
         if self.on:
             elapsed = f"+{time.perf_counter() - self.start:.1f} s"

@@ -567,6 +567,8 @@ def _drive(
 
     fill()
     while pending:
+        if stops.received:  # its KeyboardInterrupt was dropped (by a library, on its way)
+            raise KeyboardInterrupt
         done, pending = futures.wait(pending, return_when=futures.FIRST_COMPLETED)
         for future in done:
             try:
