@@ -63,6 +63,7 @@ class _Group(click.Group):
                 signal.signal(signal.SIGINT, previous)
             sys.unraisablehook = previous_hook
             forget_escaped_interrupt()  # else `python -m twolink` ends by SIGINT, not 130
+            CTRL_C_RECEIVED.clear()  # the command is over: none is pending for later code
         sys.exit(code if isinstance(code, int) else 0)
 
 
