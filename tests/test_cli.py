@@ -155,6 +155,7 @@ def test_ctrl_c_exits_130_with_one_line_in_every_command(tmp_path, command):
     _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
     assert "interrupted" in stderr and "Traceback" not in stderr and "Aborted" not in stderr
+    assert "Warning" not in stderr, stderr  # e.g. the resource tracker's leaked semaphores
 
 
 def test_ctrl_c_that_a_compiled_extension_turns_into_another_error_still_exits_130():

@@ -110,6 +110,12 @@ def _worker_init(command: int) -> None:
     # A terminal's Ctrl-C reaches the whole process group; only the parent should act on it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _stop_worker)
+    # A task's (silent) tqdm bar would make its cross-process lock, a named semaphore that
+    # the abort's os._exit leaves for the resource tracker to warn about; a worker's bars
+    # need no lock shared with other processes.
+    from tqdm import tqdm
+
+    tqdm.set_lock(threading.RLock())
     die_with_parent(os.getppid())
     # Forked, the parent is the fork server, and it does not end with the command: every
     # worker is handed the server's "alive" pipe, so the server waits for its workers while
