@@ -1,4 +1,4 @@
-"""Ctrl-C held back around MuJoCo's import and a worker's start (twolink.interrupts)."""
+"""Ctrl-C wherever it lands (twolink.interrupts, and the command line's handling)."""
 
 import os
 import signal
@@ -8,6 +8,25 @@ import sys
 import pytest
 
 from twolink.interrupts import interrupts_held
+
+
+def python(*args: str, cwd=None) -> subprocess.CompletedProcess:
+    """Run the venv's Python, with Ctrl-C's default action (a shell's background jobs,
+    such as this test run under CI, start with it ignored, and Python keeps that)."""
+    return subprocess.run(
+        [sys.executable, *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+
+
+def python_module(tmp_path, name: str, code: str) -> subprocess.CompletedProcess:
+    """Run ``code`` as ``python -m name``."""
+    (tmp_path / f"{name}.py").write_text(code)
+    return python("-m", name, cwd=tmp_path)
 
 
 def test_a_ctrl_c_inside_the_block_arrives_when_it_ends():
@@ -67,13 +86,7 @@ except KeyboardInterrupt:
     ],
 )
 def test_a_ctrl_c_during_mujocos_import_waits_for_it(importer, says):
-    proc = subprocess.run(
-        [sys.executable, "-c", IMPORT_WITH_CTRL_C.format(importer=importer)],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
-    )
+    proc = python("-c", IMPORT_WITH_CTRL_C.format(importer=importer))
     assert proc.stdout.strip() == says, proc.stderr
 
 
@@ -127,12 +140,114 @@ def test_a_worker_started_as_ctrl_c_comes_is_ended_with_the_pool(held):
             "ex.interrupts_held = contextlib.nullcontext\n"
             "from twolink.executors import ProcessExecutor",
         )
-    proc = subprocess.run(
-        [sys.executable, "-c", code],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
-    )
+    proc = python("-c", code)
     clean = proc.stdout.strip() == "worker ended" and "Traceback" not in proc.stderr
     assert clean == held, proc.stdout + proc.stderr
+
+
+# The command line: one line and exit 130, whatever the Ctrl-C lands in.
+
+
+def test_ctrl_c_that_a_compiled_extension_turns_into_another_error_still_exits_130():
+    # pybind11 reports a KeyboardInterrupt raised while it converts arguments as a
+    # TypeError (seen in matplotlib's transforms during the reproduction's figures).
+    code = """
+import os, signal, sys
+from twolink.cli import main
+
+@main.command()
+def mangled():
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(10**7):
+            pass
+    except KeyboardInterrupt:
+        raise TypeError("incompatible function arguments") from None
+
+main(["mangled"])
+"""
+    proc = python("-c", code)
+    assert proc.returncode == 130, proc.stderr
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr
+    # Without a Ctrl-C the same error is a bug, and shows as one.
+    plain = python(
+        "-c", code.replace("os.kill(os.getpid(), signal.SIGINT)", "raise KeyboardInterrupt")
+    )
+    assert plain.returncode == 1 and "TypeError" in plain.stderr
+
+
+def test_ctrl_c_inside_code_run_from_a_string_still_exits_130_under_python_m(tmp_path):
+    # CPython marks a KeyboardInterrupt that leaves an exec() of a string as unhandled for
+    # the whole process, and `python -m` then dies by SIGINT (-2) after the command exited
+    # 130. Dataclasses, scipy and MuJoCo's module init all run such strings.
+    code = """
+from twolink.cli import main
+
+@main.command()
+def stuck():
+    exec("import os, signal\\nos.kill(os.getpid(), signal.SIGINT)\\nfor _ in range(10**7): pass")
+
+main(["stuck"])
+"""
+    proc = python_module(tmp_path, "stopped_in_exec", code)
+    assert proc.returncode == 130, proc.stderr
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_ctrl_c_that_python_drops_is_sent_again(tmp_path):
+    # A KeyboardInterrupt raised in a weakref callback (or __del__) is printed as "Exception
+    # ignored" and dropped: the command would go on as if no Ctrl-C had come.
+    code = """
+import os, signal, weakref
+from twolink.cli import main
+
+class Thing:
+    pass
+
+def callback(ref):
+    os.kill(os.getpid(), signal.SIGINT)
+    for _ in range(10):  # the handler runs here, inside the callback
+        pass
+
+@main.command()
+def dropped():
+    thing = Thing()
+    ref = weakref.ref(thing, callback)
+    del thing
+    for _ in range(10**7):
+        pass
+    print("finished")
+
+main(["dropped"])
+"""
+    proc = python_module(tmp_path, "stopped_in_callback", code)
+    assert proc.returncode == 130, proc.stderr
+    assert "finished" not in proc.stdout
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr, proc.stderr
+
+
+def test_ctrl_c_that_a_library_swallows_stops_the_reproduction_at_its_next_phase(tmp_path):
+    # numpy.random's module init (imported by pandas) was seen catching a KeyboardInterrupt.
+    code = """
+import os, signal
+from twolink.cli import main
+from twolink.reproduce import _Phases
+
+@main.command()
+def swallowed():
+    phase = _Phases(False, 2)
+    phase("one")
+    try:
+        os.kill(os.getpid(), signal.SIGINT)
+        for _ in range(10**7):
+            pass
+    except KeyboardInterrupt:
+        pass  # what the library does
+    phase("two")
+    print("finished")
+
+main(["swallowed"])
+"""
+    proc = python_module(tmp_path, "swallowed_by_a_library", code)
+    assert proc.returncode == 130 and "finished" not in proc.stdout, proc.stderr
+    assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr
