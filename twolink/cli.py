@@ -37,7 +37,6 @@ class _Group(click.Group):
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
-        CTRL_C_RECEIVED.clear()
         previous = signal.getsignal(signal.SIGINT)
         # Not where Ctrl-C is ignored, and only where handlers can be set (the main thread).
         if previous is signal.default_int_handler and threading.current_thread() is (

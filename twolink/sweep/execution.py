@@ -27,6 +27,7 @@ import pandas as pd
 from twolink.config import scenario_from_dict
 from twolink.executors import SweepExecutor, check_options, open_executor
 from twolink.experiment import build_controller, iter_scenarios, measure
+from twolink.interrupts import interrupts_held
 from twolink.io import atomic_write_json, atomic_write_text, output_lock
 from twolink.outcome import classify
 from twolink.sweep.plan import FORMAT_VERSION, SweepPlan, gains
@@ -341,23 +342,20 @@ def _prepare_out(plan: SweepPlan, out: Path, fresh: bool) -> None:
 
 
 class _StopSignals:
-    """SIGINT and SIGTERM as KeyboardInterrupt, held back inside critical sections.
+    """SIGINT and SIGTERM as KeyboardInterrupt, recorded (the first decides the exit code).
 
-    A handler runs in the main thread, whichever thread the signal reached, so a flag
-    (not a signal mask) is what keeps a chunk file and its log line together.
+    A chunk file and its log line are written with both held back
+    (:func:`twolink.interrupts.interrupts_held`): a handler runs in the main thread,
+    whichever thread the signal reached, so a deferred handler, not a signal mask, is
+    what keeps them together.
     """
 
     def __init__(self) -> None:
         self.received: list[int] = []
-        self._depth = 0
-        self._pending = False
 
     def _handler(self, signum: int, frame: Any) -> None:
         self.received.append(signum)
-        if self._depth:
-            self._pending = True
-        else:
-            raise KeyboardInterrupt
+        raise KeyboardInterrupt
 
     @contextmanager
     def installed(self) -> Iterator[None]:
@@ -372,18 +370,6 @@ class _StopSignals:
         finally:
             for s, handler in old.items():
                 signal.signal(s, handler)
-
-    @contextmanager
-    def critical(self) -> Iterator[None]:
-        """Defer a stop until the block is done."""
-        self._depth += 1
-        try:
-            yield
-        finally:
-            self._depth -= 1
-        if not self._depth and self._pending:
-            self._pending = False
-            raise KeyboardInterrupt
 
 
 def run_sweep(
@@ -492,7 +478,7 @@ def _run_sweep(
                         _drive(plan, out, ex, missing, frames, computed, bar, stops)
                     except BaseException:
                         if pool is None:  # a lent pool is its owner's to stop
-                            with stops.critical():
+                            with interrupts_held():
                                 ex.abort()
                         raise
                     if pool is None:
@@ -578,7 +564,7 @@ def _drive(
             except Exception as exc:  # outside run_chunk's per-sample net: a real bug
                 raise SweepTaskError(f"a chunk task failed: {_error_text(exc)}") from exc
             for result in results:
-                with stops.critical():
+                with interrupts_held():
                     frame = _chunk_frame(plan, result.rows)
                     _seal(plan, write_table(_chunk_path(out, result.chunk), frame))
                     with open(out / "computed.log", "a") as log:
