@@ -24,7 +24,7 @@ from twolink.batch import Arm, BatchPlant, model_gravity, simulate_batch
 from twolink.config import load_scenario, merge
 from twolink.experiment import measure, run_scenario, run_scenarios
 from twolink.params import ArmParams, Flexibility
-from twolink.plant import Plant
+from twolink.plant import Plant, incline
 from twolink.sim import simulate
 from twolink.vocabulary import joint_values
 
@@ -221,17 +221,36 @@ def test_batch_plant_state_layout_matches_single_plants():
         assert np.array_equal(bp.data.qpos[bp.q_index[i]], single.q)
         assert np.array_equal(bp.data.qvel[bp.v_index[i]], single.qd)
         # MuJoCo's bias forces (gravity and Coriolis) per arm, against the arm alone
-        bias = bp.data.qfrc_bias[bp.v_index[i]] - bp.data.qfrc_gravcomp[bp.v_index[i]]
+        bias = bp.data.qfrc_bias[bp.v_index[i]]
         np.testing.assert_allclose(bias, single.bias()[:2], rtol=1e-14, atol=1e-14)
 
 
-def test_model_gravity_is_the_largest_so_that_every_compensation_is_positive():
-    # MuJoCo ignores gravity compensation unless some body's is > 0 (ngravcomp)
+def test_model_gravity_is_the_largest_so_that_every_arm_gets_a_share_of_it():
     assert model_gravity([0.0, 9.81, 3.0, 10.5]) == 10.5
     assert model_gravity([0.0, 0.0]) == 0.0
     assert model_gravity([0.0, -2.0, 1.0]) == -2.0
-    bp = BatchPlant([Arm(ArmParams(g=g)) for g in (9.81, 10.3)], 1e-3)
-    assert bp.model.ngravcomp == 2 and (bp.model.body_gravcomp >= 0).all()
+    with pytest.raises(ValueError, match="cannot exceed"):
+        incline(1.5)
+
+
+@pytest.mark.parametrize("gs", [(9.81, 10.3, 0.0, 3.0), (-2.0, 1.0, 0.0, -0.5), (0.0, 0.0)])
+def test_tilted_arms_feel_their_own_gravity(gs):
+    # Each arm's gravity torques (MuJoCo's bias at rest) equal those of the arm alone in a
+    # model with its own g, at several postures, to rounding (a level arm, g = 0, in a
+    # vertical plane: ~4e-15 N m); no gravity compensation is left to pay.
+    arms = [Arm(ArmParams(g=g, m1=1.3, l2=0.8), payload=0.1) for g in gs]
+    bp = BatchPlant(arms, 1e-3)
+    assert bp.model.ngravcomp == 0 and bp.model.ngeom == 0
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        q0 = rng.uniform(-3, 3, (len(arms), 2))
+        bp.reset(q0, np.zeros_like(q0))
+        for i, a in enumerate(arms):
+            single = Plant.build(a.params, payload=a.payload)
+            single.reset(q0[i], (0.0, 0.0))
+            np.testing.assert_allclose(
+                bp.data.qfrc_bias[bp.v_index[i]], single.bias()[:2], rtol=1e-13, atol=1e-13
+            )
 
 
 def test_custom_controllers_run_arm_by_arm():
