@@ -62,8 +62,8 @@ def model_gravity(gs: Sequence[float]) -> float:
 
 class BatchPlant:
     """N arms in one MuJoCo model. ``q_index``/``v_index``: (N, 2) addresses of each
-    arm's link angles in ``qpos``/``qvel``; ``ctrl_index``: (N, 2) of its motors, and
-    ``force_index`` the (N, 2) ``qfrc_applied`` addresses their torques are written to."""
+    arm's link angles in ``qpos``/``qvel``, and ``force_index`` the (N, 2) ``qfrc_applied``
+    addresses its torques are written to (its motors' joints)."""
 
     def __init__(self, arms: Sequence[Arm], timestep: float = 1e-3) -> None:
         if not arms:
@@ -71,7 +71,8 @@ class BatchPlant:
         g_model = model_gravity([a.params.g for a in arms])
         spec = new_spec(timestep, g_model, "twolink_batch")
         for i, a in enumerate(arms):
-            # No geoms: nothing renders a batch, and they cost ~5 % of a step.
+            # No geoms (nothing renders a batch) and no actuators (see force_index): each
+            # costs ~5 % of a step.
             add_arm(
                 spec,
                 a.params,
@@ -80,6 +81,7 @@ class BatchPlant:
                 prefix=f"arm{i}_",
                 model_g=g_model,
                 visual=False,
+                motors=False,
             )
         try:
             self.model = spec.compile()
@@ -117,16 +119,12 @@ class BatchPlant:
                 for i, flex in enumerate(self.flexible)
             ]
         )
-        self.ctrl_index = np.array(
-            [[self.model.actuator(f"arm{i}_tau{k}").id for k in (1, 2)] for i in range(len(arms))]
-        )
-        # The torques enter as applied forces on the motors' joints (``qfrc_applied``), which
-        # is exactly what the gear-1 motors add (no control limits: qfrc_actuator = ctrl),
-        # with MuJoCo's actuator stage switched off: it costs ~6 % of a step and adds
-        # nothing. (Sums are unchanged: MuJoCo adds applied, then actuator forces, and one
-        # of the two is zero either way.)
+        # The torques enter as applied forces on the motors' joints (``qfrc_applied``),
+        # which is exactly what the single arm's gear-1 motors add (no control limits:
+        # qfrc_actuator = ctrl); the batch model has no actuators, whose transmission
+        # MuJoCo would compute four times a step for nothing. (Sums are unchanged: MuJoCo
+        # adds applied, then actuator forces, and one of the two is zero either way.)
         self.force_index = self.motor_v_index
-        self.model.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_ACTUATION
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray, holding: np.ndarray | None = None) -> None:
         """Every arm at (q0, qd0), time 0, its rotors at the links (springs relaxed) or,

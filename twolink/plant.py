@@ -86,6 +86,7 @@ def add_arm(
     prefix: str = "",
     model_g: float | None = None,
     visual: bool = True,
+    motors: bool = True,
 ) -> None:
     """Add one arm to ``spec``: its bodies, joints, springs and motors, every name
     prefixed with ``prefix`` (so several arms can share a model, see
@@ -96,7 +97,9 @@ def add_arm(
     MuJoCo's x axis, so that the model's gravity has the component ``p.g`` in the plane
     the arm moves in (``|p.g| <= |model_g|``); the rest points along
     the hinges, where it does no work. ``visual=False`` leaves out the geoms and the tip
-    site, which only show the arm (the inertias are explicit) and cost ~5 % of a step.
+    site, which only show the arm (the inertias are explicit) and cost ~5 % of a step;
+    ``motors=False`` the actuators, for a caller that applies the torques itself as
+    ``qfrc_applied`` at the motors' joints (the batch: another ~5 %).
     """
     if not (payload >= 0 and np.isfinite(payload)):
         raise ValueError(f"payload must be a finite mass >= 0, got {payload!r}")
@@ -170,7 +173,7 @@ def add_arm(
             spring.wrap_joint(f"{prefix}phi{i}", 1.0)
             spring.wrap_joint(f"{prefix}theta{i}", -1.0)
         targets = ("phi1", "phi2")
-    for i, target in enumerate(targets, start=1):
+    for i, target in enumerate(targets if motors else (), start=1):
         act = spec.add_actuator(name=f"{prefix}tau{i}", target=f"{prefix}{target}")
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
         act.set_to_motor()
