@@ -131,6 +131,14 @@ def test_claims_count_the_proposed_controller_against_the_baseline(tmp_path):
     assert not any(math.isnan(x) for c in counts.values() for x in c)
 
 
+def test_a_claim_is_not_won_by_rounding():
+    assert report._better(3.0e-15, 3.1e-15) is False  # both at rounding: a tie
+    assert report._better(-2e-15, 5e-15) is False
+    assert report._better(0.001, 0.002) is True
+    assert report._better(-0.5, 0.2) is False  # |.|: overshoot-like signs
+    assert report._better(float("nan"), 1.0) is None
+
+
 def test_a_claims_sweep_must_run_the_claims_two_controllers(tmp_path):
     from click.testing import CliRunner
 
