@@ -18,13 +18,12 @@ controller whose runs part as often under it amplifies rounding by itself.
 from __future__ import annotations
 
 import argparse
-import tomllib
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-from twolink.config import merge, scenario_from_dict
+from twolink.config import merge, parse_set, scenario_from_dict
 from twolink.experiment import iter_scenarios, measure, run_scenario
 from twolink.sweep import load_sweep
 from twolink.sweep.execution import _metric_values
@@ -45,19 +44,6 @@ def difference(got: np.ndarray, want: np.ndarray) -> np.ndarray:
     diff[both] = 0.0
     diff[np.isnan(diff)] = np.inf
     return diff
-
-
-def parse_set(items: list[str]) -> dict:
-    """``--set a.b=value`` (a TOML value) as a nested dict."""
-    out: dict = {}
-    for item in items:
-        key, _, value = item.partition("=")
-        *head, last = key.split(".")
-        node = out
-        for k in head:
-            node = node.setdefault(k, {})
-        node[last] = tomllib.loads(f"v = {value}")["v"]
-    return out
 
 
 def main() -> None:

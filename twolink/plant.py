@@ -95,11 +95,11 @@ def add_arm(
     ``model_g`` is the gravity of a model shared with arms of other gravities (None: the
     arm's own, ``p.g``). An arm whose ``p.g`` differs stands in a plane tilted about
     MuJoCo's x axis, so that the model's gravity has the component ``p.g`` in the plane
-    the arm moves in (``|p.g| <= |model_g|``); the rest points along
-    the hinges, where it does no work. ``visual=False`` leaves out the geoms and the tip
-    site, which only show the arm (the inertias are explicit) and cost ~5 % of a step;
-    ``motors=False`` the actuators, for a caller that applies the torques itself as
-    ``qfrc_applied`` at the motors' joints (the batch: another ~5 %).
+    the arm moves in (``|p.g| <= |model_g|``); the rest points along the hinges, where
+    it does no work. ``visual=False`` leaves out the geoms and the tip site, which only
+    show the arm (the inertias are explicit) and cost ~5 % of a step; ``motors=False``
+    the actuators, for a caller that applies the torques itself as ``qfrc_applied`` at
+    the motors' joints (the batch: another ~5 %).
     """
     if not (payload >= 0 and np.isfinite(payload)):
         raise ValueError(f"payload must be a finite mass >= 0, got {payload!r}")
@@ -134,14 +134,14 @@ def add_arm(
         parent = body
     if visual:
         parent.add_site(name=f"{prefix}tip", pos=[p.l2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
-    if visual and payload > 0:  # shown as a ball at the tip (geoms carry no mass here)
-        parent.add_geom(
-            name=f"{prefix}payload",
-            type=mujoco.mjtGeom.mjGEOM_SPHERE,
-            pos=[p.l2, 0, 0],
-            size=[0.05, 0, 0],
-            rgba=[0.3, 0.3, 0.3, 1],
-        )
+        if payload > 0:  # shown as a ball at the tip (geoms carry no mass here)
+            parent.add_geom(
+                name=f"{prefix}payload",
+                type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                pos=[p.l2, 0, 0],
+                size=[0.05, 0, 0],
+                rgba=[0.3, 0.3, 0.3, 1],
+            )
 
     if flexibility is None:
         targets = ("theta1", "theta2")
@@ -173,7 +173,9 @@ def add_arm(
             spring.wrap_joint(f"{prefix}phi{i}", 1.0)
             spring.wrap_joint(f"{prefix}theta{i}", -1.0)
         targets = ("phi1", "phi2")
-    for i, target in enumerate(targets if motors else (), start=1):
+    if not motors:
+        return
+    for i, target in enumerate(targets, start=1):
         act = spec.add_actuator(name=f"{prefix}tau{i}", target=f"{prefix}{target}")
         act.trntype = mujoco.mjtTrn.mjTRN_JOINT
         act.set_to_motor()
