@@ -1,7 +1,8 @@
 """A CTC vs FCM-CTC robustness sweep on all cores: wall time, and the cost per run as a ratio.
 
-The sweep is ``runs/sweeps/robustness.toml`` (10 s at 1 kHz per run, two controllers per
-sample) with N samples. The per-run cost of the sweep is
+The sweep is ``runs/sweeps/robustness.toml`` (4 s at 1 kHz per run, four controllers per
+sample; ``--issue-workload``: 10 s, CTC and FCM-CTC) with N samples. The per-run cost of
+the sweep is
 
     wall time x workers / (samples x controllers)
 
@@ -18,6 +19,10 @@ code) and prints the ratio against that parallel baseline too.
 
     python benchmarks/bench_sweep.py            # N = 100, a quick check
     python benchmarks/bench_sweep.py --n 1000   # the full figure
+    python benchmarks/bench_sweep.py --n 1000 --issue-workload --chunk-size 250
+
+``--issue-workload`` runs the sweep as issue 17 measured it (152.9 s with the single-arm
+loop): CTC and FCM-CTC only, 10 s runs (a copy of the file in a temporary folder).
 """
 
 from __future__ import annotations
@@ -28,11 +33,13 @@ import os
 import statistics
 import tempfile
 import time
+import tomllib
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 from twolink.config import scenario_from_dict
 from twolink.experiment import build_controller, build_plant, run_scenario
+from twolink.io import to_toml
 from twolink.sweep import format_summary, load_sweep, run_sweep, save_sweep_plots
 
 SWEEP = Path(__file__).resolve().parents[1] / "runs" / "sweeps" / "robustness.toml"
@@ -57,15 +64,26 @@ def single_run_seconds(plan, repeats: int = REPEATS) -> dict[str, float]:
     return out
 
 
-def _single_in_worker(over: dict) -> dict[str, float]:
-    return single_run_seconds(load_sweep(SWEEP, over), PARALLEL_REPEATS)
+def issue_workload(folder: Path) -> Path:
+    """The sweep file as issue 17 measured it: CTC and FCM-CTC only, 10 s runs."""
+    data = tomllib.loads(SWEEP.read_text())
+    data["scenario"] = str((SWEEP.parent / data["scenario"]).resolve())
+    data["overrides"]["duration"] = 10.0
+    data["controllers"] = {k: data["controllers"][k] for k in ("CTC", "FCM-CTC")}
+    path = folder / "issue17.toml"
+    path.write_text(to_toml(data))
+    return path
 
 
-def parallel_single_run_seconds(over: dict, workers: int) -> float:
+def _single_in_worker(sweep: Path, over: dict) -> dict[str, float]:
+    return single_run_seconds(load_sweep(sweep, over), PARALLEL_REPEATS)
+
+
+def parallel_single_run_seconds(sweep: Path, over: dict, workers: int) -> float:
     """One run's time when ``workers`` bare processes run them side by side (mean)."""
     ctx = multiprocessing.get_context("spawn")
     with ProcessPoolExecutor(workers, mp_context=ctx) as ex:
-        results = list(ex.map(_single_in_worker, [over] * workers))
+        results = list(ex.map(_single_in_worker, [sweep] * workers, [over] * workers))
     return statistics.mean(t for r in results for t in r.values())
 
 
@@ -76,34 +94,43 @@ def main() -> None:
     parser.add_argument("--executor", default="process", choices=("process", "dask"))
     parser.add_argument("--chunk-size", type=int, default=None, help="default: the file's")
     parser.add_argument("--out", type=Path, default=None, help="keep the results here")
+    parser.add_argument(
+        "--issue-workload", action="store_true", help="CTC and FCM-CTC only, 10 s runs"
+    )
     args = parser.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        sweep = issue_workload(Path(tmp)) if args.issue_workload else SWEEP
+        measure_sweep(args, sweep, Path(tmp) / "sweep")
 
+
+def measure_sweep(args: argparse.Namespace, sweep: Path, out: Path) -> None:
+    """Time the sweep ``sweep`` into ``args.out`` (else ``out``) and print the figures."""
     over: dict = {"samples": args.n}
     if args.chunk_size:
         over["chunk_size"] = args.chunk_size
-    plan = load_sweep(SWEEP, over)
+    plan = load_sweep(sweep, over)
     base = plan.base
     print(
-        f"sweep {SWEEP.name}: N = {plan.samples}, controllers {list(plan.controller_names)}, "
+        f"sweep {SWEEP.name}{' (issue 17 workload)' if args.issue_workload else ''}: "
+        f"N = {plan.samples}, controllers {list(plan.controller_names)}, "
         f"{base['duration']:g} s at {1 / base['control_dt']:g} Hz per run, "
         f"chunks of {plan.chunk_size}, {os.cpu_count()} cores"
     )
     before = single_run_seconds(plan)
 
-    with tempfile.TemporaryDirectory() as tmp:
-        out = args.out or Path(tmp) / "sweep"
-        outcome = run_sweep(
-            plan,
-            out,
-            executor=args.executor,
-            workers=args.workers,
-            progress=True,
-            plots=False,
-            fresh=True,
-        )
-        start = time.perf_counter()
-        save_sweep_plots(out, outcome.results)
-        plots_s = time.perf_counter() - start
+    out = args.out or out
+    outcome = run_sweep(
+        plan,
+        out,
+        executor=args.executor,
+        workers=args.workers,
+        progress=True,
+        plots=False,
+        fresh=True,
+    )
+    start = time.perf_counter()
+    save_sweep_plots(out, outcome.results)
+    plots_s = time.perf_counter() - start
 
     # Timed before and after the sweep: the machine's speed drifts (shared hosts).
     after = single_run_seconds(plan)
@@ -129,7 +156,7 @@ def main() -> None:
         f"({outcome.busy_s / runs / baseline:.2f}x); worker utilisation "
         f"{outcome.busy_s / (outcome.wall_s * outcome.workers):.1%}"
     )
-    side_by_side = parallel_single_run_seconds(over, outcome.workers)
+    side_by_side = parallel_single_run_seconds(sweep, over, outcome.workers)
     print(
         f"single run with {outcome.workers} bare processes side by side: "
         f"{side_by_side * 1e3:.1f} ms ({side_by_side / baseline:.2f}x the lone run)"
