@@ -67,7 +67,7 @@ SCENARIOS = {
     "tiny mass": ("[arm]\nm1 = 1e-300", "MuJoCo cannot build this arm"),
     "huge integer": ("[arm]\nm1 = " + "9" * 400, "arm.m1: must be a number a float can hold"),
     "huge duration": ("duration = 1e9", "duration: 1e+09 s at a timestep of 0.001 s"),
-    "tiny timestep": ("timestep = 1e-12\ncontrol_dt = 1e-12", "physics steps; the limit"),
+    "tiny timestep": ("timestep = 1e-12\ncontrol_dt = 1e-12", "control_dt: must be >= 1e-06"),
     "control_dt not multiple": ("control_dt = 0.0015", "control_dt: must be a whole multiple"),
     "duration below control_dt": ("duration = 0.0001", "duration: must be at least control_dt"),
     # files it points to

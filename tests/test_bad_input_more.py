@@ -515,12 +515,12 @@ SWEEP_CASES = {
     "execution scheduler a number": (
         CTC,
         CTC + '[execution]\nexecutor = "dask"\nscheduler = 8786\n',
-        "execution.scheduler: must be an address string",
+        "execution.scheduler: a sweep file cannot choose a Dask scheduler",
     ),
     "execution scheduler without dask": (
         CTC,
         CTC + '[execution]\nexecutor = "process"\nscheduler = "tcp://1.2.3.4:1"\n',
-        "execution.scheduler: needs executor = 'dask'",
+        "execution.scheduler: a sweep file cannot choose a Dask scheduler",
     ),
     "execution executor a number": (
         CTC,
@@ -1160,7 +1160,7 @@ CLI_CASES = {
     ),
     "validate -n -1": (
         lambda tmp, out: ["validate", "-n", "-1"],
-        ["Invalid value for '-n' / '--samples'", "-1 is not in the range x>=1"],
+        ["Invalid value for '-n' / '--samples'", "-1 is not in the range 1<=x<=1000000"],
     ),
     "validate --seed -1": (
         lambda tmp, out: ["validate", "-n", "1", "--seed", "-1"],

@@ -1,6 +1,8 @@
 """The ``twolink`` command line.
 
-Exit codes: 0 ok, 1 a run failed or diverged (or a check failed), 2 bad input.
+Exit codes: 0 ok, 1 a run failed or diverged (or a check failed), 2 bad input (or an
+output folder twolink may not write into), 3 an output could not be written (disk full, no
+permission, file-size limit), 130 Ctrl-C, 143 SIGTERM (docs/reliability.md).
 """
 
 from __future__ import annotations
@@ -12,6 +14,8 @@ from pathlib import Path
 
 import click
 
+from twolink.cli_output import fail_input as _fail_input
+from twolink.cli_output import format_metrics, own_output
 from twolink.executors import EXECUTORS, open_executor
 from twolink.interrupts import (
     CTRL_C_RECEIVED,
@@ -19,9 +23,18 @@ from twolink.interrupts import (
     on_ctrl_c,
     resend_dropped_ctrl_c,
 )
+from twolink.io import ForeignOutput, OutputBusy, WriteFailed
 from twolink.params import ArmParams, Flexibility
 
 REPO_MODELS = Path(__file__).resolve().parents[1] / "models"
+
+
+def interrupted_exit() -> None:
+    """End an interrupted command: one line, exit 130 (Ctrl-C) or 143 (SIGTERM)."""
+    signum = CTRL_C_RECEIVED[0] if CTRL_C_RECEIVED else signal.SIGINT
+    what = "terminated (SIGTERM)" if signum == signal.SIGTERM else "interrupted"
+    click.echo(f"{what}: files written so far are whole; rerun to complete", err=True)
+    sys.exit(128 + int(signum))
 
 
 class _Group(click.Group):
@@ -39,27 +52,36 @@ class _Group(click.Group):
             return super().main(*args, standalone_mode=False, **kwargs)
         previous = signal.getsignal(signal.SIGINT)
         # Not where Ctrl-C is ignored, and only where handlers can be set (the main thread).
-        if previous is signal.default_int_handler and threading.current_thread() is (
-            threading.main_thread()
-        ):
+        main_thread = threading.current_thread() is threading.main_thread()
+        if previous is signal.default_int_handler and main_thread:
             signal.signal(signal.SIGINT, on_ctrl_c)
+        # SIGTERM goes the way of Ctrl-C (temporaries removed, one line), with exit 143.
+        previous_term = signal.getsignal(signal.SIGTERM)
+        if previous_term is signal.SIG_DFL and main_thread:
+            signal.signal(signal.SIGTERM, on_ctrl_c)
         previous_hook, sys.unraisablehook = sys.unraisablehook, resend_dropped_ctrl_c
         try:
             code = super().main(*args, standalone_mode=False, **kwargs)
         except click.exceptions.Abort:
-            click.echo("interrupted: files written so far are whole; rerun to complete", err=True)
-            sys.exit(130)
+            interrupted_exit()
         except click.ClickException as exc:
             exc.show()
             sys.exit(exc.exit_code)
+        except (ForeignOutput, OutputBusy) as exc:
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(2)
+        except WriteFailed as exc:
+            click.echo(f"error: {exc}; results written before are whole", err=True)
+            sys.exit(3)
         except Exception:
             if not CTRL_C_RECEIVED:
                 raise
-            click.echo("interrupted: files written so far are whole; rerun to complete", err=True)
-            sys.exit(130)
+            interrupted_exit()
         finally:
             if signal.getsignal(signal.SIGINT) is on_ctrl_c:
                 signal.signal(signal.SIGINT, previous)
+            if signal.getsignal(signal.SIGTERM) is on_ctrl_c:
+                signal.signal(signal.SIGTERM, previous_term)
             sys.unraisablehook = previous_hook
             forget_escaped_interrupt()  # else `python -m twolink` ends by SIGINT, not 130
             CTRL_C_RECEIVED.clear()  # the command is over: none is pending for later code
@@ -86,7 +108,7 @@ def main() -> None:
 @click.option(
     "-n",
     "--samples",
-    type=click.IntRange(min=1),
+    type=click.IntRange(1, 10**6),
     default=1000,
     show_default=True,
     help="Random arms and states.",
@@ -135,17 +157,14 @@ def models(out: Path | None, install: bool) -> None:
       twolink models                 # into results/models
       twolink models --install       # regenerate the repository's models/
     """
-    from twolink.io import atomic_write_text, check_output_folder
+    from twolink.io import atomic_write_text
     from twolink.plant import model_xml, scene_xml
 
     if install and out is not None:
         _fail_input("--install writes the repository's models/; it takes no --out")
     out = REPO_MODELS if install else out or Path("results/models")
-    try:
-        check_output_folder(out)
-    except OSError as exc:
-        _fail_input(str(exc))
-    out.mkdir(parents=True, exist_ok=True)
+    if not install:
+        own_output(out, "models")
     files = {
         "twolink.xml": model_xml(ArmParams()),
         "twolink_flexible.xml": model_xml(ArmParams(), Flexibility()),
@@ -156,18 +175,6 @@ def models(out: Path | None, install: bool) -> None:
         click.echo(out / name)
 
 
-def format_metrics(metrics) -> str:
-    """A run's metrics as a table: one line per key (with its unit), one column per joint."""
-    from twolink.vocabulary import METRICS, format_value, joint_values
-
-    joints = [joint_values(metrics, j) for j in (1, 2)]
-    lines = [f"{'metric':24s} {'symbol':7s} {'joint 1':>10s} {'joint 2':>10s}"]
-    for m in METRICS:
-        cells = [format_value(v[m.key], 4) for v in joints]
-        lines.append(f"{m.key:24s} {m.symbol:7s} {cells[0]:>10s} {cells[1]:>10s}")
-    return "\n".join(lines)
-
-
 # --set KEY=VALUE on run, sweep and reproduce (docs/scenarios.md)
 set_option = click.option(
     "--set",
@@ -176,11 +183,6 @@ set_option = click.option(
     metavar="KEY=VALUE",
     help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
 )
-
-
-def _fail_input(message: str) -> None:
-    click.echo(f"error: {message}", err=True)
-    sys.exit(2)
 
 
 @main.command(short_help="Run one scenario file.")
@@ -209,7 +211,6 @@ def run(
     """
     from twolink.config import ConfigError, load_scenario, parse_set
     from twolink.experiment import build_controller, build_plant, measure, run_scenario, write_run
-    from twolink.io import check_output_folder
 
     folder = out or Path("results") / Path(scenario).stem
     try:
@@ -220,10 +221,7 @@ def run(
         _fail_input(str(exc))
     except ValueError as exc:  # a rule base with bad labels; an arm MuJoCo refuses
         _fail_input(f"{scenario}: {exc}")
-    try:
-        check_output_folder(folder)
-    except OSError as exc:
-        _fail_input(str(exc))
+    own_output(folder, "run", str(Path(scenario).resolve()), default=out is None)
     engine = getattr(controller, "engine", None)
     if engine is not None:
         from controllers.fuzzy import uncovered_fraction
@@ -319,7 +317,7 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
     )
     try:
         config = load_design_config(config_path or DEFAULT_DESIGN)
-        check_output_file(target, "--out")
+        check_output_file(target, "--out", ours_only=not install)
         if figure:
             from twolink.cli_fuzzy import validity_figure_path
 
@@ -412,15 +410,14 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
     """
     from twolink import gains as study_module
     from twolink.config import ConfigError, parse_set
-    from twolink.io import check_output_folder
 
     try:
         study = study_module.load_gain_study(
             study_file or study_module.DEFAULT_STUDY, parse_set(settings)
         )
-        check_output_folder(out)
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
+    own_output(out, "gains", str(study.source))
     click.echo(f"gain study: {study_module.n_runs(study)} runs ({study.source})", err=True)
     if install and parse_set(settings):
         _fail_input("--install writes the shipped table of the study file as it is; drop --set")
@@ -474,13 +471,12 @@ def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> No
     from twolink import calibrate as cal
     from twolink import calibration_report
     from twolink.config import ConfigError, parse_set
-    from twolink.io import check_output_folder
 
     try:
         study = cal.load_calibration(study_file or cal.DEFAULT_STUDY, parse_set(settings))
-        check_output_folder(out)
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
+    own_output(out, "calibrate", str(Path(study_file or cal.DEFAULT_STUDY).resolve()))
     if install and parse_set(settings):
         _fail_input("--install writes the shipped result of the study file as it is; drop --set")
     result = cal.calibrate(study, log=lambda msg: click.echo(msg, err=True))
@@ -539,13 +535,12 @@ def reproduce(
             trace=not no_trace,
             overrides=parse_set(settings),
         )
+    except (WriteFailed, ForeignOutput, OutputBusy):
+        raise  # exit 3 / 2, by the group
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
     except KeyboardInterrupt:
-        click.echo(
-            "\ninterrupted: files written so far are whole; run again to complete.", err=True
-        )
-        sys.exit(130)
+        interrupted_exit()
     failed = [r for r in result.rows if r["status"] != "ok"]
     counts = {o: sum(r["outcome"] == o for r in result.rows) for o in ("met spec", "off target")}
     click.echo(
@@ -627,7 +622,7 @@ def sweep_command(
 
     from twolink.config import ConfigError, merge, parse_set
     from twolink.executors import ExecutorError
-    from twolink.io import OutputBusy, check_output_folder
+    from twolink.io import check_output_folder, check_ownership
     from twolink.sweep import (
         SweepInterrupted,
         SweepOutputError,
@@ -649,6 +644,7 @@ def sweep_command(
     out = out or Path("results") / "sweeps" / plan.name
     try:
         check_output_folder(out)
+        check_ownership(out, "sweep", plan.file)
     except OSError as exc:
         _fail_input(str(exc))
     try:
@@ -662,7 +658,7 @@ def sweep_command(
             plots=not no_plots,
             fresh=fresh,
         )
-    except (SweepOutputError, OutputBusy) as exc:
+    except (SweepOutputError, OutputBusy, ForeignOutput) as exc:
         _fail_input(str(exc))
     except SweepInterrupted as exc:
         click.echo(f"\n{exc}", err=True)

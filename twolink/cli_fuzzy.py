@@ -23,7 +23,11 @@ import click
     help="Count a point as uncovered where the total firing is at most this.",
 )
 @click.option(
-    "--grid", type=int, default=201, show_default=True, help="Grid points per axis (>= 2)."
+    "--grid",
+    type=click.IntRange(2, 4001),
+    default=201,
+    show_default=True,
+    help="Grid points per axis (2-4001).",
 )
 def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     """Print the share of the normalised (e, de) input box where RULE_BASE fires no rule,

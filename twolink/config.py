@@ -274,6 +274,8 @@ def parse_set(items: Sequence[str]) -> dict[str, Any]:
     TOML (``25``, ``[1, 2]``, ``true``, ``"text"``) or else plain strings."""
     out: dict[str, Any] = {}
     for item in items:
+        if any(ch in item for ch in "\n\r\x00"):
+            raise ConfigError(f"--set {item!r}: a line break or NUL in a value is not allowed")
         key, sep, text = item.partition("=")
         parts = key.strip().split(".")
         if not sep or not all(parts):
@@ -282,6 +284,10 @@ def parse_set(items: Sequence[str]) -> dict[str, Any]:
             value = tomllib.loads(f"value = {text}")["value"]
         except tomllib.TOMLDecodeError:
             value = text
+        except RecursionError:
+            raise ConfigError(f"--set {key}: the value is nested too deep") from None
+        if len(parts) > MAX_DEPTH:
+            raise ConfigError(f"--set {key}: more than {MAX_DEPTH} dotted parts")
         out = merge(out, _nested(parts, value))
     return out
 
@@ -292,6 +298,13 @@ def _nested(parts: list[str], value: Any) -> dict[str, Any]:
 
 MAX_PHYSICS_STEPS = 1e8  # per run: 1e8 MuJoCo steps take about 15 min here
 MAX_EXTENDS = 64  # a longer ``extends`` chain is a mistake, not a design
+MAX_TOML_BYTES = 1 << 20  # 1 MiB: a scenario or study file is a few kB
+MAX_DEPTH = 32  # tables nested deeper are a mistake (tomllib would recurse past its limit)
+# No number twolink reads means anything beyond this (kg, m, s, gains, N·m/rad): larger
+# ones only overflow later, far from the key that caused it.
+MAX_MAGNITUDE = 1e12
+MAX_TABLE_POINTS = 2001  # per axis: 4e6 cells, ~100 MB of lookup table
+MIN_TIME_STEP = 1e-6  # s: timestep and control_dt; finer is not a control loop
 
 
 def read_toml(path: str | Path) -> dict[str, Any]:
@@ -324,12 +337,18 @@ def _read_one(path: Path, referrer: Path | None) -> dict[str, Any]:
     where = f"{referrer}: extends: " if referrer is not None else ""
     if path.is_dir():
         raise ConfigError(f"{where}{path}: is a folder, not a TOML file")
+    if path.exists() and not path.is_file():
+        raise ConfigError(f"{where}{path}: is not a regular file (a pipe, a device)")
     if not path.is_file():
         raise ConfigError(f"{where}{path}: no such file")
+    if path.stat().st_size > MAX_TOML_BYTES:
+        raise ConfigError(f"{where}{path}: larger than {MAX_TOML_BYTES} bytes")
     try:
         return tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: not valid TOML: nested too deep") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{where}{path}: cannot be read: {exc}") from None
 
@@ -412,6 +431,8 @@ class TomlTable:
             )
         if (math.isnan(value) and not allow_nan) or (math.isinf(value) and not allow_inf):
             self.fail(key, f"must be finite, got {value!r}")
+        if math.isfinite(value) and abs(value) > MAX_MAGNITUDE:
+            self.fail(key, f"must be at most {MAX_MAGNITUDE:g} in size, got {value!r}")
         if positive and not value > 0:
             self.fail(key, f"must be > 0, got {value!r}")
         if minimum is not None and value < minimum:
@@ -541,8 +562,8 @@ def _fuzzy(
         engine=f.string("engine", fd.engine, FUZZY_ENGINES),
         table_points=f.integer("table_points", fd.table_points),
     )
-    if fuzzy.table_points < 2:
-        f.fail("table_points", f"must be >= 2, got {fuzzy.table_points}")
+    if not 2 <= fuzzy.table_points <= MAX_TABLE_POINTS:
+        f.fail("table_points", f"must be 2 to {MAX_TABLE_POINTS}, got {fuzzy.table_points}")
     f.done()
     return fuzzy
 
@@ -587,8 +608,8 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         controller=controller_from_table(top.table("controller"), arm),
         reference=_reference(top.table("reference")),
         duration=top.number("duration", 10.0, positive=True),
-        control_dt=top.number("control_dt", 1e-3, positive=True),
-        timestep=top.number("timestep", 1e-3, positive=True),
+        control_dt=top.number("control_dt", 1e-3, positive=True, minimum=MIN_TIME_STEP),
+        timestep=top.number("timestep", 1e-3, positive=True, minimum=MIN_TIME_STEP),
         seed=top.integer("seed", 0),
         q0=initial.pair("q", (0.0, 0.0)),
         qd0=initial.pair("qd", (0.0, 0.0)),

@@ -33,6 +33,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -67,7 +68,7 @@ from twolink.design_checks import (
     with_mirrors,
 )
 from twolink.experiment import build_controller, run_scenarios
-from twolink.io import atomic_path, atomic_write_text
+from twolink.io import atomic_path, atomic_write_text, seal_intact, write_seal
 
 DEFAULT_DESIGN = Path(__file__).resolve().parents[1] / "runs" / "paper" / "design.toml"
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "fuzzy.md"
@@ -511,14 +512,26 @@ def save_design(result: DesignResult, folder: str | Path) -> Path:
     with atomic_path(folder / "evidence.npz") as tmp, open(tmp, "wb") as fh:
         np.savez(fh, **arrays)
     atomic_write_text(folder / "validation.csv", validation_csv(result.validation))
-    # the rule base last: its digest marks the set as complete and current
-    return write_design(result, folder / "rule_base.toml")
+    # the rule base next: its digest marks the set as current; the seal, last, as whole
+    path = write_design(result, folder / "rule_base.toml")
+    write_seal(folder, DESIGN_FILES)
+    return path
+
+
+DESIGN_FILES = ("evidence.npz", "validation.csv", "rule_base.toml")
 
 
 def load_design(config: DesignConfig, folder: str | Path) -> DesignResult | None:
     """The design saved in ``folder`` if it is whole, its digest matches and its rules are
     the ones its evidence keeps (an edited rule base is not reused), else None."""
     folder = Path(folder)
+    if not seal_intact(folder, DESIGN_FILES):
+        if any((folder / name).exists() for name in DESIGN_FILES):
+            print(
+                f"{folder}: damaged, edited or incomplete since twolink wrote it; designed again",
+                file=sys.stderr,
+            )
+        return None
     try:
         saved = load_rule_base(folder / "rule_base.toml")
         evidence = saved.metadata.get("evidence", {})
@@ -557,7 +570,7 @@ def load_design(config: DesignConfig, folder: str | Path) -> DesignResult | None
                 (float(controller.ke), float(controller.kde), float(controller.ku)),
                 largest_move(config.scenarios),
             )
-    except (ValueError, OSError, KeyError, TypeError):
+    except Exception:  # noqa: BLE001 (sealed yet unreadable, e.g. an older format)
         return None  # missing, unreadable or stale: design afresh
 
 

@@ -6,6 +6,7 @@ and no control law of its own.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import os
@@ -19,7 +20,21 @@ import numpy as np
 from controllers.base import Controller
 from controllers.ctc import ComputedTorque
 from twolink.config import BUILTIN_RULE_BASES, FLEXIBLE_KINDS, Scenario, resolve_rule_base
-from twolink.io import atomic_folder, atomic_write_json, atomic_write_text, to_toml
+from twolink.io import (
+    LOCK_NAME,
+    OWNER_NAME,
+    SEAL_NAME,
+    TEMPORARY,
+    ForeignOutput,
+    WriteFailed,
+    atomic_write_json,
+    atomic_write_text,
+    refuse_links,
+    replace_files,
+    scratch_folder,
+    to_toml,
+    write_seal,
+)
 from twolink.metrics import (
     error_measures,
     metrics_dict,
@@ -360,6 +375,44 @@ def portable_config(s: Scenario, out: Path) -> dict[str, Any]:
     return data
 
 
+# What a run folder holds (besides its seal): the only names write_run replaces.
+RUN_FILES = (
+    "config.toml",
+    "trajectory.npz",
+    "metrics.json",
+    "angles.png",
+    "errors.png",
+    "torques.png",
+    "trace.rrd",
+)
+
+
+def check_run_folder(out: Path) -> None:
+    """Refuse (:class:`~twolink.io.ForeignOutput`) a run folder that holds anything but a
+    run's files, or is reached through a link inside its output folder."""
+    refuse_links(out)
+    if out.is_dir():
+        extra = {
+            n
+            for n in os.listdir(out)
+            if n not in (*RUN_FILES, SEAL_NAME, LOCK_NAME, OWNER_NAME) and not TEMPORARY.match(n)
+        }
+        if extra:
+            shown = ", ".join(sorted(extra)[:3]) + (" ..." if len(extra) > 3 else "")
+            raise ForeignOutput(
+                f"{out}: holds files that are not a twolink run's ({shown}); twolink does "
+                "not overwrite a folder it did not write: move them away or use another --out"
+            )
+
+
+@contextlib.contextmanager
+def _named_in(out: Path) -> Iterator[None]:
+    try:
+        yield
+    except WriteFailed as exc:
+        raise exc.moved_to(out) from None
+
+
 def write_run(
     out: str | Path,
     s: Scenario,
@@ -375,12 +428,17 @@ def write_run(
     """Write one run's folder: config.toml, trajectory.npz, metrics.json, PNG plots and a
     rerun recording ``trace.rrd`` (of the run under ``prefix``).
 
-    The folder is written whole: into a temporary folder that then replaces ``out``, so
-    no file of an earlier run stays beside the new ones. ``name`` is the controller's name
-    in the outputs (default: its kind's label)."""
+    The files are written into a temporary folder, then each moved into ``out`` by one
+    rename and sealed (``seal.json``: their SHA-256, written last), so no file of an
+    earlier run stays beside the new ones and a damaged or edited run is found on reuse.
+    Only the run's own files are replaced: a folder holding anything else is refused
+    (:class:`~twolink.io.ForeignOutput`). ``name`` is the controller's name in the outputs
+    (default: its kind's label)."""
     out = Path(out)
     name = name or CONTROLLER_LABELS.get(s.controller.kind, s.controller.kind)
-    with atomic_folder(out) as tmp:
+    check_run_folder(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with scratch_folder(out) as tmp, _named_in(out):
         atomic_write_text(tmp / "config.toml", to_toml(portable_config(s, out)))
         traj.save(tmp / "trajectory.npz")
         atomic_write_json(tmp / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
@@ -395,4 +453,6 @@ def write_run(
             tracing.write_recording(
                 tmp / "trace.rrd", [(prefix, traj, s.plant_params, extras)], every=TRACE_EVERY
             )
+        replace_files(out, tmp, RUN_FILES)
+    write_seal(out, [n for n in RUN_FILES if (out / n).is_file()])
     return out

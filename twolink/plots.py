@@ -30,7 +30,9 @@ def save_figure(fig: Figure, path: str | Path, dpi: int = 110) -> None:
     tight bounding box would draw it twice."""
     tight = "tight" if fig.get_layout_engine() is None else None
     with atomic_path(path, suffix=".png") as tmp:
-        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches=tight)
+        # the mark that lets a later run overwrite this file (twolink.io.WRITTEN_BY)
+        mark = {"Software": "written by twolink"}
+        fig.savefig(tmp, dpi=dpi, format="png", bbox_inches=tight, metadata=mark)
     plt.close(fig)
 
 

@@ -30,7 +30,7 @@ from twolink.experiment import (
     write_run,
 )
 from twolink.interrupts import raise_if_dropped
-from twolink.io import to_toml
+from twolink.io import seal_intact, to_toml
 from twolink.manifest import (
     DEFAULT_MANIFEST,
     Experiment,
@@ -167,14 +167,21 @@ def finished_row(spec: RunSpec, scenario: Scenario, out: Path, trace: bool) -> d
     trajectory; None where the run must be computed. (Changes to the package's code are
     not detected: use a fresh --out after changing a controller or the plant.)"""
     folder = out / spec.folder
-    needed = ["config.toml", "trajectory.npz", "metrics.json", *(["trace.rrd"] if trace else [])]
-    if not all((folder / name).is_file() for name in needed):
+    needed = ("config.toml", "trajectory.npz", "metrics.json", *(["trace.rrd"] if trace else []))
+    if not folder.is_dir():
+        return None
+    if not seal_intact(folder, needed):
+        if any((folder / name).exists() for name in needed):
+            print(
+                f"{folder}: damaged, edited or incomplete since twolink wrote it; computed again",
+                file=sys.stderr,
+            )
         return None
     try:
         if (folder / "config.toml").read_text() != to_toml(portable_config(scenario, folder)):
             return None
         traj = Trajectory.load(folder / "trajectory.npz")
-    except (OSError, ValueError, KeyError):  # unreadable or damaged: compute it again
+    except Exception:  # noqa: BLE001 (sealed yet unreadable, e.g. an older format: recompute)
         return None
     return _row(spec, scenario, traj.status, measure(scenario, traj))
 
@@ -392,7 +399,7 @@ def reproduce(
     design runs nor the flexible-joint study."""
     from twolink import sweep
     from twolink.design import load_design_config
-    from twolink.io import check_output_folder, output_lock
+    from twolink.io import check_output_folder, check_ownership, owned_output
 
     out = Path(out)
     manifest = load_manifest(manifest_path)
@@ -412,8 +419,10 @@ def reproduce(
                 f"{missing} by name (it runs {list(names)})"
             )
     check_output_folder(out)
+    source = str(manifest.path.resolve())
+    check_ownership(out, "reproduce", source)
     # One reproduction at a time per folder: a second one into it stops at once.
-    with output_lock(out):
+    with owned_output(out, "reproduce", source):
         return _reproduce(manifest, config, out, workers, trace, progress, overrides)
 
 

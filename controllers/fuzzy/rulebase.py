@@ -94,6 +94,9 @@ def _freeze(value: Any) -> Any:
     return value
 
 
+MAX_RULE_BASE_BYTES = 1 << 20  # 1 MiB: thousands of rules and their metadata
+
+
 def load_rule_base(path: str | os.PathLike[str]) -> RuleBase:
     """Read a rule base from a TOML file.
 
@@ -119,11 +122,21 @@ def load_rule_base(path: str | os.PathLike[str]) -> RuleBase:
         On malformed content; the message names the file and the key.
     """
     path = Path(path)
+    # Not a pipe or a device (a read would block, or never end), and of a sane size.
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{path}: is not a regular file")
+    if path.stat().st_size > MAX_RULE_BASE_BYTES:
+        raise ValueError(
+            f"{path}: {path.stat().st_size} bytes; a rule-base file is at most "
+            f"{MAX_RULE_BASE_BYTES} bytes"
+        )
     with path.open("rb") as fh:
         try:
             data = tomllib.load(fh)
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc}") from exc
+        except RecursionError:
+            raise ValueError(f"{path}: not valid TOML: nested too deep") from None
     mirror = data.pop("mirror_inputs", False)
     if not isinstance(mirror, bool):
         raise ValueError(f"{path}: 'mirror_inputs' must be true or false, got {mirror!r}")
@@ -139,6 +152,7 @@ def load_rule_base(path: str | os.PathLike[str]) -> RuleBase:
             )
         metadata[key] = value
     rules = []
+    first: dict[tuple[str, str], int] = {}  # antecedent -> its first rule: a linear check
     for n, item in enumerate(raw_rules):
         where = f"{path}: rule[{n}]"
         if not isinstance(item, dict):
@@ -156,12 +170,12 @@ def load_rule_base(path: str | os.PathLike[str]) -> RuleBase:
         if mirror:
             e, de = _mirror(e, f"{where}.e"), _mirror(de, f"{where}.de")
         rule = Rule(e, de, item["u"])
-        for k, earlier in enumerate(rules):  # one antecedent, one consequent
-            if (earlier.e, earlier.de) == (rule.e, rule.de) and earlier.u != rule.u:
-                raise ValueError(
-                    f"{where}: contradicts rule[{k}]: IF e is {e} AND de is {de} THEN u is "
-                    f"{earlier.u} or {rule.u}? (a rule base names one consequent per pair)"
-                )
+        k = first.setdefault((rule.e, rule.de), n)  # one antecedent, one consequent
+        if rules[k:] and rules[k].u != rule.u:
+            raise ValueError(
+                f"{where}: contradicts rule[{k}]: IF e is {e} AND de is {de} THEN u is "
+                f"{rules[k].u} or {rule.u}? (a rule base names one consequent per pair)"
+            )
         rules.append(rule)
     return RuleBase(tuple(rules), _freeze(metadata), mirror)
 
@@ -211,6 +225,7 @@ def save_rule_base(
         raise ValueError("a rule base needs at least one rule")
     lines = [
         "# Fuzzy rule base for controllers.fuzzy (read with controllers.fuzzy.load_rule_base).",
+        "# written by twolink",
         f"mirror_inputs = {toml_value(mirror_inputs)}",
         "",
     ]

@@ -28,7 +28,13 @@ from twolink.config import scenario_from_dict
 from twolink.executors import SweepExecutor, check_options, open_executor
 from twolink.experiment import build_controller, iter_scenarios, measure
 from twolink.interrupts import interrupts_held
-from twolink.io import atomic_write_json, atomic_write_text, output_lock
+from twolink.io import (
+    append_line,
+    atomic_write_json,
+    atomic_write_text,
+    owned_output,
+    refuse_links,
+)
 from twolink.outcome import classify
 from twolink.sweep.plan import FORMAT_VERSION, SweepPlan, gains
 from twolink.sweep.results import (
@@ -291,6 +297,8 @@ class SweepOutcome:
 def _prepare_out(plan: SweepPlan, out: Path, fresh: bool) -> None:
     manifest_path = out / "manifest.json"
     chunk_dir = out / "chunks"
+    for path in (manifest_path, chunk_dir, out / "computed.log"):
+        refuse_links(path)  # nothing read, deleted or written through a planted link
     chunks = sorted(chunk_dir.glob("chunk_*.parquet")) if chunk_dir.is_dir() else []
     digest = old_format = None
     if manifest_path.is_file():
@@ -423,11 +431,9 @@ def run_sweep(
     if executor is None:
         executor = "dask" if scheduler else plan.execution.executor
     workers = workers or plan.execution.workers
-    if scheduler is None and executor == plan.execution.executor:
-        scheduler = plan.execution.scheduler
     check_options(executor, workers, scheduler)
     # One sweep at a time per folder: a second one into it stops at once (OutputBusy).
-    with output_lock(out):
+    with owned_output(out, "sweep", plan.file):
         return _run_sweep(
             plan, out, executor, workers, scheduler, progress, plots, fresh, start, pool
         )
@@ -567,12 +573,12 @@ def _drive(
                 with interrupts_held():
                     frame = _chunk_frame(plan, result.rows)
                     _seal(plan, write_table(_chunk_path(out, result.chunk), frame))
-                    with open(out / "computed.log", "a") as log:
-                        samples = plan.chunk_samples(result.chunk)
-                        log.write(
-                            f"{result.chunk} samples={samples.start}-{samples.stop - 1} "
-                            f"wall_s={result.wall_s:.3f} pid={result.pid} executor={ex.name}\n"
-                        )
+                    samples = plan.chunk_samples(result.chunk)
+                    append_line(
+                        out / "computed.log",
+                        f"{result.chunk} samples={samples.start}-{samples.stop - 1} "
+                        f"wall_s={result.wall_s:.3f} pid={result.pid} executor={ex.name}",
+                    )
                 frames[result.chunk] = frame
                 computed.append((result.chunk, result.wall_s))
                 bar.update(len(plan.chunk_samples(result.chunk)))

@@ -35,8 +35,7 @@ Schema::
 
     [execution]                         # optional defaults for the command-line options
     executor = "process"                # "inprocess", "process" or "dask"
-    workers = 4
-    scheduler = "tcp://10.0.0.1:8786"
+    workers = 4                         # (a Dask scheduler: only --scheduler on the command line)
 
 Parameters: ``m1 m2 l1 l2 g`` are factors on the nominal arm (they replace the base's
 ``plant.scale`` entry); ``payload`` is a tip mass [kg]; ``k d j`` set the flexible joints'
@@ -503,16 +502,19 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         isinstance(workers, bool) or not isinstance(workers, int) or workers < 1
     ):
         ex.fail("workers", f"must be an integer >= 1, got {workers!r}")
-    scheduler = ex.raw("scheduler")
-    if scheduler is not None and not isinstance(scheduler, str):
-        ex.fail("scheduler", f"must be an address string, got {scheduler!r}")
+    # Only the command line chooses where work runs: a Dask scheduler is trusted with
+    # pickles both ways, so a file that names one could run code in this process.
+    if "scheduler" in ex.data:
+        ex.fail(
+            "scheduler",
+            "a sweep file cannot choose a Dask scheduler (connecting to one trusts it to run "
+            "code here); give it on the command line: twolink sweep FILE --scheduler ADDRESS",
+        )
     execution = Execution(
-        executor=ex.string("executor", "dask" if scheduler else "process", EXECUTORS),
+        executor=ex.string("executor", "process", EXECUTORS),
         workers=workers,
-        scheduler=scheduler,
+        scheduler=None,
     )
-    if scheduler and execution.executor != "dask":
-        ex.fail("scheduler", f"needs executor = 'dask', not {execution.executor!r}")
     ex.done()
 
     st = top.table("success")
@@ -559,9 +561,9 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         both = [f"{p}{j}" for j in (1, 2) if f"{p}{j}" in pt.data]
         if p in pt.data and both:
             pt.fail(both[0], f"conflicts with {p!r}, which sets both joints")
-    for name in ("d", "d1", "d2"):
-        if name in pt.data and "zeta_joint" in pt.data:
-            pt.fail(name, "conflicts with 'zeta_joint', which sets the damping of both joints")
+    for damping in ("d", "d1", "d2"):
+        if damping in pt.data and "zeta_joint" in pt.data:
+            pt.fail(damping, "conflicts with 'zeta_joint', which sets the damping of both joints")
     parameters = tuple(_parameter(n, pt.raw(n), file) for n in sorted(pt.data))
     pt.done()
 
