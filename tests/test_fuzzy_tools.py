@@ -194,5 +194,5 @@ def test_closed_loop_with_table_agrees_with_exact_engine():
         assert np.abs(a.q - b.q).max() <= tol  # rad
         ma, mb = measure(exact, a), measure(tab, b)
         sa, sb = ma.step[0], mb.step[0]
-        assert abs(sa.overshoot - sb.overshoot) <= 0.01
+        assert abs(sa.overshoot - sb.overshoot) <= 1.0  # percent of the step
         assert abs(sa.settling_time - sb.settling_time) <= 0.01

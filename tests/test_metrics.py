@@ -14,7 +14,6 @@ import pytest
 from twolink.metrics import (
     ErrorMeasures,
     StepMetrics,
-    TorqueMeasures,
     error_measures,
     metrics_dict,
     step_metrics,
@@ -69,7 +68,7 @@ def _assert_agrees_with_step_info(
         assert abs(getattr(ours, ours_name) - info[info_name]) <= dt * (1 + 1e-9), ours_name
     if not peaked:
         assert math.isnan(ours.peak_time)
-    assert ours.overshoot * 100.0 == pytest.approx(info["Overshoot"], abs=1e-9)
+    assert ours.overshoot == pytest.approx(info["Overshoot"], abs=1e-9)  # both in percent
 
 
 @pytest.mark.parametrize(
@@ -115,7 +114,7 @@ def test_second_order_overshoot_and_peak_time_closed_form(zeta: float) -> None:
     m = step_metrics(t, y, target, y0)
     expected = math.exp(-zeta * math.pi / math.sqrt(1.0 - zeta * zeta))
     # The sampled peak misses the true one by at most y''/2 (dt/2)^2 ~ 1e-6 of the step.
-    assert m.overshoot == pytest.approx(expected, abs=1e-6)
+    assert m.overshoot == pytest.approx(100 * expected, abs=1e-4)  # percent: 1e-6 of the step
     if expected > 0.02:
         assert abs(m.peak_time - math.pi / (wn * math.sqrt(1.0 - zeta * zeta))) <= dt
     else:  # zeta 0.8: a 1.5 % overshoot turns inside the 2 % band, so it is no peak
@@ -327,8 +326,14 @@ def test_torque_measures() -> None:
     m = torque_measures(tau)
     np.testing.assert_allclose(m.rms, (4.0 / math.sqrt(2.0), 2.5), rtol=1e-12)
     np.testing.assert_allclose(m.peak, (4.0, 2.5), rtol=1e-12)
+    # total variation: 0 -> 4 -> -4 -> 0 is 16 N·m a period, 3 periods, less the last
+    # sample's 4 sin(2 pi 0.003) short of 0 (endpoint excluded); the samples miss each of
+    # the 6 crests by at most 4 (1 - cos(2 pi 0.0015)) ~ 2e-4 twice; a constant has none
+    expected = 48.0 - 4.0 * math.sin(2.0 * math.pi * 0.003)
+    np.testing.assert_allclose(m.variation, (expected, 0.0), atol=6 * 2 * 1.8e-4)
     single = torque_measures(tau[:, 0])
-    assert single == TorqueMeasures(m.rms[0], m.peak[0])
+    assert (single.rms, single.peak) == (m.rms[0], m.peak[0])
+    assert single.variation == pytest.approx(m.variation[0], rel=1e-14)  # summation order
     assert type(single.rms) is float
 
 
@@ -346,7 +351,7 @@ def test_metrics_dict_is_strict_json() -> None:
     assert back["theta1"]["delay_time"] is None  # NaN -> null
     assert back["theta1"]["overshoot"] == 0.0
     assert back["errors"]["iae"] == list(error_measures(t, np.stack([y, y], axis=1)).iae)
-    assert back["torque"] == {"rms": [1.0, 1.0], "peak": [1.0, 1.0]}
+    assert back["torque"] == {"rms": [1.0, 1.0], "peak": [1.0, 1.0], "variation": [0.0, 0.0]}
     assert back["extra"] == {"n": 3, "arr": [1.0, None]}
 
 

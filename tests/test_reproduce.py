@@ -83,16 +83,28 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     from twolink.sweep import load_results
 
     report = (reproduction.out / "report.md").read_text()
-    head = "## The paper's claims on 200 plants, with 95 % confidence intervals"
+    head = "## The paper's claims on 200 plants"
     assert head in report and report.index(head) < report.index("### Table 2:")
+    # the conclusions come first, at most ~15 lines, from the same table
+    conclusions = report[report.index("## Conclusions") : report.index("## Who wins")]
+    assert report.index("## Conclusions") < report.index(head)
+    assert len(conclusions.strip().splitlines()) <= 15
     results = load_results(reproduction.out / "claims_study")
     assert len(results) == 800
     assert set(results["controller"]) == {"CTC", "PD-G", "CTC-I", "FCM-CTC"}
     saved = pd.read_csv(reproduction.out / "claims.csv")
-    again = paired_claims(results, "FCM-CTC", "CTC", joints=(1, 2))
+    from twolink.reproduce import reference_values
+    from twolink.sweep import load_sweep
+
+    plan = load_sweep(load_manifest().claims_study)
+    refs = reference_values(plan.nominal_scenario(), plan.joints)
+    again = paired_claims(results, "FCM-CTC", "CTC", joints=(1, 2), reference_values=refs)
     pd.testing.assert_frame_equal(saved, again, check_dtype=False)
+    for column in ("better", "worse", "equal", "estimate", "ci_low", "ci_high", "p_adjusted"):
+        assert column in saved.columns
     for r in again.itertuples():
         assert f"| θ{r.joint} | " in report and r.verdict in report
+        assert f"θ{r.joint} {metric(r.metric).symbol}" in conclusions
 
 
 def test_sustained_oscillations_are_listed_with_the_rules_that_fire(reproduction):
@@ -127,7 +139,7 @@ def test_report_metrics_equal_step_metrics_of_the_saved_trajectories(reproductio
         j = row["joint"] - 1
         m = step_metrics(traj.t, traj.q[:, j], scenario.reference.final[j], y0=scenario.q0[j])
         for key, name in zip(STEP_KEYS, STEP_FIELDS, strict=True):
-            expected = getattr(m, name) * metric(key).scale
+            expected = getattr(m, name)
             if math.isnan(expected):
                 assert row[key] is None, (row, key)
             else:

@@ -244,15 +244,19 @@ def run(
         trace=not no_trace,
         controller=controller,
     )
-    from twolink.outcome import SuccessSpec, classify_run
+    from twolink.outcome import SuccessSpec, classify_run, reasons, settling_window
 
     click.echo(format_metrics(metrics))
     spec = SuccessSpec()
     click.echo(
-        f"outcome: {classify_run(s, metrics, spec)} (spec: every joint within "
-        f"{100 * spec.final_error:g} % of the step at the end, overshoot at most "
-        f"{spec.max_overshoot_pct:g} %)"
+        f"outcome: {classify_run(s, metrics, spec)} (spec: the reference finished, every "
+        f"joint within {100 * spec.final_error:g} % of the step of its target over the last "
+        f"{settling_window(s.duration):g} s, its error not growing there (at most "
+        f"×{spec.max_tail_growth:g}), overshoot at most {spec.max_overshoot_pct:g} %)"
     )
+    if traj.ok:
+        for reason in reasons(s, metrics, spec):
+            click.echo(f"  off target: {reason}")
     for warning in metrics.warnings:  # physically meaningless states (docs/model.md)
         click.echo(f"warning: {warning}")
     click.echo(f"results in {folder}")

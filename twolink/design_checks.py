@@ -123,7 +123,7 @@ def validate(
         for j, (target, q0) in enumerate(zip(s.reference.final, s.q0, strict=True)):
             if target != q0:
                 m = step_metrics(traj.t, traj.q[:, j], target, y0=q0, final_value=target)
-                mp.append(100.0 * m.overshoot)
+                mp.append(m.overshoot)
                 ts.append(m.settling_time)
         iae = error_measures(traj.t, traj.e).iae
         rows.append(

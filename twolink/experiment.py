@@ -271,7 +271,16 @@ class RunMetrics:
     torque: Any
     status: str
     message: str
-    final_error: tuple[float, float] = (math.nan, math.nan)  # |θd(T) − θ(T)| per joint
+    # |θ_target − θ(T)| per joint: against the target (the reference's final value), not
+    # the reference at T, so a run cut short is as far off as it is (|e(T)| for a sine)
+    final_error: tuple[float, float] = (math.nan, math.nan)
+    # Over the settling window (twolink.outcome.settling_window): the largest |θ_target − θ|
+    # per joint, and the growth of the error (twolink.outcome.tail_growth)
+    tail_error: tuple[float, float] = (math.nan, math.nan)
+    tail_growth: tuple[float, float] = (math.nan, math.nan)
+    # The closed loop's growth rate σ [1/s] linearised at the target (twolink.stability),
+    # the loop's, shown for both joints; NaN but for linearisable laws on flexible joints
+    linear_growth: tuple[float, float] = (math.nan, math.nan)
     oscillation: tuple[float, float] = (math.nan, math.nan)  # sustained, per joint
     # Ts to the target (within 2 % of the step of θd's final value), NaN where it never gets
     # there or the joint has no step; ``step[j].settling_time`` is Ts to the final value.
@@ -307,9 +316,17 @@ class RunMetrics:
         )
 
 
-def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
+def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None) -> RunMetrics:
     """Step metrics per joint (towards the reference's final value, Ts both to the final
-    value and to the target), error measures (integrals, max |e|), torque, oscillation."""
+    value and to the target), error measures (integrals, max |e|), torque, oscillation,
+    the settling window's error and growth, and (flexible joints, linearisable laws) the
+    loop's linear growth rate at the target, of ``controller`` (default: the scenario's;
+    a sweep's arms carry their own)."""
+    growth = math.nan
+    if s.plant.flexibility is not None and traj.ok:
+        from twolink.stability import closed_loop_growth
+
+        growth = closed_loop_growth(s, build_plant(s), controller or build_controller(s))
     steps = []
     to_target = []
     for j, target in enumerate(s.reference.final):
@@ -326,11 +343,34 @@ def measure(s: Scenario, traj: Trajectory) -> RunMetrics:
         torque=torque_measures(traj.tau),
         status=traj.status,
         message=traj.message,
-        final_error=tuple(float(x) for x in np.abs(traj.e[-1])) if len(traj.t) else (math.nan,) * 2,
+        **_tail(s, traj),
+        linear_growth=(growth, growth),
         oscillation=oscillation_amplitude(traj.t, traj.e) if len(traj.t) else (math.nan,) * 2,
         settling_target=(to_target[0], to_target[1]),
         max_twist=max_twist(traj),
     )
+
+
+def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:
+    """The final error, the settling window's largest error and its growth, per joint,
+    all against the target (twolink.outcome)."""
+    from twolink.outcome import settling_window, tail_growth
+
+    if not len(traj.t):
+        nan = (math.nan, math.nan)
+        return {"final_error": nan, "tail_error": nan, "tail_growth": nan}
+    target = np.array(s.reference.final, dtype=float)
+    off = np.where(np.isfinite(target), target - traj.q, traj.e)  # a sine: e itself
+    window = settling_window(s.duration)
+    tail = traj.t >= traj.t[-1] - window - 1e-12
+    with np.errstate(invalid="ignore"):
+        worst = np.abs(off[tail]).max(axis=0)
+    growth = tail_growth(traj.t, off, window)
+    return {
+        "final_error": tuple(float(x) for x in np.abs(off[-1])),  # type: ignore[dict-item]
+        "tail_error": tuple(float(x) for x in worst),  # type: ignore[dict-item]
+        "tail_growth": tuple(float(x) for x in growth),  # type: ignore[dict-item]
+    }
 
 
 def max_twist(traj: Trajectory) -> tuple[float, float]:

@@ -203,7 +203,7 @@ def _row(labels: dict[str, Any], s: Any, traj: Any, limit: tuple[float, float]) 
         target, start = s.reference.final[j], s.q0[j]
         if traj.status == "ok" and target != start:
             m = step_metrics(traj.t, traj.q[:, j], target, y0=start, final_value=target)
-            row[f"overshoot{n}"] = 100.0 * m.overshoot
+            row[f"overshoot{n}"] = m.overshoot
             row[f"settling{n}"] = m.settling_time
         else:
             row[f"overshoot{n}"] = row[f"settling{n}"] = math.nan

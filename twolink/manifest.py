@@ -40,7 +40,7 @@ class Experiment:
         tables give Mp as a fraction); None where the paper gives none."""
         m = metric(key)
         value = self.paper.get(controller, {}).get(m.symbol)
-        return None if value is None else value * m.scale
+        return None if value is None else value * m.paper_scale
 
     @property
     def key(self) -> str:

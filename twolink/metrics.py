@@ -52,7 +52,8 @@ class StepMetrics:
         Ts, first time after which the response stays within 2 % of the step of its final
         value.
     overshoot : float
-        Mp, the largest excursion past the target as a fraction of the step (0.10 = 10 %).
+        Mp, the largest excursion past the target in percent of the step (10.0 = 10 %), as
+        python-control's ``step_info`` and every output of twolink give it.
     steady_state_error : float
         ess, ``|target - y[-1]|``.
     """
@@ -97,10 +98,14 @@ class TorqueMeasures:
         Root mean square over the samples, ``sqrt(mean(tau**2))``.
     peak : float or tuple of float
         Largest magnitude, ``max |tau|``.
+    variation : float or tuple of float
+        Total variation ``sum |tau[k+1] - tau[k]|`` [N·m]: how much the actuator is
+        driven back and forth (noise and chatter show here, not in the RMS).
     """
 
     rms: float | tuple[float, ...]
     peak: float | tuple[float, ...]
+    variation: float | tuple[float, ...] = math.nan
 
 
 def _check_times(t: np.ndarray, n: int) -> np.ndarray:
@@ -158,8 +163,9 @@ def step_metrics(
       excursion past the target. A response that rises monotonically (or creeps up to its
       final value) has no peak, and its Tp is NaN, not the end of the run. (python-control's
       ``step_info`` reports a PeakTime always.)
-    - Mp (overshoot): ``max(0, max((y - target) / S))``, a fraction of the step (0.10 = 10 %),
-      measured against the target (not the final value).
+    - Mp (overshoot): ``100 max(0, max((y - target) / S))``, in percent of the step (10.0 =
+      10 %, as python-control's ``step_info``), measured against the target (not the final
+      value).
     - ess (steady-state error): ``|target - y[-1]|``, the last sample (no averaging).
 
     A metric the data do not determine is NaN, never an exception:
@@ -238,7 +244,7 @@ def step_metrics(
     # progress. A monotone response has none (its "peak" would be the end of the run).
     peaked = progress[peak_idx] > 0.0 and progress[peak_idx] - progress[-1] > settling_threshold
     peak_time = float(t[peak_idx]) if peaked else math.nan
-    overshoot = max(0.0, float(np.max((y - target) / step)))
+    overshoot = 100.0 * max(0.0, float(np.max((y - target) / step)))
     ess = abs(target - float(y[-1]))
 
     y_final = float(y[-1]) if final_value is None else _check_scalar("final_value", final_value)
@@ -360,7 +366,7 @@ def oscillation_amplitude(
 
 
 def torque_measures(tau: np.ndarray) -> TorqueMeasures:
-    """RMS and peak of the joint torques.
+    """RMS, peak and total variation of the joint torques.
 
     The RMS is over samples, ``sqrt(mean(tau²))``, i.e. a time RMS for the uniformly sampled
     torques of a fixed-step simulation. Non-finite torques propagate (NaN or inf).
@@ -384,7 +390,10 @@ def torque_measures(tau: np.ndarray) -> TorqueMeasures:
     if np.any(huge):
         scaled = np.sqrt(np.mean((tau / np.where(peak > 0, peak, 1.0)) ** 2, axis=0)) * peak
         rms = np.where(huge, scaled, rms)
-    return TorqueMeasures(rms=_per_column(rms), peak=_per_column(peak))
+    variation = np.sum(np.abs(np.diff(tau, axis=0)), axis=0)
+    return TorqueMeasures(
+        rms=_per_column(rms), peak=_per_column(peak), variation=_per_column(variation)
+    )
 
 
 def to_jsonable(value: Any) -> Any:

@@ -11,23 +11,13 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
+from twolink.claims import TOLERANCES, count_wins
 from twolink.manifest import Experiment, Manifest
-from twolink.vocabulary import format_value, metric
+from twolink.vocabulary import CLAIMED_BETTER, format_value, metric
 
-# The paper's claim (section 4): FCM reduces peak, delay, rise and settling time and
-# overshoot, and steady-state error, compared with CTC. Which of the manifest's
-# controllers play the two roles is the manifest's ``proposed`` and ``baseline``.
-# In the paper's column order (Tp, Td, Ts, Tr, Mp, ess).
-CLAIMED_BETTER = (
-    "peak_time_s",
-    "delay_time_s",
-    "settling_time_s",
-    "rise_time_s",
-    "overshoot_pct",
-    "steady_state_error_rad",
-)
 fmt = format_value
 # Beside the paper's metrics: sustained oscillation (a limit cycle is a result to show).
 OURS_ONLY = "oscillation_rad"
@@ -51,41 +41,28 @@ def _lookup(rows, variant: str, exp: Experiment, controller: str) -> dict[str, A
     raise KeyError((variant, exp.key, controller))
 
 
-# A metric must be smaller by more than this to count as a win: two steady-state errors
-# of ~3e-15 rad differ by rounding (which the batch engine's arms may change), not by
-# control. The same 1e-9 bounds batch-vs-single metric agreement (docs/batch.md).
-WIN_MARGIN = 1e-9
-
-
-def _better(a: float, b: float) -> bool | None:
-    """Is a smaller than b by more than WIN_MARGIN (with |.| for overshoot-like signs)?
-    None if undefined."""
-    if any(isinstance(x, float) and math.isnan(x) for x in (a, b)):
-        return None
-    return abs(a) < abs(b) - WIN_MARGIN
-
-
-def claims(rows, manifest: Manifest, variant: str):
-    """Per metric: in how many experiments the proposed controller beats the baseline
-    (ours, paper), of how many."""
+def claims(
+    rows, manifest: Manifest, variant: str
+) -> dict[str, tuple[int, int, int, int, int, int]]:
+    """Per metric of the paper's claim: in how many experiments the proposed controller's
+    value is lower / higher than the baseline's by more than the metric's practical
+    tolerance (:data:`twolink.claims.TOLERANCES`, :func:`twolink.claims.count_wins`, the
+    one count used everywhere), of how many where both exist: ``(better, worse, n)`` ours,
+    then the paper's own. Magnitudes: the paper prints some overshoots negative."""
     a, b = manifest.proposed, manifest.baseline
     out = {}
     for key in CLAIMED_BETTER:
-        ours = paper = ours_n = paper_n = 0
-        for exp in manifest.experiments:
-            verdict = _better(
-                _lookup(rows, variant, exp, a)[key], _lookup(rows, variant, exp, b)[key]
-            )
-            if verdict is not None:
-                ours_n += 1
-                ours += verdict
-            pa, pb = exp.paper_value(a, key), exp.paper_value(b, key)
-            if pa is not None and pb is not None:
-                verdict = _better(pa, pb)
-                if verdict is not None:
-                    paper_n += 1
-                    paper += verdict
-        out[key] = (ours, ours_n, paper, paper_n)
+        ours = [(_lookup(rows, variant, e, a)[key], _lookup(rows, variant, e, b)[key])
+                for e in manifest.experiments]  # fmt: skip
+        paper = [(e.paper_value(a, key), e.paper_value(b, key)) for e in manifest.experiments]
+        paper = [(x, y) for x, y in paper if x is not None and y is not None]
+        counts = []
+        for pairs in (ours, paper):
+            x = np.abs(np.array([p[0] for p in pairs], dtype=float))
+            y = np.abs(np.array([p[1] for p in pairs], dtype=float))
+            better, worse, equal = count_wins(x, y, TOLERANCES[key])
+            counts += [better, worse, better + worse + equal]
+        out[key] = tuple(counts)
     return out
 
 
@@ -179,25 +156,32 @@ def commentary(
 ) -> list[str]:
     """What holds of the paper's claims in our runs, and why the numbers differ."""
     P, B = manifest.proposed, manifest.baseline  # noqa: N806 (the two controllers' names)
-    mp = _pairs(rows, manifest, variant, "overshoot_pct")
-    tr = [
-        (e, a, b)
-        for e, a, b in _pairs(rows, manifest, variant, "rise_time_s")
-        if not (math.isnan(a) or math.isnan(b))
-    ]
+    counts = claims(rows, manifest, variant)  # the same counts as the table above
+    lower_mp, higher_mp, n_mp = counts["overshoot_pct"][:3]
+    faster, slower, n_tr = counts["rise_time_s"][:3]
     ess = _pairs(rows, manifest, variant, "steady_state_error_rad")
     nominal = [(e, a, b) for e, a, b in ess if "uncertain" not in e.scenario.stem]
     perturbed = [(e, a, b) for e, a, b in ess if "uncertain" in e.scenario.stem]
-    lower_mp = sum(a < b for _, a, b in mp)
-    higher_mp = sum(a > b for _, a, b in mp)
-    faster = sum(a < b for _, a, b in tr)
-    slower = sum(a > b for _, a, b in tr)
     worst = {
         P: max((a for _, a, _ in nominal), default=math.nan),
         B: max((b for _, _, b in nominal), default=math.nan),
     }
-    mp_verdict = "holds" if lower_mp > len(mp) / 2 else "does not hold"
-    speed_verdict = "holds" if faster > len(tr) / 2 else "does not hold"
+    mp_verdict = "holds" if lower_mp > n_mp / 2 else "does not hold"
+    speed_verdict = "holds" if faster > n_tr / 2 else "does not hold"
+    tol_mp, tol_tr = TOLERANCES["overshoot_pct"], TOLERANCES["rise_time_s"]
+    if faster == slower == 0:
+        speed = (
+            f"- **Speed (no evidence either way).** {P} and {B} rise within {tol_tr:g} s of "
+            f"each other in all {n_tr} experiments where both rise times exist: on smooth "
+            "moves a stiff loop follows the reference, so Td and Tr are the reference's own, "
+            "not the controllers' (the regime study tests raw steps)."
+        )
+    else:
+        speed = (
+            f"- **Speed ({speed_verdict}).** {P} rises faster than {B} (by more than "
+            f"{tol_tr:g} s) in {faster} and more slowly in {slower} of {n_tr} experiments "
+            "where both rise times exist."
+        )
     met = {
         (v.name, c): sum(
             _lookup(rows, v.name, e, c)["outcome"] == "met spec" for e in manifest.experiments
@@ -214,13 +198,11 @@ def commentary(
         "",
         "## What holds, what does not, and why the numbers differ",
         "",
-        f"- **Overshoot ({mp_verdict}).** {P}'s overshoot is lower than {B}'s in {lower_mp}, "
-        f"higher in {higher_mp}, of {len(mp)} experiments on the {variant} arm (equal in the "
-        "rest: a smooth move under a stiff loop leaves little to damp).",
-        f"- **Speed ({speed_verdict}).** {P} rises faster than {B} in {faster} and more "
-        f"slowly in {slower} of {len(tr)} experiments where both rise times exist. The "
-        "paper's own Table 2 has FCM slower (Tp 9.41 vs 5.89 s, Tr 7.85 vs 5.05 s), against "
-        "its text.",
+        f"- **Overshoot ({mp_verdict}).** {P}'s overshoot is lower than {B}'s (by more than "
+        f"{tol_mp:g} percentage point) in {lower_mp}, higher in {higher_mp}, of {n_mp} "
+        f"experiments on the {variant} arm (equal in the rest).",
+        speed + " The paper's own Table 2 has FCM slower (Tp 9.41 vs 5.89 s, Tr 7.85 vs "
+        "5.05 s), against its text.",
         f"- **Steady-state error without uncertainty.** The largest ess over the nominal "
         f"experiments is {fmt(worst[B])} rad for {B} and {fmt(worst[P])} rad for {P}: computed "
         "torque with an exact model and a PD law has no steady-state error, so the paper's "
@@ -259,7 +241,7 @@ def calibrated_value(values: dict[str, float] | None, key: str) -> float | None:
         return None
     m = metric(key)
     value = values.get(m.symbol)
-    return None if value is None else value * m.scale
+    return None if value is None else value * m.paper_scale
 
 
 def render(
@@ -270,18 +252,28 @@ def render(
     extra_sections: Sequence[str] = (),
     lead_sections: Sequence[str] = (),
     calibrated: dict[int, dict[str, dict[str, float]]] | None = None,
+    claims_table: tuple[Any, dict[str, int], int] | None = None,
 ) -> str:
-    """The whole report as markdown; ``lead_sections`` (the claims with intervals) come
-    first, as what a reader needs first. ``calibrated`` (paper table -> controller ->
+    """The whole report as markdown: its conclusions first (:func:`conclusions`, from
+    ``claims_table``: the claims table, plants that met the spec, and the plants' number),
+    then ``lead_sections`` (the claims with their statistics), then definitions.
+    ``calibrated`` (paper table -> controller ->
     symbol -> value, :func:`twolink.calibration_report.table_values`) adds the calibrated runs'
     values to those tables of the variant that runs the scenarios unchanged (the paper's
     own, rigid arm)."""
     controllers = list(manifest.controllers)
+    table, met, plants = claims_table if claims_table is not None else (None, {}, 0)
     out = [
         "# Reproduction of Devi, Ravi Kumar & Pydi: CTC vs FCM-CTC",
         "",
-        "Generated by `twolink reproduce`. Each table below is one of the paper's, with our",
-        "value and the paper's side by side (ours / paper). The paper omits masses, lengths,",
+        "Generated by `twolink reproduce`: what the runs show first, then each of the paper's",
+        "tables with our values beside the paper's (ours / paper), then how to read them.",
+        *conclusions(rows, manifest, table, plants, met),
+        *lead_sections,
+        "",
+        "## How to read the tables",
+        "",
+        "The paper omits masses, lengths,",
         "gains, membership ranges, amplitudes and the size of its uncertainties, so its",
         "numbers cannot be matched and we did not tune to match them: we reproduce the",
         "procedure and the table structure, and report what comes out. Metrics (the paper's",
@@ -299,8 +291,11 @@ def render(
         "measure the reference itself, also max|e| `max_error_rad`, the largest tracking",
         "error, and IAE `iae_rad_s`. Every table reports the other joint too (held in the paper's",
         "experiments): its largest deviation max|e| and its final error e(T)",
-        "`final_error_rad`. The outcome is `off target` where a joint ends outside 2 % of",
-        "the step or one overshoots by more than 20 %.",
+        "`final_error_rad`. The outcome is `met spec` where the reference finished, every",
+        "joint stayed within 2 % of the step of its target over the settling window (the",
+        "run's last max(0.5 s, 10 %)), its error did not grow there, the loop is not",
+        "unstable at the target, and no joint overshot by more than 20 %; else `off target`",
+        "(twolink/outcome.py).",
         *(
             [
                 "",
@@ -313,7 +308,6 @@ def render(
             if calibrated
             else []
         ),
-        *lead_sections,
         "",
         "## Our choices (the paper leaves them open)",
         "",
@@ -324,18 +318,20 @@ def render(
         c = claims(rows, manifest, variant.name)
         out += [
             "The paper's text says FCM reduces peak, delay, rise and settling time and",
-            f"overshoot. In how many experiments {manifest.proposed}'s value is smaller (in "
-            "magnitude, by more",
-            f"than {WIN_MARGIN:g}: rounding is no win) than {manifest.baseline}'s, in our runs "
-            "and in the paper's own",
-            "tables (where it gives both):",
+            f"overshoot. In how many experiments {manifest.proposed}'s value is lower / higher",
+            f"than {manifest.baseline}'s (in magnitude, by more than the metric's practical",
+            "tolerance: docs/statistics.md), in our runs and in the paper's own tables (where",
+            "it gives both):",
             "",
-            "| metric | ours | paper |",
-            "|---|---|---|",
+            "| metric | tolerance | ours: lower / higher | paper: lower / higher |",
+            "|---|---|---|---|",
         ]
-        for key, (ours, ours_n, paper, paper_n) in c.items():
+        for key, (ob, ow, on, pb, pw, pn) in c.items():
             m = metric(key)
-            out.append(f"| {m.symbol} `{key}` | {ours} of {ours_n} | {paper} of {paper_n} |")
+            out.append(
+                f"| {m.symbol} `{key}` | {TOLERANCES[key]:g} {m.unit} | {ob} / {ow} of {on} "
+                f"| {pb} / {pw} of {pn} |"
+            )
         for exp in manifest.experiments:
             label = exp.label
             out += ["", f"### {label}: {exp.title}", ""]
@@ -355,47 +351,56 @@ WINNER_METRICS = (
     "overshoot_pct",
     "steady_state_error_rad",
     "iae_rad_s",
+    "oscillation_rad",
     "torque_peak_Nm",
+    "torque_variation_Nm",
 )
+STATISTICS = (
+    "Per plant the difference controller − baseline (negative: lower, better for every metric "
+    "here). better / worse / equal: plants where it is lower / higher by more than the "
+    "metric's practical tolerance, or within it; the verdict from a sign test on better "
+    "against worse, Holm-corrected across the table (**better**, **worse**), else two "
+    "one-sided tests against ± the tolerance (**equivalent**), else **inconclusive**; the "
+    "estimate is the Hodges-Lehmann shift with its 95 % interval (docs/statistics.md)."
+)
+
+
+def _verdict_cell(r: Any) -> str:
+    if r.verdict == "set by the reference":
+        return "set by the reference"
+    return f"{r.verdict} ({r.better}/{r.worse}/{r.equal}; {fmt(r.estimate)})"
 
 
 def winners_section(
     versus: dict[str, Any], baseline: str, met: dict[str, int], plants: int
 ) -> list[str]:
     """What a reader needs first: each controller against ``baseline`` on the same plants,
-    per joint and metric the median paired difference and its verdict (``versus``: name ->
-    :func:`twolink.claims.paired_claims` table)."""
+    per joint and metric its verdict, better/worse/equal counts and estimate (``versus``:
+    name -> :func:`twolink.claims.paired_claims` table)."""
     names = list(versus)
     first = next(iter(versus.values()))
     metrics = list(dict.fromkeys(first["metric"]))
-    head = " | ".join(f"θ{j} {metric(k).symbol}" for j in (1, 2) for k in metrics)
     out = [
         "",
         f"## Who wins on what: every controller against {baseline} on {plants} plants",
         "",
-        f"Per plant the difference controller − {baseline} (negative: lower, i.e. better for",
-        "every metric here); the median over the plants and its verdict from a 95 %",
-        "bootstrap interval (**holds**: lower, interval below 0; **fails**: higher;",
-        "**no difference**: the interval is [0, 0]; **inconclusive**: it contains 0).",
-        "Met spec: plants where the controller met the success spec.",
-        "",
-        f"| controller | met spec | {head} |",
-        "|---|---|" + "---|" * (2 * len(metrics)),
-        f"| {baseline} | {met.get(baseline, 0)} of {plants} | "
-        + " | ".join("reference" for _ in range(2 * len(metrics)))
-        + " |",
+        STATISTICS.replace("baseline", baseline),
+        "Cells: verdict (better/worse/equal plants; estimate). Met spec: plants where the",
+        "controller met the success spec.",
     ]
-    for name in names:
-        t = versus[name].set_index(["joint", "metric"])
-        cells = []
-        for j in (1, 2):
-            for k in metrics:
-                if (j, k) not in t.index:
-                    cells.append("—")
-                    continue
-                r = t.loc[(j, k)]
-                cells.append(f"{fmt(r.median_difference)} {r.verdict}")
-        out.append(f"| {name} | {met.get(name, 0)} of {plants} | " + " | ".join(cells) + " |")
+    for j in (1, 2):
+        head = " | ".join(f"{metric(k).symbol} [{metric(k).unit}]" for k in metrics)
+        out += [
+            "",
+            f"θ{j}:",
+            "",
+            f"| controller | met spec | {head} |",
+            "|---|---|" + "---|" * len(metrics),
+        ]
+        for name in names:
+            t = versus[name].set_index(["joint", "metric"])
+            cells = [_verdict_cell(t.loc[(j, k)]) if (j, k) in t.index else "—" for k in metrics]
+            out.append(f"| {name} | {met.get(name, 0)} of {plants} | " + " | ".join(cells) + " |")
     return out
 
 
@@ -403,33 +408,71 @@ def claims_section(
     table: Any, manifest: Manifest, plants: int, source: str, met: dict[str, int]
 ) -> list[str]:
     """The paper's claims judged on many plants (:func:`twolink.claims.paired_claims`'s
-    table): per joint and metric, the medians, the median paired difference with its 95 %
-    bootstrap interval, and the verdict; ``met``: plants on which each met the spec."""
+    table): per joint and metric the counts, the estimate with its interval, the adjusted
+    p-value and the verdict; ``met``: plants on which each met the spec."""
     p, b = manifest.proposed, manifest.baseline
     out = [
         "",
-        f"## The paper's claims on {plants} plants, with 95 % confidence intervals",
+        f"## The paper's claims on {plants} plants",
         "",
         f"Does {p} lower each metric against {b}? Both ran on the same {plants} plants drawn",
         f"by `{source}` (masses, lengths, gravity and a tip payload off the controllers'",
-        f"model). Per plant the difference {p} − {b}; its median and a 95 % bootstrap",
-        "interval of the median (BCa, `twolink.claims`). **holds**: the interval is below 0;",
-        "**fails**: above 0; **inconclusive**: it contains 0; n: plants where both have",
-        "the metric (a response that never settles or never peaks has none).",
+        "model). " + STATISTICS.replace("controller − baseline", f"{p} − {b}"),
+        "n: plants where both have the metric (a response that never settles has none).",
         "",
-        f"First, whether either reached its targets: {p} met the spec (final error within",
-        f"2 % of the step on both joints, overshoot under 20 %) on {met.get(p, 0)} of {plants}",
-        f"plants, {b} on {met.get(b, 0)}. A claim that holds between two controllers that",
-        "both miss their targets compares two failures.",
+        f"First, whether either reached its targets: {p} met the spec on {met.get(p, 0)} of",
+        f"{plants} plants, {b} on {met.get(b, 0)}. A claim that holds between two controllers",
+        "that both miss their targets compares two failures.",
         "",
-        f"| joint | metric | n | {p} median | {b} median | median difference [95 % CI] | verdict |",
-        "|---|---|---|---|---|---|---|",
+        "| joint | metric | tolerance | n | better | worse | equal | estimate [95 % CI] "
+        "| p (Holm) | verdict |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table.itertuples():
         m = metric(r.metric)
         out.append(
-            f"| θ{r.joint} | {m.symbol} `{r.metric}` | {r.n} | {fmt(r.proposed_median)} | "
-            f"{fmt(r.baseline_median)} | {fmt(r.median_difference)} "
-            f"[{fmt(r.ci_low)}, {fmt(r.ci_high)}] | {r.verdict} |"
+            f"| θ{r.joint} | {m.symbol} `{r.metric}` | {r.tolerance:g} {m.unit} | {r.n} | "
+            f"{r.better} | {r.worse} | {r.equal} | {fmt(r.estimate)} "
+            f"[{fmt(r.ci_low)}, {fmt(r.ci_high)}] | {fmt(r.p_adjusted)} | {r.verdict} |"
         )
     return out
+
+
+def conclusions(
+    rows, manifest: Manifest, table: Any | None, plants: int, met: dict[str, int]
+) -> list[str]:
+    """The report's first section: at most ~15 lines, from the same numbers as the tables
+    below (the claims table, :func:`claims`' counts, the runs' outcomes)."""
+    p, b = manifest.proposed, manifest.baseline
+    out = ["", "## Conclusions", ""]
+    if table is not None:
+        by = {}
+        for r in table.itertuples():
+            by.setdefault(r.verdict, []).append(f"θ{r.joint} {metric(r.metric).symbol}")
+        said = "; ".join(f"**{v}** on {', '.join(by[v])}" for v in VERDICT_ORDER if v in by)
+        out.append(
+            f"- **The paper's claim ({p} lowers Tp, Td, Ts, Tr, Mp, ess against {b}) on "
+            f"{plants} plants:** {said}. {p} met the spec on {met.get(p, 0)}, {b} on "
+            f"{met.get(b, 0)} of {plants}."
+        )
+    for variant in manifest.variants:
+        c = claims(rows, manifest, variant.name)
+        counts = ", ".join(
+            f"{metric(k).symbol} {ob}/{ow} of {on}" for k, (ob, ow, on, *_) in c.items()
+        )
+        met_runs = {
+            name: sum(
+                _lookup(rows, variant.name, e, name)["outcome"] == "met spec"
+                for e in manifest.experiments
+            )
+            for name in (p, b)
+        }
+        out.append(
+            f"- **{variant.title[0].upper()}{variant.title[1:]}, the paper's "
+            f"{len(manifest.experiments)} experiments:** {p} lower/higher than {b} beyond "
+            f"tolerance: {counts}. Met the spec: {p} {met_runs[p]}, {b} {met_runs[b]}."
+        )
+    return out
+
+
+VERDICT_ORDER = ("better", "worse", "equivalent", "inconclusive", "set by the reference")

@@ -60,15 +60,16 @@ class Metric:
         ``"step.<field>"``, ``"errors.<field>"``, ``"torque.<field>"`` (per joint) or a
         per-joint field of its own (``"final_error"``, ``"oscillation"``,
         ``"settling_target"``, ``"max_twist"``).
-    scale : float
-        Factor from the source's unit to ``unit`` (100 for a fraction shown in percent).
+    paper_scale : float
+        Factor from the unit of the paper's tables to ``unit`` (100: the paper gives Mp as
+        a fraction). Every value twolink computes is in ``unit`` already.
     """
 
     key: str
     symbol: str
     unit: str
     source: str
-    scale: float = 1.0
+    paper_scale: float = 1.0
 
     @property
     def label(self) -> str:
@@ -82,9 +83,12 @@ METRICS: tuple[Metric, ...] = (
     Metric("rise_time_s", "Tr", "s", "step.rise_time"),
     Metric("settling_time_s", "Ts", "s", "step.settling_time"),
     Metric("settling_time_target_s", "Ts→θd", "s", "settling_target"),
-    Metric("overshoot_pct", "Mp", "%", "step.overshoot", 100.0),
+    Metric("overshoot_pct", "Mp", "%", "step.overshoot", paper_scale=100.0),
     Metric("steady_state_error_rad", "ess", "rad", "step.steady_state_error"),
     Metric("final_error_rad", "e(T)", "rad", "final_error"),
+    Metric("tail_error_rad", "max|e| tail", "rad", "tail_error"),
+    Metric("tail_growth", "growth", "×", "tail_growth"),
+    Metric("linear_growth_1_s", "σ", "1/s", "linear_growth"),  # the loop's; flexible joints
     Metric("oscillation_rad", "osc", "rad", "oscillation"),
     Metric("iae_rad_s", "IAE", "rad·s", "errors.iae"),
     Metric("ise_rad2_s", "ISE", "rad²·s", "errors.ise"),
@@ -92,9 +96,23 @@ METRICS: tuple[Metric, ...] = (
     Metric("max_error_rad", "max|e|", "rad", "errors.max_abs"),
     Metric("torque_rms_Nm", "τ rms", "N·m", "torque.rms"),
     Metric("torque_peak_Nm", "τ peak", "N·m", "torque.peak"),
+    Metric("torque_variation_Nm", "Σ|Δτ|", "N·m", "torque.variation"),
     Metric("max_twist_rad", "twist", "rad", "max_twist"),  # flexible joints; NaN if rigid
 )
 STEP_KEYS = tuple(m.key for m in METRICS if m.source.startswith("step."))
+# The paper's claim (section 4): FCM reduces peak, delay, rise and settling time and
+# overshoot, and steady-state error, compared with CTC. Which of the manifest's
+# controllers play the two roles is the manifest's ``proposed`` and ``baseline``.
+# In the paper's column order (Tp, Td, Ts, Tr, Mp, ess).
+CLAIMED_BETTER = (
+    "peak_time_s",
+    "delay_time_s",
+    "settling_time_s",
+    "rise_time_s",
+    "overshoot_pct",
+    "steady_state_error_rad",
+)
+
 _BY_KEY = {m.key: m for m in METRICS}
 
 
@@ -118,7 +136,7 @@ def joint_values(run_metrics: Any, joint: int) -> dict[str, float]:
             value = math.nan if step is None else getattr(step, field)
         else:
             value = getattr(getattr(run_metrics, section), field)[joint - 1]
-        out[m.key] = float(value) * m.scale
+        out[m.key] = float(value)
     return out
 
 

@@ -25,6 +25,7 @@ from twolink.sweep.execution import (
 )
 from twolink.sweep.figures import save_sweep_plots, sweep_figures
 from twolink.sweep.flexmap import (
+    disagreements,
     flexible_map_figure,
     flexible_map_table,
     map_cells,
@@ -60,6 +61,7 @@ __all__ = [
     "format_summary",
     "load_results",
     "load_sweep",
+    "disagreements",
     "map_cells",
     "rigid_reference",
     "run_chunk",

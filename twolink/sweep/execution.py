@@ -140,9 +140,9 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
     # Measured as each batch ends: one trajectory at a time is ever held.
     runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms])
     for k, traj in runs:
-        r, s, _ = arms[k]
+        r, s, controller = arms[k]
         i, name, head = rows[r]
-        rows[r] = _measured_row(i, name, head, s, traj)
+        rows[r] = _measured_row(i, name, head, s, traj, controller)
     return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
 
 
@@ -164,12 +164,14 @@ def _error_row(i: int, name: str, head: list[Any], error: str) -> tuple[Any, ...
     return (i, name, *head, *_NAN_METRICS, STATUS_ERROR, error)
 
 
-def _measured_row(i: int, name: str, head: list[Any], s: Any, traj: Any) -> tuple[Any, ...]:
+def _measured_row(
+    i: int, name: str, head: list[Any], s: Any, traj: Any, controller: Any = None
+) -> tuple[Any, ...]:
     """The row of one simulated arm (``traj`` is the exception where it could not run)."""
     if isinstance(traj, Exception):
         return _error_row(i, name, head, _error_text(traj))
     try:
-        metrics = _metric_values(measure(s, traj))
+        metrics = _metric_values(measure(s, traj, controller))
     except Exception as exc:
         if traj.ok:
             return _error_row(i, name, head, _error_text(exc))
@@ -524,9 +526,19 @@ def _run_sweep(
 
 def _classify(plan: SweepPlan, results: pd.DataFrame) -> None:
     """Add the ``outcome`` column (after ``status``): the runs against the plan's spec."""
-    final = results[[f"joint{j}_final_error_rad" for j in (1, 2)]]
+    tail = results[[f"joint{j}_tail_error_rad" for j in (1, 2)]]
+    growth = results[[f"joint{j}_tail_growth" for j in (1, 2)]]
     overshoot = results[[f"joint{j}_overshoot_pct" for j in (1, 2)]]
-    outcome = classify(results["status"], final, overshoot, plan.step, plan.success)
+    outcome = classify(
+        results["status"],
+        tail,
+        overshoot,
+        plan.step,
+        plan.success,
+        growth,
+        plan.finished,
+        results["joint1_linear_growth_1_s"],
+    )
     results.insert(results.columns.get_loc("status") + 1, "outcome", outcome.astype(str))
     results.attrs["success"] = {**asdict(plan.success), "step_rad": plan.step}
 

@@ -36,8 +36,8 @@ if TYPE_CHECKING:
 
     from twolink.sweep.plan import SweepPlan
 
-__all__ = ["CELL_KINDS", "flexible_map_figure", "flexible_map_table", "map_cells",
-           "rigid_reference"]  # fmt: skip
+__all__ = ["CELL_KINDS", "disagreements", "flexible_map_figure", "flexible_map_table",
+           "map_cells", "rigid_reference"]  # fmt: skip
 
 CELL_KINDS = ("settled", "off target", "limit cycle", "diverged")
 BAND = 0.02  # the 2 % band, as a share of the move (the spec's)
@@ -76,6 +76,13 @@ def map_cells(results: pd.DataFrame | str | Path, move: float = 1.0) -> pd.DataF
     met = r["outcome"].to_numpy(str) == "met spec"  # a decaying oscillation can meet it
     kind = np.where(met, "settled", np.where(osc > BAND * move, "limit cycle", "off target"))
     kind = np.where(r["status"].to_numpy(str) != "ok", "diverged", kind)
+    # Simulation against linear stability: the run's tail alone (in band, not growing)
+    # against the sign of the loop's growth rate at the target, where it has one.
+    sigma = r["joint1_linear_growth_1_s"].to_numpy(float)
+    tail = _worst(r, (1, 2), "tail_error_rad")
+    growth = _worst(r, (1, 2), "tail_growth")
+    calm = (r["status"].to_numpy(str) == "ok") & (tail <= BAND * move) & (growth <= 1.25)
+    disagree = np.isfinite(sigma) & ((calm & (sigma > 0)) | (~calm & (sigma < 0)))
     return pd.DataFrame({
         "controller": r["controller"].to_numpy(str),
         "k": r["k"].to_numpy(float),
@@ -85,7 +92,29 @@ def map_cells(results: pd.DataFrame | str | Path, move: float = 1.0) -> pd.DataF
         "Mp": _worst(r, joints, "overshoot_pct"),
         "torque": _worst(r, (1, 2), "torque_peak_Nm"),
         "twist": _worst(r, (1, 2), "max_twist_rad"),
+        "sigma": sigma,
+        "disagree": disagree,
     })  # fmt: skip
+
+
+def disagreements(cells: pd.DataFrame) -> list[str]:
+    """The report's lines on cells where the simulated run and linear stability at the
+    target disagree (:func:`map_cells`' ``disagree``): a run that ends calm on a loop
+    that is linearly unstable (the mode still too small to see), or the reverse."""
+    odd = cells[cells["disagree"]]
+    if odd.empty:
+        return ["Simulation and linear stability at the target agree in every cell."]
+    lines = [
+        f"Simulation and linear stability disagree in {len(odd)} cells (the outcome counts "
+        "the linear verdict: a calm end of a linearly unstable loop is off target):",
+        "",
+        "| controller | k [N·m/rad] | ωn [rad/s] | σ [1/s] | simulated |",
+        "|---|---|---|---|---|",
+    ]
+    for c in odd.itertuples():
+        sim = "calm at the end" if c.sigma > 0 else "not calm at the end"
+        lines.append(f"| {c.controller} | {c.k:g} | {c.wn:g} | {c.sigma:+.3g} | {sim} |")
+    return lines
 
 
 def rigid_reference(plan: SweepPlan, controller: str = "CTC") -> dict[float, tuple[float, float]]:
@@ -106,7 +135,7 @@ def rigid_reference(plan: SweepPlan, controller: str = "CTC") -> dict[float, tup
             raise traj
         m = measure(scenarios[i], traj)
         ts = [m.settling_target[j - 1] for j in plan.joints]
-        mp = [100.0 * m.step[j - 1].overshoot for j in plan.joints]
+        mp = [m.step[j - 1].overshoot for j in plan.joints]
         out[wn_grid[i]] = (max(ts), max(mp))
     return {wn: out[wn] for wn in wn_grid}
 

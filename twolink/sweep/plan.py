@@ -77,7 +77,7 @@ from twolink.config import (
 )
 from twolink.executors import EXECUTORS
 from twolink.io import unsafe_name_problem
-from twolink.outcome import SuccessSpec, largest_step
+from twolink.outcome import SuccessSpec, finished, largest_step
 from twolink.params import Flexibility
 from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
 
@@ -86,7 +86,7 @@ __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan",
 # Chunk files and manifest (2: Parquet, 3: oscillation_rad, 4: settling_time_target_s,
 # max_error_rad and Tp only where there is a peak); in the digest, so older chunks are
 # not resumed; 5: max_twist_rad).
-FORMAT_VERSION = 5
+FORMAT_VERSION = 6  # 6: tail_error_rad, tail_growth; final error against the target
 # Samples per task: each task is one batch of arms (samples x controllers) on the batch
 # engine, whose per-step cost is mostly fixed below ~100 arms (docs/sweeps.md).
 DEFAULT_CHUNK_SIZE = 100
@@ -225,6 +225,13 @@ class SweepPlan:
     joints: tuple[int, ...] = (1, 2)
     success: SuccessSpec = field(default_factory=SuccessSpec)
     step: float = 1.0
+    # Whether the base scenario's reference finishes before its settling window: else
+    # every run is "off target" (twolink.outcome.finished)
+    finished: bool = True
+
+    def nominal_scenario(self) -> Any:
+        """The base scenario as the sweep runs it, with no parameter drawn."""
+        return scenario_from_dict(self.base, self.file)
 
     @property
     def controller_names(self) -> tuple[str, ...]:
@@ -524,6 +531,9 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         max_overshoot_pct=st.number(
             "max_overshoot_pct", defaults.max_overshoot_pct, minimum=0.0, allow_inf=True
         ),
+        max_tail_growth=st.number(
+            "max_tail_growth", defaults.max_tail_growth, minimum=1.0, allow_inf=True
+        ),
     )
     st.done()
 
@@ -626,4 +636,5 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         joints=joints,
         success=success,
         step=largest_step(nominal.reference, nominal.q0),
+        finished=finished(nominal.reference, nominal.duration),
     )
