@@ -88,6 +88,12 @@ def test_a_value_set_by_the_reference_gets_no_verdict():
     assert row["verdict"] == "set by the reference" and np.isnan(row["p_adjusted"])
 
 
+def test_a_metric_no_plant_has_is_undefined_not_inconclusive():
+    nan = np.full(50, np.nan)
+    row = judge(sweep(nan, nan, "peak_time_s"), "peak_time_s")
+    assert row["n"] == 0 and row["verdict"] == "undefined"
+
+
 def test_holm_against_statsmodels_formula_and_across_a_family():
     p = [0.01, 0.04, 0.03, 0.005, np.nan]
     # Holm by hand: sorted 0.005, 0.01, 0.03, 0.04 times 4, 3, 2, 1, running maximum

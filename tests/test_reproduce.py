@@ -304,3 +304,18 @@ def test_the_design_section_shows_the_design_held_out_and_the_downward_step(repr
                     f"{format_value(u['overshoot_pct'])} | {format_value(d['overshoot_pct'])} |"
                 )
                 assert line in section, line
+
+
+def test_the_readme_says_what_the_current_reproduction_concludes(reproduction):
+    """The README's summary is the report's conclusions, word for word: when the runs
+    change what they show, this fails until the README says so too."""
+    report = (reproduction.out / "report.md").read_text()
+    conclusions = report[report.index("## Conclusions") + len("## Conclusions") :]
+    conclusions = conclusions[: conclusions.index("## Who wins")].strip()
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = readme[
+        readme.index("<!-- conclusions: start -->") : readme.index("<!-- conclusions: end -->")
+    ]
+    assert block.removeprefix("<!-- conclusions: start -->").strip() == conclusions
+    # and the README claims nothing the report contradicts (the claims of old)
+    assert "removes most of CTC's overshoot" not in readme

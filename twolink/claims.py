@@ -17,8 +17,10 @@ better for every metric judged here). Per metric (docs/statistics.md):
 - **the verdict**: ``better`` or ``worse`` where the sign test rejects "as often better
   as worse" after Holm; else ``equivalent`` where the equivalence test holds after Holm;
   else ``inconclusive``. A metric whose value is set by the reference for both
-  controllers (Td and Tr of a smooth quintic move: every controller's are the move's
-  own) is ``set by the reference``, no verdict.
+  controllers (Td and Tr of a smooth quintic move: on the typical plant every
+  controller's are the move's own, within the tolerance) is ``set by the reference``,
+  and one that neither controller has on any plant (Tp of a response with no peak) is
+  ``undefined``: no verdict.
 
 A plant counts for a metric only where both controllers have a value (a run that
 diverged, or an undefined metric, such as a settling time never reached, leaves it out).
@@ -47,7 +49,7 @@ __all__ = [
 ]
 
 CLAIM_METRICS = CLAIMED_BETTER  # the paper's claims: FCM-CTC lowers Tp, Td, Ts, Tr, Mp, ess
-VERDICTS = ("better", "worse", "equivalent", "inconclusive", "set by the reference")
+VERDICTS = ("better", "worse", "equivalent", "inconclusive", "set by the reference", "undefined")
 ALPHA = 0.05
 SET_BY_REFERENCE = "set by the reference"
 
@@ -149,8 +151,9 @@ def judge(
 ) -> dict[str, float | int | str]:
     """The unadjusted statistics of one metric's pairs (``a`` proposed, ``b`` baseline,
     one value per plant): counts, estimate and interval, sign-test and equivalence p. With
-    ``reference`` (the value the reference itself has), both controllers within
-    ``tolerance`` of it on every plant marks the metric as set by the reference."""
+    ``reference`` (the value the reference itself has), both controllers' medians within
+    ``tolerance`` of it mark the metric as set by the reference: on the typical plant
+    neither controller, the reference did."""
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     both = np.isfinite(a) & np.isfinite(b)
     a, b = a[both], b[both]
@@ -160,8 +163,8 @@ def judge(
     by_reference = (
         reference is not None
         and d.size > 0
-        and bool(np.all(np.abs(a - reference) <= tolerance))
-        and bool(np.all(np.abs(b - reference) <= tolerance))
+        and abs(float(np.median(a)) - reference) <= tolerance
+        and abs(float(np.median(b)) - reference) <= tolerance
     )
     return {
         "n": int(d.size),
@@ -193,6 +196,7 @@ def _verdicts(table: pd.DataFrame) -> pd.DataFrame:
     verdict[differ & (table["worse"] > table["better"])] = "worse"
     verdict[judged & ~differ & (table["tost_p_adjusted"] < ALPHA)] = "equivalent"
     verdict[table["set_by_reference"]] = SET_BY_REFERENCE
+    verdict[table["n"] == 0] = "undefined"
     table["verdict"] = verdict
     return table.drop(columns=["set_by_reference"])
 

@@ -467,12 +467,29 @@ def conclusions(
             )
             for name in (p, b)
         }
+        unstable = sum(
+            (_lookup(rows, variant.name, e, b).get("linear_growth_1_s") or 0.0) > 0
+            for e in manifest.experiments
+        )
+        why = (
+            f" ({b}'s loop, linearised at the target, is unstable in {unstable} of them: "
+            "the gains are too high for these joints)"
+            if unstable
+            else ""
+        )
         out.append(
             f"- **{variant.title[0].upper()}{variant.title[1:]}, the paper's "
             f"{len(manifest.experiments)} experiments:** {p} lower/higher than {b} beyond "
-            f"tolerance: {counts}. Met the spec: {p} {met_runs[p]}, {b} {met_runs[b]}."
+            f"tolerance: {counts}. Met the spec: {p} {met_runs[p]}, {b} {met_runs[b]}{why}."
         )
     return out
 
 
-VERDICT_ORDER = ("better", "worse", "equivalent", "inconclusive", "set by the reference")
+VERDICT_ORDER = (
+    "better",
+    "worse",
+    "equivalent",
+    "inconclusive",
+    "set by the reference",
+    "undefined",
+)

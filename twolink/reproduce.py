@@ -560,7 +560,7 @@ def reference_values(scenario: Scenario, joints: Any) -> dict[tuple[int, str], f
     from twolink.metrics import step_metrics
 
     t = np.arange(0.0, scenario.duration + 1e-12, scenario.control_dt)
-    q_ref = np.stack(scenario.reference.sample(t)[0], axis=-1).reshape(len(t), 2)
+    q_ref = scenario.reference.sample(t)[0]  # (N, 2)
     out = {}
     for j in joints:
         target, start = scenario.reference.final[j - 1], scenario.q0[j - 1]

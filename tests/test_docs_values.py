@@ -1,0 +1,48 @@
+"""The numbers the docs and README state about the shipped configuration are the ones the
+shipped files produce: a doc that drifts from the runs fails here."""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+from twolink.config import load_scenario
+from twolink.experiment import build_controller
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _doc_value(text: str, row: str) -> float:
+    """The first number of ``our value`` in the table row that starts ``| row |``."""
+    match = re.search(rf"^\| {re.escape(row)} \| [^|]* \| ([-0-9.e+]+)", text, re.MULTILINE)
+    assert match, f"docs/reproduction.md has no row {row!r}"
+    return float(match.group(1))
+
+
+def _printed(value: float, shown: float) -> bool:
+    """``value`` rounds to ``shown`` at the digits ``shown`` was printed with."""
+    digits = len(repr(shown).split(".")[1]) if "." in repr(shown) else 0
+    return math.isclose(round(value, digits), shown, abs_tol=10 ** -(digits + 3))
+
+
+def test_reproduction_doc_gives_the_shipped_gains_and_fuzzy_scaling():
+    text = (REPO / "docs" / "reproduction.md").read_text()
+    s = load_scenario(
+        REPO / "runs" / "paper" / "theta1_step.toml",
+        {"controller": {"kind": "fcm_ctc", "rule_base": "designed"}},
+    )
+    c = build_controller(s)
+    shipped = {
+        "Kp": s.controller.kp[0],
+        "Kd": s.controller.kd[0],
+        "span E": s.controller.fuzzy.span,
+        "ke": c.ke,
+        "kde": c.kde,
+        "ku": c.ku,
+    }
+    for row, value in shipped.items():
+        shown = _doc_value(text, row)
+        assert _printed(float(value), shown), (row, value, shown)
+    wn = math.sqrt(s.controller.kp[0])
+    assert f"ωn = {wn:g} rad/s" in text
