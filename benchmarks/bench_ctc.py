@@ -14,7 +14,7 @@ import time
 
 import mujoco
 
-from controllers.ctc import ComputedTorque
+from twolink.controllers.ctc import ComputedTorque
 from twolink.params import ArmParams
 from twolink.plant import Plant
 from twolink.references import ArmReference, Step

@@ -21,9 +21,9 @@ import time
 import mujoco
 import numpy as np
 
-from controllers.ctc import ComputedTorque
-from controllers.flexible import CompositeControl, FlexibleFeedbackLinearisation, MotorPD
 from twolink.batch import Arm, BatchPlant, simulate_batch
+from twolink.controllers.ctc import ComputedTorque
+from twolink.controllers.flexible import CompositeControl, FlexibleFeedbackLinearisation, MotorPD
 from twolink.params import ArmParams, Flexibility
 from twolink.plant import Plant
 from twolink.references import ArmReference, Septic

@@ -24,7 +24,7 @@ import time
 import numpy as np
 from skfuzzy import control as ctrl
 
-from controllers.fuzzy import default_fuzzy_pd
+from twolink.controllers.fuzzy import default_fuzzy_pd
 
 SK_CALLS = 30  # skfuzzy compute() takes tens of ms per call
 REPEATS = 5
@@ -139,7 +139,7 @@ def main() -> None:
 def table_ratios(engine, system, t_sk_array: float, t_batch: float) -> None:
     """(d) the lookup table (``engine = "table"``, 201 x 201) per sample on 10^6 inputs:
     target <= 0.1 us per sample and >= 1000x faster than skfuzzy's array compute()."""
-    from controllers.fuzzy.table import FuzzyTable, table_bound
+    from twolink.controllers.fuzzy.table import FuzzyTable, table_bound
 
     table = FuzzyTable(engine, 201)
     rng = np.random.default_rng(7)
@@ -166,8 +166,8 @@ def closed_loop_ratio() -> None:
     """(c) a 10 s, 1 kHz FCM-CTC closed loop vs a bare mj_step loop of the same length."""
     from bench_ctc import DT, REPEATS, bare_loop, closed_loop  # same folder
 
-    from controllers.fuzzy import paper_fuzzy_pd
-    from controllers.fuzzy_ctc import FuzzyComputedTorque
+    from twolink.controllers.fuzzy import paper_fuzzy_pd
+    from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
     from twolink.params import ArmParams
     from twolink.plant import Plant
     from twolink.references import ArmReference, Step

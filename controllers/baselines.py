@@ -20,8 +20,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from controllers.base import pair, saturate
-from controllers.ctc import ComputedTorque
+from twolink.controllers.base import pair, saturate
+from twolink.controllers.ctc import ComputedTorque
 from twolink.dynamics import terms
 from twolink.params import ArmParams
 

@@ -21,10 +21,10 @@ from typing import Any
 
 import numpy as np
 
-from controllers.base import Controller
-from controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity
-from controllers.ctc import ComputedTorque
-from controllers.fuzzy_ctc import FuzzyComputedTorque
+from twolink.controllers.base import Controller
+from twolink.controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity
+from twolink.controllers.ctc import ComputedTorque
+from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
 from twolink.dynamics import terms
 from twolink.references import ArmReference
 

@@ -13,7 +13,7 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from controllers.base import pair, saturate
+from twolink.controllers.base import pair, saturate
 from twolink.dynamics import terms
 from twolink.params import ArmParams
 from twolink.references import ArmReference

@@ -41,10 +41,10 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from controllers.base import saturate
-from controllers.baselines import straight_inertia
-from controllers.batch import ReferenceTable, _Models
-from controllers.ctc import ComputedTorque
+from twolink.controllers.base import saturate
+from twolink.controllers.baselines import straight_inertia
+from twolink.controllers.batch import ReferenceTable, _Models
+from twolink.controllers.ctc import ComputedTorque
 from twolink.dynamics import derivative_terms, gravity_gradient_bound, terms
 from twolink.params import Flexibility
 from twolink.references import ArmReference

@@ -21,7 +21,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from controllers.ctc import ComputedTorque
+from twolink.controllers.ctc import ComputedTorque
 
 MODES = ("add", "replace")
 

@@ -409,7 +409,11 @@ SWEEP_CASES = {
         "[controllers.ctc]\nkind = 1\n",
         "controllers.ctc.kind: must be a string, got 1",
     ),
-    "controller unknown key": (CTC, CTC + "gain = 1.0\n", "controllers.ctc.gain: unknown key"),
+    "controller unknown key": (
+        CTC,
+        CTC + "gain = 1.0\n",
+        "controllers.ctc.gain: unknown key",
+    ),
     "controller rule base missing": (
         CTC,
         '[controllers.fcm]\nkind = "fcm_ctc"\nrule_base = "nope.toml"\n',
@@ -684,7 +688,10 @@ SWEEP_SETS = {
         "parameters.mass: unknown parameter",
     ),
     "controller escapes by --set": ("controllers.x/y.kind=ctc", "controllers.x/y: must be 1-100"),
-    "controller not a table by --set": ("controllers.ctc=3", "controllers.ctc: must be a table"),
+    "controller not a table by --set": (
+        "controllers.ctc=3",
+        "controllers.ctc: must be a table",
+    ),
     "name escapes by --set": ("name=../x", "name: must be 1-100 letters"),
     "missing scenario by --set": ("scenario=nope.toml", "scenario: {tmp}/nope.toml: no such file"),
     "parameters not a table by --set": ("parameters=3", "parameters: must be a table, got 3"),

@@ -8,11 +8,16 @@ import pytest
 from scipy import optimize
 from scipy.linalg import expm
 
-from controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity, straight_inertia
-from controllers.ctc import ComputedTorque
-from controllers.fuzzy import paper_fuzzy_pd
 from twolink import dynamics
 from twolink.config import load_scenario
+from twolink.controllers.baselines import (
+    FuzzyPD,
+    IntegralComputedTorque,
+    PDGravity,
+    straight_inertia,
+)
+from twolink.controllers.ctc import ComputedTorque
+from twolink.controllers.fuzzy import paper_fuzzy_pd
 from twolink.experiment import build_controller
 from twolink.params import ArmParams
 from twolink.plant import Plant

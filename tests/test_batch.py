@@ -17,11 +17,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.batch import batch_laws
-from controllers.ctc import ComputedTorque
 from twolink import experiment
 from twolink.batch import Arm, BatchPlant, model_gravity, simulate_batch
 from twolink.config import load_scenario, merge
+from twolink.controllers.batch import batch_laws
+from twolink.controllers.ctc import ComputedTorque
 from twolink.experiment import measure, run_scenario, run_scenarios
 from twolink.params import ArmParams, Flexibility
 from twolink.plant import Plant, incline

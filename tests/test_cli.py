@@ -11,9 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 import twolink.validation
-from controllers.fuzzy import load_rule_base
 from twolink.cli import main
 from twolink.config import load_scenario
+from twolink.controllers.fuzzy import load_rule_base
 from twolink.params import ArmParams, Flexibility
 from twolink.plant import model_xml
 

@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from controllers.ctc import ComputedTorque
 from twolink import dynamics
 from twolink.cli import main
 from twolink.config import ConfigError, load_scenario
+from twolink.controllers.ctc import ComputedTorque
 from twolink.experiment import build_controller, measure, run_scenario, write_run
 from twolink.params import ArmParams
 from twolink.plant import Plant
@@ -253,7 +253,7 @@ def test_every_shipped_scenario_file_loads_and_builds():
 
 
 def test_fcm_ctc_reads_a_rule_base_file_next_to_the_scenario(tmp_path):
-    from controllers.fuzzy import Rule, save_rule_base
+    from twolink.controllers.fuzzy import Rule, save_rule_base
 
     rules = [Rule("PB", "Z", "PB"), Rule("NB", "Z", "NB")]
     save_rule_base(tmp_path / "mine.toml", rules)

@@ -8,19 +8,20 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-PACKAGES = ("twolink", "controllers")
+# package -> folder: the repository's controllers/ installs as twolink.controllers
+PACKAGES = {"twolink": "twolink", "twolink.controllers": "controllers"}
 MAX_LINES = 700  # one concept, one home: a module past this holds more than one
 
 
 def module_files() -> dict[str, Path]:
     """Dotted module name -> file, for every module of the project's packages."""
     out = {}
-    for package in PACKAGES:
-        for path in sorted((REPO / package).rglob("*.py")):
-            parts = list(path.relative_to(REPO).with_suffix("").parts)
+    for package, folder in PACKAGES.items():
+        for path in sorted((REPO / folder).rglob("*.py")):
+            parts = list(path.relative_to(REPO / folder).with_suffix("").parts)
             if parts[-1] == "__init__":
                 parts.pop()
-            out[".".join(parts)] = path
+            out[".".join([package, *parts])] = path
     return out
 
 
@@ -122,3 +123,26 @@ def test_no_import_cycle_among_the_project_modules():
 def test_modules_stay_readable(name):
     lines = module_files()[name].read_text().count("\n")
     assert lines <= MAX_LINES, f"{name} has {lines} lines: split it by concern"
+
+
+def test_the_controllers_install_as_twolink_controllers_not_a_top_level_module(tmp_path):
+    """No generic ``controllers`` module in site-packages: outside the checkout it does not
+    import, ``twolink.controllers`` does, and the package list maps the folder there."""
+    import subprocess
+    import sys
+    import tomllib
+
+    code = (
+        "import importlib.util as u\n"
+        "assert u.find_spec('controllers') is None, u.find_spec('controllers')\n"
+        "from twolink.controllers import ComputedTorque, FuzzyComputedTorque\n"
+        "from twolink import ComputedTorque as C\n"
+        "assert C is ComputedTorque\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True
+    )
+    assert done.returncode == 0, done.stderr
+    setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert all(p == "twolink" or p.startswith("twolink.") for p in setuptools["packages"])
+    assert setuptools["package-dir"] == {"twolink.controllers": "controllers"}

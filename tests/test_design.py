@@ -5,9 +5,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.fuzzy import Rule, fired_rule_labels, load_rule_base
-from controllers.fuzzy_ctc import FuzzyComputedTorque
 from twolink.config import RULEBASE_DIR, ConfigError, load_scenario
+from twolink.controllers.fuzzy import Rule, fired_rule_labels, load_rule_base
+from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
 from twolink.design import (
     DEFAULT_DESIGN,
     design,

@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from controllers.fuzzy import Rule, default_fuzzy_pd, load_rule_base, paper_fuzzy_pd
 from twolink.config import (
     RULEBASE_DIR,
     ConfigError,
@@ -20,6 +19,7 @@ from twolink.config import (
     linear_span,
     load_scenario,
 )
+from twolink.controllers.fuzzy import Rule, default_fuzzy_pd, load_rule_base, paper_fuzzy_pd
 from twolink.design import (
     DEFAULT_DESIGN,
     DOCS,

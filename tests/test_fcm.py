@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import skfuzzy
 
-from controllers.fcm import FCMResult, fcm, fcm_memberships
+from twolink.controllers.fcm import FCMResult, fcm, fcm_memberships
 
 TRUE_CENTRES = np.array([[0.0, 0.0], [4.0, 4.0], [-4.0, 3.0], [3.0, -4.0]])
 SIGMA = 0.5

@@ -27,9 +27,11 @@ import pytest
 from scipy.linalg import expm
 from scipy.optimize import brentq, fsolve
 
-from controllers.baselines import straight_inertia
-from controllers.ctc import ComputedTorque
-from controllers.flexible import (
+from twolink import dynamics
+from twolink.config import ConfigError, load_scenario, merge
+from twolink.controllers.baselines import straight_inertia
+from twolink.controllers.ctc import ComputedTorque
+from twolink.controllers.flexible import (
     CompositeControl,
     FlexibleFeedbackLinearisation,
     MotorPD,
@@ -37,8 +39,6 @@ from controllers.flexible import (
     motor_pd_bound,
     spring_frequency,
 )
-from twolink import dynamics
-from twolink.config import ConfigError, load_scenario, merge
 from twolink.experiment import build_controller, measure, run_scenario, run_scenarios
 from twolink.params import TWIST_LIMIT, ArmParams, Flexibility
 from twolink.plant import Plant

@@ -15,8 +15,8 @@ import skfuzzy.control.controlsystem as sk_controlsystem
 from skfuzzy import control as ctrl
 from skfuzzy.control.exceptions import EmptyMembershipError, NoTermMembershipsError
 
-from controllers import fuzzy
-from controllers.fuzzy import (
+from twolink.controllers import fuzzy
+from twolink.controllers.fuzzy import (
     LABELS_7,
     RULEBASE_DIR,
     FuzzyVariable,
@@ -31,7 +31,7 @@ from controllers.fuzzy import (
     save_rule_base,
     triangular_partition,
 )
-from controllers.fuzzy import engine as fuzzy_engine
+from twolink.controllers.fuzzy import engine as fuzzy_engine
 
 pytestmark = pytest.mark.filterwarnings(
     # skfuzzy 0.5 calls np.maximum with a positional output argument.

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from controllers.fuzzy import RULEBASE_DIR, default_fuzzy_pd, load_rule_base, paper_fuzzy_pd
-from controllers.fuzzy.coverage import coverage
-from controllers.fuzzy.table import FuzzyTable, table_bound
+from twolink.controllers.fuzzy import RULEBASE_DIR, default_fuzzy_pd, load_rule_base, paper_fuzzy_pd
+from twolink.controllers.fuzzy.coverage import coverage
+from twolink.controllers.fuzzy.table import FuzzyTable, table_bound
 
 
 def test_paper_coverage_equals_skfuzzys_no_rule_fired_fraction():

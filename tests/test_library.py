@@ -40,7 +40,7 @@ def test_the_readme_quick_start_runs_and_says_what_the_closed_form_says(tmp_path
 def test_every_public_name_resolves_from_the_package():
     for name in twolink.__all__:
         assert getattr(twolink, name) is not None, name
-    from controllers.ctc import ComputedTorque
+    from twolink.controllers.ctc import ComputedTorque
     from twolink.sim import simulate
 
     assert twolink.ComputedTorque is ComputedTorque and twolink.simulate is simulate

@@ -401,7 +401,7 @@ def test_coverage_refuses_pipes_and_devices_at_once(tmp_path):
 
 
 def test_a_20000_rule_base_loads_in_linear_time(tmp_path):
-    from controllers.fuzzy import load_rule_base
+    from twolink.controllers.fuzzy import load_rule_base
 
     labels = ["NB", "NM", "NS", "Z", "PS", "PM", "PB"]
     rules = [(labels[i % 7], labels[(i // 7) % 7], "Z") for i in range(20_000)]

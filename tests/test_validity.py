@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 import skfuzzy
 
-from controllers.fcm import fcm
-from controllers.fuzzy import default_fuzzy_pd
+from twolink.controllers.fcm import fcm
+from twolink.controllers.fuzzy import default_fuzzy_pd
 from twolink.validity import (
     partition_coefficient,
     partition_entropy,

@@ -6,8 +6,8 @@ The public API in one import (see the README's library quick start)::
 
 Names are loaded on first use (PEP 562), so ``import twolink`` stays cheap and the
 package imports nothing it does not need: MuJoCo comes with ``Plant``, matplotlib with
-``run_figures``. The controllers live in the top-level ``controllers`` package and are
-re-exported here.
+``run_figures``. The controllers are ``twolink.controllers`` (the repository's top-level
+``controllers/`` folder, mapped there by ``pyproject.toml``) and are re-exported here.
 """
 
 from __future__ import annotations
@@ -36,11 +36,11 @@ _EXPORTS = {
     "simulate": "twolink.sim",
     "Trajectory": "twolink.sim",
     # controllers
-    "ComputedTorque": "controllers.ctc",
-    "FuzzyComputedTorque": "controllers.fuzzy_ctc",
-    "MamdaniEngine": "controllers.fuzzy",
-    "default_fuzzy_pd": "controllers.fuzzy",
-    "paper_fuzzy_pd": "controllers.fuzzy",
+    "ComputedTorque": "twolink.controllers.ctc",
+    "FuzzyComputedTorque": "twolink.controllers.fuzzy_ctc",
+    "MamdaniEngine": "twolink.controllers.fuzzy",
+    "default_fuzzy_pd": "twolink.controllers.fuzzy",
+    "paper_fuzzy_pd": "twolink.controllers.fuzzy",
     # metrics
     "step_metrics": "twolink.metrics",
     "StepMetrics": "twolink.metrics",

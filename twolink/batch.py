@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controllers.base import Controller
+from twolink.controllers.base import Controller
 from twolink.params import ArmParams, Flexibility
 from twolink.plant import add_arm, holding_motor_q, mujoco, new_spec
 from twolink.sim import (
@@ -213,7 +213,7 @@ def simulate_batch(
     None; ``holding`` (N,) bool: flexible arms that start with their springs holding them at
     rest (:meth:`BatchPlant.reset`). Every arm shares the plant's timestep and ``control_dt``.
     """
-    from controllers.batch import batch_laws
+    from twolink.controllers.batch import batch_laws
 
     n_arms = plant.n_arms
     if len(controllers) != n_arms or len(durations) != n_arms:

@@ -224,7 +224,7 @@ def run(
     own_output(folder, "run", str(Path(scenario).resolve()), default=out is None)
     engine = getattr(controller, "engine", None)
     if engine is not None:
-        from controllers.fuzzy import uncovered_fraction
+        from twolink.controllers.fuzzy import uncovered_fraction
 
         gap = uncovered_fraction(engine)
         if gap > 0:

@@ -40,9 +40,9 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
       twolink coverage default              # the 7x7: exit 0
       twolink coverage designed --threshold 0.1
     """
-    from controllers.fuzzy import default_fuzzy_pd, load_rule_base
-    from controllers.fuzzy.coverage import coverage
     from twolink.config import resolve_rule_base
+    from twolink.controllers.fuzzy import default_fuzzy_pd, load_rule_base
+    from twolink.controllers.fuzzy.coverage import coverage
 
     path = resolve_rule_base(rule_base)
     try:

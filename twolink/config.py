@@ -44,6 +44,7 @@ Schema (all keys optional except the reference)::
 from __future__ import annotations
 
 import copy
+import importlib.util
 import math
 import tomllib
 from collections.abc import Sequence
@@ -72,7 +73,9 @@ FUZZY_MODES = ("add", "replace")
 FUZZY_ENGINES = ("exact", "table")  # [controller.fuzzy] engine: docs/fuzzy.md
 
 
-RULEBASE_DIR = Path(__file__).resolve().parents[1] / "controllers" / "rulebases"
+# The shipped rule bases, where twolink.controllers is installed (the repository's
+# controllers/ in a checkout, twolink/controllers/ in a wheel)
+RULEBASE_DIR = Path(importlib.util.find_spec("twolink.controllers").origin).parent / "rulebases"
 BUILTIN_RULE_BASES = {
     "paper": "paper_table1.toml",
     "designed": "designed.toml",
@@ -651,7 +654,7 @@ def _check_rule_base(top: TomlTable, s: Scenario) -> None:
     path = resolve_rule_base(name, s.source)
     if not path.is_file():
         top.fail("controller.rule_base", f"no such file {path}")
-    from controllers.fuzzy import default_fuzzy_pd, load_rule_base
+    from twolink.controllers.fuzzy import default_fuzzy_pd, load_rule_base
 
     try:
         default_fuzzy_pd().with_rules(load_rule_base(path))  # its labels must be the engine's

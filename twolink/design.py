@@ -41,14 +41,6 @@ from typing import Any
 
 import numpy as np
 
-from controllers.fcm import FCMResult, fcm
-from controllers.fuzzy import (
-    MIRROR_LABELS,
-    MamdaniEngine,
-    Rule,
-    load_rule_base,
-    save_rule_base,
-)
 from twolink.config import (
     ConfigError,
     Scenario,
@@ -57,6 +49,14 @@ from twolink.config import (
     expect_kind,
     load_scenario,
     read_toml,
+)
+from twolink.controllers.fcm import FCMResult, fcm
+from twolink.controllers.fuzzy import (
+    MIRROR_LABELS,
+    MamdaniEngine,
+    Rule,
+    load_rule_base,
+    save_rule_base,
 )
 from twolink.design_checks import (
     SymmetryCheck,
@@ -599,7 +599,7 @@ def design_markdown(rules: Sequence[Rule], evidence: Mapping[str, Any]) -> list[
     ``[evidence]`` of a saved design) as markdown: the rules beside the paper's Table 1,
     the data they came from, their symmetry, and the held-out table, CTC beside FCM-CTC.
     Used by the report's design section and docs/fuzzy.md."""
-    from controllers.fuzzy import paper_fuzzy_pd
+    from twolink.controllers.fuzzy import paper_fuzzy_pd
 
     ev = evidence
     sym = ev.get("symmetry", {})

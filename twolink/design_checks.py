@@ -13,8 +13,8 @@ from typing import Any
 
 import numpy as np
 
-from controllers.fuzzy import MIRROR_LABELS, MamdaniEngine, Rule
 from twolink.config import Scenario
+from twolink.controllers.fuzzy import MIRROR_LABELS, MamdaniEngine, Rule
 from twolink.experiment import build_controller, run_scenarios
 
 SYMMETRY_GRID = 61  # points per axis of the asymmetry check: the universes' own samples

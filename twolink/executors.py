@@ -100,7 +100,7 @@ WORKER_PRELOAD = [
     "twolink.sweep",
     "twolink.plots",
     "twolink.tracing",
-    "controllers.batch",
+    "twolink.controllers.batch",
 ]
 
 

@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from controllers.base import Controller
-from controllers.ctc import ComputedTorque
 from twolink.config import BUILTIN_RULE_BASES, FLEXIBLE_KINDS, Scenario, resolve_rule_base
+from twolink.controllers.base import Controller
+from twolink.controllers.ctc import ComputedTorque
 from twolink.io import (
     LOCK_NAME,
     OWNER_NAME,
@@ -60,7 +60,7 @@ def build_controller(s: Scenario) -> Controller:
     if c.kind == "ctc":
         return ComputedTorque(**common)
     if c.kind in FLEXIBLE_KINDS:  # they model the joints with the plant's own (identified)
-        from controllers import flexible
+        from twolink.controllers import flexible
 
         joints = s.plant.flexibility
         if c.kind == "motor_pd":
@@ -70,7 +70,7 @@ def build_controller(s: Scenario) -> Controller:
         return flexible.FlexibleFeedbackLinearisation(
             **common, joints=joints, control_dt=s.control_dt
         )
-    from controllers import baselines
+    from twolink.controllers import baselines
 
     if c.kind == "pd_gravity":
         return baselines.PDGravity(**common)
@@ -87,7 +87,7 @@ def build_controller(s: Scenario) -> Controller:
         engine = _table(engine, f.table_points)
     if c.kind == "fuzzy_pd":
         return baselines.FuzzyPD(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku)
-    from controllers.fuzzy_ctc import FuzzyComputedTorque
+    from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
 
     return FuzzyComputedTorque(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku, mode=f.mode)
 
@@ -97,7 +97,7 @@ def _engine(rule_base: str | None, *version: int):
     """The engine of a rule-base file (None: the 7x7 heuristic), built once per file
     version: controllers of one rule base share their engine, which is what lets the
     batch engine run them as one law (``controllers/batch.py``)."""
-    from controllers import fuzzy
+    from twolink.controllers import fuzzy
 
     if rule_base is None:
         return fuzzy.default_fuzzy_pd()
@@ -107,7 +107,7 @@ def _engine(rule_base: str | None, *version: int):
 @functools.lru_cache(maxsize=32)
 def _table(engine, points: int):
     """The lookup table of a cached engine (one per engine and size, shared like it)."""
-    from controllers.fuzzy.table import FuzzyTable
+    from twolink.controllers.fuzzy.table import FuzzyTable
 
     return FuzzyTable(engine, points)
 
@@ -392,7 +392,7 @@ def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) ->
     engine = getattr(controller, "engine", None)
     if engine is None:
         return {}
-    from controllers.fuzzy import fired_rule_labels
+    from twolink.controllers.fuzzy import fired_rule_labels
 
     ke, kde = controller.ke, controller.kde
     extras: dict[str, Any] = {

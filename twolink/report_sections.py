@@ -28,7 +28,7 @@ def oscillation_section(
     over that window (the dominant rule per sample; "none": the CTC term alone acts)."""
     import numpy as np
 
-    from controllers.fuzzy import fired_rule_labels
+    from twolink.controllers.fuzzy import fired_rule_labels
     from twolink.metrics import OSCILLATION_WINDOW
     from twolink.vocabulary import format_value
 

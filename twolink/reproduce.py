@@ -618,8 +618,8 @@ def _design_figures(result: Any, out: Path) -> list[Any]:
     functions, the control surfaces of the heuristic, the paper's and the designed rule
     base, and the cluster-validity sweep, which it returns
     (:func:`twolink.validity.validity_sweep`: c = 2..10, PC, PE, XB)."""
-    from controllers import fuzzy
     from twolink import plots
+    from twolink.controllers import fuzzy
     from twolink.validity import validity_figure, validity_sweep
 
     validity = validity_sweep(result.points, result.weights)

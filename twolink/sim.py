@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from controllers.base import Controller
+from twolink.controllers.base import Controller
 from twolink.io import atomic_path
 from twolink.plant import Plant
 

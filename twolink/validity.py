@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from controllers.fcm import fcm
+from twolink.controllers.fcm import fcm
 
 __all__ = [
     "ValidityRow",
@@ -183,8 +183,8 @@ def validity_markdown(result: Any, rows: Sequence[ValidityRow] | None = None) ->
 def coverage_markdown(result: Any) -> list[str]:
     """Rule coverage (``twolink coverage``) of the paper's Table 1, the designed rule base
     and the 7x7: the share of the input box where no rule fires."""
-    from controllers.fuzzy import paper_fuzzy_pd
-    from controllers.fuzzy.coverage import coverage
+    from twolink.controllers.fuzzy import paper_fuzzy_pd
+    from twolink.controllers.fuzzy.coverage import coverage
 
     bases = {
         "paper's Table 1": paper_fuzzy_pd(),

@@ -9,20 +9,20 @@ scikit-fuzzy, rule bases as data, and the project's standard engines.
 Everything public is importable from ``controllers.fuzzy`` itself.
 """
 
-from controllers.fuzzy.engine import (
+from twolink.controllers.fuzzy.engine import (
     MamdaniEngine,
     fired_rule_labels,
     rule_label,
     uncovered_fraction,
 )
-from controllers.fuzzy.membership import (
+from twolink.controllers.fuzzy.membership import (
     LABELS_7,
     MIRROR_LABELS,
     FuzzyVariable,
     MembershipFunction,
     triangular_partition,
 )
-from controllers.fuzzy.rulebase import (
+from twolink.controllers.fuzzy.rulebase import (
     RULEBASE_DIR,
     Rule,
     RuleBase,
@@ -30,7 +30,7 @@ from controllers.fuzzy.rulebase import (
     pd_rule_table,
     save_rule_base,
 )
-from controllers.fuzzy.tables import default_fuzzy_pd, paper_fuzzy_pd
+from twolink.controllers.fuzzy.tables import default_fuzzy_pd, paper_fuzzy_pd
 
 __all__ = [
     "LABELS_7",

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from controllers.fuzzy.engine import MamdaniEngine, _partition_peaks
+from twolink.controllers.fuzzy.engine import MamdaniEngine, _partition_peaks
 
 __all__ = ["Coverage", "UncoveredRegion", "coverage", "grid_uncovered_fraction"]
 

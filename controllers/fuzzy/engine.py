@@ -40,8 +40,8 @@ from typing import Any, Literal
 import numpy as np
 import skfuzzy
 
-from controllers.fuzzy.membership import FuzzyVariable
-from controllers.fuzzy.rulebase import Rule, RuleBase
+from twolink.controllers.fuzzy.membership import FuzzyVariable
+from twolink.controllers.fuzzy.rulebase import Rule, RuleBase
 
 __all__ = ["MamdaniEngine", "fired_rule_labels", "rule_label"]
 

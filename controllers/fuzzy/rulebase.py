@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from controllers.fuzzy.membership import LABELS_7, MIRROR_LABELS
+from twolink.controllers.fuzzy.membership import LABELS_7, MIRROR_LABELS
 from twolink.io import atomic_write_text, toml_key, toml_string, toml_table, toml_value
 
 __all__ = ["RULEBASE_DIR", "Rule", "RuleBase", "load_rule_base", "pd_rule_table", "save_rule_base"]

@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from controllers.fuzzy.engine import MamdaniEngine
+from twolink.controllers.fuzzy.engine import MamdaniEngine
 
 __all__ = ["FuzzyTable", "TableBound", "table_bound"]
 
@@ -236,7 +236,7 @@ def _cells(
     cells split at the input peaks); also per piece the jump mask and the range
     [u_lo, u_hi] of the active terms' supports (where every centroid lies), and the
     index of each cell's first piece along e and de."""
-    from controllers.fuzzy.engine import _partition_peaks
+    from twolink.controllers.fuzzy.engine import _partition_peaks
 
     pe, pd, pu = (_partition_peaks(v) for v in (exact.e, exact.de, exact.u))
     if exact.defuzz != "centroid" or pe is None or pd is None or pu is None:

@@ -3,9 +3,9 @@ both on normalised universes with the seven evenly spaced triangular labels."""
 
 from __future__ import annotations
 
-from controllers.fuzzy.engine import AndMethod, DefuzzMethod, MamdaniEngine
-from controllers.fuzzy.membership import LABELS_7, triangular_partition
-from controllers.fuzzy.rulebase import RULEBASE_DIR, RuleBase, load_rule_base
+from twolink.controllers.fuzzy.engine import AndMethod, DefuzzMethod, MamdaniEngine
+from twolink.controllers.fuzzy.membership import LABELS_7, triangular_partition
+from twolink.controllers.fuzzy.rulebase import RULEBASE_DIR, RuleBase, load_rule_base
 
 __all__ = ["default_fuzzy_pd", "paper_fuzzy_pd"]
 
