@@ -68,7 +68,7 @@ from twolink.design_checks import (
     with_mirrors,
 )
 from twolink.experiment import build_controller, run_scenarios
-from twolink.io import atomic_path, atomic_write_text, seal_intact, write_seal
+from twolink.io import SEAL_NAME, atomic_path, atomic_write_text, seal_intact, write_seal
 
 DEFAULT_DESIGN = Path(__file__).resolve().parents[1] / "runs" / "paper" / "design.toml"
 DOCS = Path(__file__).resolve().parents[1] / "docs" / "fuzzy.md"
@@ -526,7 +526,7 @@ def load_design(config: DesignConfig, folder: str | Path) -> DesignResult | None
     the ones its evidence keeps (an edited rule base is not reused), else None."""
     folder = Path(folder)
     if not seal_intact(folder, DESIGN_FILES):
-        if any((folder / name).exists() for name in DESIGN_FILES):
+        if (folder / SEAL_NAME).exists():  # a broken seal: say so (unsealed: quietly)
             print(
                 f"{folder}: damaged, edited or incomplete since twolink wrote it; designed again",
                 file=sys.stderr,

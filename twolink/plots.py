@@ -106,28 +106,99 @@ CONTROLLER_STYLES = {"CTC": ("tab:red", "-"), "FCM-CTC": ("tab:green", "-")}
 OTHER_STYLES = [(c, "--") for c in ("tab:blue", "tab:orange", "tab:purple", "tab:brown")]
 
 
-def response_figure(trajs: dict[str, Trajectory], joint: int, title: str) -> Figure:
-    """One joint's response under several controllers, with the reference (Figs 3-10)."""
-    fig, (ax, ax_e) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True, height_ratios=(2, 1))
-    # Room for a two-line title and the legend at the right.
-    fixed_layout(fig, left=0.1, right=0.8, top=0.89, bottom=0.09, hspace=0.08)
+def response_figure(
+    trajs: dict[str, Trajectory],
+    joint: int,
+    title: str,
+    pair: tuple[str, str] = ("FCM-CTC", "CTC"),
+) -> Figure:
+    """One joint's response under several controllers, with the reference (Figs 3-10),
+    drawn so that the comparison the project exists for shows.
+
+    Left, on a scale fitted to the reference and ``pair`` (the proposed controller and its
+    baseline; any other FCM variant joins them): θ, the error e, and the difference of the
+    pair's responses (which shows whether they differ at all, however small). Baselines
+    that stay on that scale are drawn there too; those that leave it (a failing baseline's
+    swings would flatten every other curve) get the right-hand panel, on their own scale,
+    with a note."""
     j = joint - 1
     first = next(iter(trajs.values()))
-    ax.plot(first.t, first.q_ref[:, j], "k--", lw=1.2, label="reference")
+    t_ref, ref = first.t, first.q_ref[:, j]
+    close = [n for n in trajs if n in pair or n.startswith("FCM")]
+    values = [ref] + [trajs[n].q[:, j] for n in close]
+    lo = min(float(np.nanmin(v)) for v in values)
+    hi = max(float(np.nanmax(v)) for v in values)
+    pad = 0.1 * max(hi - lo, 0.1)
+    lo, hi = lo - pad, hi + pad
+    far = [
+        n
+        for n, tr in trajs.items()
+        if n not in close and not (np.nanmin(tr.q[:, j]) >= lo and np.nanmax(tr.q[:, j]) <= hi)
+    ]
+    fig = plt.figure(figsize=(10.5 if far else 8.0, 6.5))
+    grid = fig.add_gridspec(3, 2 if far else 1, height_ratios=(2, 1, 1),
+                            width_ratios=(2, 1) if far else None)  # fmt: skip
+    ax = fig.add_subplot(grid[0, 0])
+    ax_e = fig.add_subplot(grid[1, 0], sharex=ax)
+    ax_d = fig.add_subplot(grid[2, 0], sharex=ax)
+    fixed_layout(fig, left=0.09, right=0.97 if far else 0.8, top=0.89, bottom=0.08,
+                 hspace=0.22, wspace=0.28)  # fmt: skip
+    for upper in (ax, ax_e):
+        upper.tick_params(labelbottom=False)
+    ax.plot(t_ref, ref, "k--", lw=1.2, label="reference")
     others = iter(OTHER_STYLES * len(trajs))
+    styles = {n: CONTROLLER_STYLES.get(n) or next(others) for n in trajs}
     for name, traj in trajs.items():
-        colour, style = CONTROLLER_STYLES.get(name) or next(others)
+        if name in far:
+            continue
+        colour, style = styles[name]
+        # the proposed controller dashed over its baseline: both show where they coincide
+        style = "--" if name == pair[0] else style
         label = name if traj.ok else f"{name} ({traj.status})"
         ax.plot(traj.t, traj.q[:, j], style, color=colour, lw=1.5, label=label)
-        ax_e.plot(traj.t, traj.e[:, j], style, color=colour, lw=1.2, label=name)
+        ax_e.plot(traj.t, traj.e[:, j], style, color=colour, lw=1.2)
+    ax.set_ylim(lo, hi)
+    errors = [trajs[n].e[:, j] for n in close]
+    if errors:
+        top = max(float(np.nanmax(np.abs(e))) for e in errors)
+        ax_e.set_ylim(-1.2 * top - 1e-12, 1.2 * top + 1e-12)
+    if all(n in trajs for n in pair):
+        a, b = trajs[pair[0]], trajs[pair[1]]
+        n = min(len(a.t), len(b.t))
+        diff = a.q[:n, j] - b.q[:n, j]
+        ax_d.plot(a.t[:n], diff, color="tab:green", lw=1.2)
+        ax_d.set_ylabel(f"Δθ{joint} [rad]")
+        ax_d.text(
+            0.01,
+            0.92,
+            f"{pair[0]} − {pair[1]}: largest |Δθ{joint}| {np.nanmax(np.abs(diff)):.2g} rad",
+            transform=ax_d.transAxes,
+            fontsize=8,
+            va="top",
+            bbox={"facecolor": "white", "alpha": 0.8, "edgecolor": "none"},
+        )
     ax.set_ylabel(f"θ{joint} [rad]")
     ax_e.set_ylabel(f"e{joint} = θd − θ [rad]")
-    ax_e.set_xlabel("time [s]")
-    for a in (ax, ax_e):
-        a.grid(alpha=0.3)
-    # One legend, beside the axes: it hides no curve, and matplotlib's "best" placement
-    # (a search over every vertex of 10,000-sample lines) would double the drawing time.
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    ax_d.set_xlabel("time [s]")
+    for a_ in (ax, ax_e, ax_d):
+        a_.grid(alpha=0.3)
+    if far:
+        ax_far = fig.add_subplot(grid[0:2, 1], sharex=ax)
+        ax_far.plot(t_ref, ref, "k--", lw=1.0)
+        for name in far:
+            colour, style = styles[name]
+            tr = trajs[name]
+            label = name if tr.ok else f"{name} ({tr.status})"
+            ax_far.plot(tr.t, tr.q[:, j], style, color=colour, lw=1.2, label=label)
+        ax_far.set_title("off the pair's scale (own scale)", fontsize=9)
+        ax_far.grid(alpha=0.3)
+        ax_far.legend(loc="best", fontsize=8)
+        note = fig.add_subplot(grid[2, 1])
+        note.axis("off")
+        handles, labels = ax.get_legend_handles_labels()
+        note.legend(handles, labels, loc="center", fontsize=8, frameon=False)
+    else:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
     ax.set_title(title)
     return fig
 

@@ -32,7 +32,7 @@ from twolink.experiment import (
     write_run,
 )
 from twolink.interrupts import raise_if_dropped
-from twolink.io import seal_intact, to_toml
+from twolink.io import SEAL_NAME, seal_intact, to_toml
 from twolink.manifest import (
     DEFAULT_MANIFEST,
     Experiment,
@@ -173,7 +173,8 @@ def finished_row(spec: RunSpec, scenario: Scenario, out: Path, trace: bool) -> d
     if not folder.is_dir():
         return None
     if not seal_intact(folder, needed):
-        if any((folder / name).exists() for name in needed):
+        # unsealed (cut short, or an older twolink's): quietly; a broken seal: say so
+        if (folder / SEAL_NAME).exists():
             print(
                 f"{folder}: damaged, edited or incomplete since twolink wrote it; computed again",
                 file=sys.stderr,
