@@ -463,3 +463,21 @@ def test_pyarrow_has_no_version_with_the_parquet_cve():
 
 def test_output_busy_is_an_oserror_the_cli_reports_as_bad_input():
     assert issubclass(OutputBusy, OSError) and issubclass(ForeignOutput, OSError)
+
+
+def test_sigterm_ends_reproduce_with_one_line_and_exit_143(tmp_path):
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twolink", "reproduce", "--out", str(tmp_path / "r"), "--no-trace"],
+        stderr=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    time.sleep(6.0)  # the pool is running: design, runs, the claims sweep
+    proc.send_signal(signal.SIGTERM)
+    _, err = proc.communicate(timeout=120)
+    if proc.returncode == 0:
+        pytest.skip("the reproduction finished before SIGTERM arrived")
+    assert proc.returncode == 143, err
+    assert "terminated (SIGTERM)" in err and "Traceback" not in err
+    leftovers = [p for p in tmp_path.rglob("*") if p.name.endswith((".tmp", ".old"))]
+    assert leftovers == []

@@ -588,7 +588,10 @@ def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tuple[l
         outcome = sweep.run_sweep(
             plan, out / "claims_study", pool=pool, plots=False, progress=progress
         )
-    except sweep.SweepInterrupted:
+    except sweep.SweepInterrupted as exc:
+        from twolink.interrupts import CTRL_C_RECEIVED
+
+        CTRL_C_RECEIVED.append(exc.signum)  # the command ends as that signal asks (130/143)
         raise KeyboardInterrupt from None  # the reproduction's own stop
     refs = reference_values(plan.nominal_scenario(), plan.joints)
     table = paired_claims(
