@@ -354,7 +354,8 @@ def flexible_study(sweep_file: Path, out: Path) -> list[str]:
         "",
         sweep.flexible_map_table(outcome.results, rigid, plan.step),
         "",
-        "Red ×: unstable (a torque-limited limit cycle, or diverged); grey: bounded but off "
+        "Red ×: unstable (a torque-limited limit cycle, diverged, or linearly unstable at the "
+        "target however calm the run's end); grey: bounded but off "
         "target; colour: Ts to the target, number: Mp [%]; a dot: a spring twisted beyond "
         "0.2 rad, no physical joint (docs/model.md).",
         "",

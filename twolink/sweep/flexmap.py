@@ -6,6 +6,8 @@ A sweep over ``k`` and ``wn`` (``runs/sweeps/flexible_map.toml``) gives one run 
 - ``settled``: met the spec (``twolink.outcome``: within 2 % of the move at the end),
   with Ts to the target and Mp, the worse of the moving joints;
 - ``off target``: bounded, not settled (a slow or biased response);
+- ``unstable``: not settled, its loop linearised at the target unstable (σ > 0,
+  :mod:`twolink.stability`), though the run may still end calm;
 - ``limit cycle``: not settled, with an oscillation larger than the 2 % band over the
   run's last 30 % (a linearly unstable loop held bounded by the torque limit);
 - ``diverged``: the simulation left its bounds (or failed).
@@ -39,7 +41,7 @@ if TYPE_CHECKING:
 __all__ = ["CELL_KINDS", "disagreements", "flexible_map_figure", "flexible_map_table",
            "map_cells", "rigid_reference"]  # fmt: skip
 
-CELL_KINDS = ("settled", "off target", "limit cycle", "diverged")
+CELL_KINDS = ("settled", "off target", "unstable", "limit cycle", "diverged")
 BAND = 0.02  # the 2 % band, as a share of the move (the spec's)
 # "Within the rigid arm's values": Ts at most this much later, Mp at most this much higher.
 TS_MARGIN = (1.1, 0.05)  # factor, s
@@ -74,14 +76,16 @@ def map_cells(results: pd.DataFrame | str | Path, move: float = 1.0) -> pd.DataF
     joints = sweep_meta(r).joints
     osc = _worst(r, joints, "oscillation_rad")
     met = r["outcome"].to_numpy(str) == "met spec"  # a decaying oscillation can meet it
-    kind = np.where(met, "settled", np.where(osc > BAND * move, "limit cycle", "off target"))
+    sigma = r["joint1_linear_growth_1_s"].to_numpy(float)
+    kind = np.where(osc > BAND * move, "limit cycle", "off target")
+    kind = np.where(sigma > 0, "unstable", kind)  # σ decides where the loop has one
+    kind = np.where(met, "settled", kind)
     kind = np.where(r["status"].to_numpy(str) != "ok", "diverged", kind)
     # Simulation against linear stability, where the loop has a growth rate σ at the
     # target: a run that ends calm (in band, not growing) on a loop with σ > 0 (the
     # unstable mode still too small to see), or one whose error grows at the end of a
     # loop with σ < 0. (A stable loop still outside the band at the end is slow, no
     # disagreement.)
-    sigma = r["joint1_linear_growth_1_s"].to_numpy(float)
     tail = _worst(r, (1, 2), "tail_error_rad")
     growth = _worst(r, (1, 2), "tail_growth")
     ok = r["status"].to_numpy(str) == "ok"
