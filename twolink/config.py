@@ -261,15 +261,38 @@ class Scenario:
 # ----------------------------------------------------------------------------- reading
 
 
+REPLACE = "replace"  # a table with ``replace = true`` replaces the inherited one whole
+
+
 def merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
-    """Deep-merge ``over`` into a copy of ``base``: tables merge, other values replace."""
+    """Deep-merge ``over`` into a copy of ``base``: tables merge, other values replace.
+
+    A table of ``over`` with ``replace = true`` replaces ``base``'s table whole instead of
+    merging into it: how a scenario that ``extends`` another changes a reference's kind
+    (a step over an inherited quintic would otherwise keep the quintic's ``duration``).
+    The flag itself never reaches the result."""
     out = copy.deepcopy(base)
     for key, value in over.items():
-        if isinstance(value, dict) and isinstance(out.get(key), dict):
-            out[key] = merge(out[key], value)
+        if isinstance(value, dict):
+            value = dict(value)
+            replace = isinstance(value.get(REPLACE), bool) and value.pop(REPLACE)
+            if not replace and isinstance(out.get(key), dict):
+                out[key] = merge(out[key], value)
+            else:
+                out[key] = merge({}, value)  # (strips flags nested inside)
         else:
             out[key] = copy.deepcopy(value)
     return out
+
+
+def _set_nested(out: dict[str, Any], parts: list[str], value: Any) -> None:
+    """``out[p0][p1]... = value``, making tables on the way (``--set`` accumulation: a
+    ``replace`` flag among the items is kept for the merge onto the file)."""
+    for part in parts[:-1]:
+        if not isinstance(out.get(part), dict):
+            out[part] = {}
+        out = out[part]
+    out[parts[-1]] = value
 
 
 def parse_set(items: Sequence[str]) -> dict[str, Any]:
@@ -291,12 +314,8 @@ def parse_set(items: Sequence[str]) -> dict[str, Any]:
             raise ConfigError(f"--set {key}: the value is nested too deep") from None
         if len(parts) > MAX_DEPTH:
             raise ConfigError(f"--set {key}: more than {MAX_DEPTH} dotted parts")
-        out = merge(out, _nested(parts, value))
+        _set_nested(out, parts, value)
     return out
-
-
-def _nested(parts: list[str], value: Any) -> dict[str, Any]:
-    return {parts[0]: _nested(parts[1:], value) if len(parts) > 1 else value}
 
 
 MAX_PHYSICS_STEPS = 1e8  # per run: 1e8 MuJoCo steps take about 15 min here

@@ -17,7 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from twolink.config import BUILTIN_RULE_BASES, FLEXIBLE_KINDS, Scenario, resolve_rule_base
+from twolink.config import (
+    BUILTIN_RULE_BASES,
+    FLEXIBLE_KINDS,
+    FUZZY_KINDS,
+    Scenario,
+    resolve_rule_base,
+)
 from twolink.controllers.base import Controller
 from twolink.controllers.ctc import ComputedTorque
 from twolink.io import (
@@ -281,6 +287,9 @@ class RunMetrics:
     # The closed loop's growth rate σ [1/s] linearised at the target (twolink.stability),
     # the loop's, shown for both joints; NaN but for linearisable laws on flexible joints
     linear_growth: tuple[float, float] = (math.nan, math.nan)
+    # Fuzzy laws: the share of samples where the fuzzy term's output is not 0 (it acts),
+    # per joint, on the run's errors; NaN for laws without a fuzzy term
+    fuzzy_active: tuple[float, float] = (math.nan, math.nan)
     oscillation: tuple[float, float] = (math.nan, math.nan)  # sustained, per joint
     # Ts to the target (within 2 % of the step of θd's final value), NaN where it never gets
     # there or the joint has no step; ``step[j].settling_time`` is Ts to the final value.
@@ -323,10 +332,12 @@ def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None)
     loop's linear growth rate at the target, of ``controller`` (default: the scenario's;
     a sweep's arms carry their own)."""
     growth = math.nan
+    if controller is None and (s.plant.flexibility is not None or s.controller.kind in FUZZY_KINDS):
+        controller = build_controller(s)
     if s.plant.flexibility is not None and traj.ok:
         from twolink.stability import closed_loop_growth
 
-        growth = closed_loop_growth(s, build_plant(s), controller or build_controller(s))
+        growth = closed_loop_growth(s, build_plant(s), controller)
     steps = []
     to_target = []
     for j, target in enumerate(s.reference.final):
@@ -345,10 +356,32 @@ def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None)
         message=traj.message,
         **_tail(s, traj),
         linear_growth=(growth, growth),
+        fuzzy_active=fuzzy_active_share(controller, traj),
         oscillation=oscillation_amplitude(traj.t, traj.e) if len(traj.t) else (math.nan,) * 2,
         settling_target=(to_target[0], to_target[1]),
         max_twist=max_twist(traj),
     )
+
+
+# The fuzzy term acts where its normalised output exceeds this: the centroid of the Z label
+# alone (a rule firing at rest) is 4e-17 from rounding, not an action.
+FUZZY_ACTS = 1e-9
+
+
+def fuzzy_active_share(controller: Controller | None, traj: Trajectory) -> tuple[float, float]:
+    """Per joint, the share of a run's samples where ``controller``'s fuzzy term acts: its
+    engine's output on the run's (scaled) error and error rate exceeds :data:`FUZZY_ACTS`
+    of its full scale. NaN for a law
+    without a fuzzy term, or a run whose errors are not finite (it diverged). Where the
+    term is 0 the fuzzy law is its CTC (issue: the designed rule base fires on no sample
+    of the nominal quintic moves, so FCM-CTC equals CTC there)."""
+    engine = getattr(controller, "engine", None)
+    e, de = traj.e, traj.de
+    if engine is None or not len(traj.t) or not (np.isfinite(e).all() and np.isfinite(de).all()):
+        return (math.nan, math.nan)
+    u = engine(controller.ke * e, controller.kde * de)  # type: ignore[union-attr]
+    share = np.mean(np.abs(np.asarray(u)) > FUZZY_ACTS, axis=0)
+    return (float(share[0]), float(share[1]))
 
 
 def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:

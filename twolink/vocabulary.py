@@ -89,6 +89,7 @@ METRICS: tuple[Metric, ...] = (
     Metric("tail_error_rad", "max|e| tail", "rad", "tail_error"),
     Metric("tail_growth", "growth", "×", "tail_growth"),
     Metric("linear_growth_1_s", "σ", "1/s", "linear_growth"),  # the loop's; flexible joints
+    Metric("fuzzy_active_share", "fuzzy on", "1", "fuzzy_active"),  # fuzzy laws only
     Metric("oscillation_rad", "osc", "rad", "oscillation"),
     Metric("iae_rad_s", "IAE", "rad·s", "errors.iae"),
     Metric("ise_rad2_s", "ISE", "rad²·s", "errors.ise"),
