@@ -367,24 +367,35 @@ def test_a_sweep_that_cannot_write_exits_3(tmp_path):
 # 7 ---------------------------------------------------------------------------- SIGTERM
 
 
-def test_sigterm_ends_run_with_one_line_exit_143_and_no_temporaries(tmp_path):
-    out = tmp_path / "run"
+def _terminated(args: list[str], after: float, tmp_path: Path) -> None:
+    """Run ``python -m twolink ARGS``, SIGTERM it ``after`` seconds in: one line, exit 143,
+    no temporaries left under ``tmp_path``."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "twolink", "run", str(STEP), "--out", str(out)]
-        + ["--set", "duration=2000"],
+        [sys.executable, "-m", "twolink", *args],
         stderr=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
     )
-    time.sleep(3.0)  # inside the simulation
+    time.sleep(after)
     proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=60)
+    _, err = proc.communicate(timeout=120)
     if proc.returncode == 0:
-        pytest.skip("the run finished before SIGTERM arrived")
+        pytest.skip("the command finished before SIGTERM arrived")
     assert proc.returncode == 143, err
-    assert "terminated" in err and "Traceback" not in err
+    assert "terminated (SIGTERM)" in err and "Traceback" not in err
     leftovers = [p for p in tmp_path.rglob("*") if p.name.endswith((".tmp", ".old"))]
     assert leftovers == []
+
+
+def test_sigterm_ends_run_with_one_line_exit_143_and_no_temporaries(tmp_path):
+    # 2000 s of simulation: SIGTERM lands inside it
+    args = ["run", str(STEP), "--out", str(tmp_path / "run"), "--set", "duration=2000"]
+    _terminated(args, 3.0, tmp_path)
+
+
+def test_sigterm_ends_reproduce_with_one_line_and_exit_143(tmp_path):
+    # the pool is running by then: design, runs, the claims sweep
+    _terminated(["reproduce", "--out", str(tmp_path / "r"), "--no-trace"], 6.0, tmp_path)
 
 
 # 8 ---------------------------------------------------------------------------- hangs
@@ -463,21 +474,3 @@ def test_pyarrow_has_no_version_with_the_parquet_cve():
 
 def test_output_busy_is_an_oserror_the_cli_reports_as_bad_input():
     assert issubclass(OutputBusy, OSError) and issubclass(ForeignOutput, OSError)
-
-
-def test_sigterm_ends_reproduce_with_one_line_and_exit_143(tmp_path):
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "twolink", "reproduce", "--out", str(tmp_path / "r"), "--no-trace"],
-        stderr=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        text=True,
-    )
-    time.sleep(6.0)  # the pool is running: design, runs, the claims sweep
-    proc.send_signal(signal.SIGTERM)
-    _, err = proc.communicate(timeout=120)
-    if proc.returncode == 0:
-        pytest.skip("the reproduction finished before SIGTERM arrived")
-    assert proc.returncode == 143, err
-    assert "terminated (SIGTERM)" in err and "Traceback" not in err
-    leftovers = [p for p in tmp_path.rglob("*") if p.name.endswith((".tmp", ".old"))]
-    assert leftovers == []

@@ -63,3 +63,31 @@ def test_on_the_papers_raw_step_it_acts_and_helps_at_the_same_gain():
     assert m.step[0].rise_time == pytest.approx(0.631, abs=0.002)
     assert c.step[0].rise_time == pytest.approx(0.836, abs=0.002)
     assert m.errors.iae[0] < 0.85 * c.errors.iae[0]
+
+
+def test_the_raw_variant_runs_the_papers_own_references_at_its_stated_gain():
+    from twolink.claims_studies import raw_steps
+    from twolink.manifest import load_manifest
+    from twolink.reproduce import plan
+
+    manifest = load_manifest()
+    (raw,) = [v for v in manifest.variants if v.raw_steps]
+    for spec in plan(manifest, None):
+        if spec.variant is not raw:
+            continue
+        s = load_scenario(spec.experiment.scenario, spec.overrides)
+        kinds = {type(r).__name__ for r in (s.reference.joint1, s.reference.joint2)}
+        assert kinds <= {"Step", "Ramp"}, (spec.folder, kinds)  # no smooth move left
+        if spec.controller == "CTC":
+            assert s.controller.kp == (9.0, 9.0) and s.controller.kd == (6.0, 6.0)
+    # the stated rule: ωn 3 keeps CTC's raw steps within the torque limits, ωn 4 does not
+    for wn, within in ((3.0, True), (4.0, False)):
+        peaks = []
+        for f in ("theta1_step.toml", "theta2_step.toml"):
+            path = STEP.parent / f
+            over = {"reference": raw_steps(path), "controller": {"kp": wn * wn, "kd": 2 * wn,
+                    "torque_limit": [1e9, 1e9]}}  # fmt: skip
+            s = load_scenario(path, over)
+            peaks.append(measure(s, run_scenario(s)).torque.peak)
+        fits = all(p[0] <= 60.0 and p[1] <= 15.0 for p in peaks)
+        assert fits is within, (wn, peaks)

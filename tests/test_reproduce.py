@@ -93,7 +93,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     assert len(results) == 800
     assert set(results["controller"]) == {"CTC", "PD-G", "CTC-I", "FCM-CTC"}
     saved = pd.read_csv(reproduction.out / "claims.csv")
-    from twolink.reproduce import reference_values
+    from twolink.claims_studies import reference_values
     from twolink.sweep import load_sweep
 
     plan = load_sweep(load_manifest().claims_study)

@@ -270,19 +270,28 @@ def merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
     A table of ``over`` with ``replace = true`` replaces ``base``'s table whole instead of
     merging into it: how a scenario that ``extends`` another changes a reference's kind
     (a step over an inherited quintic would otherwise keep the quintic's ``duration``).
-    The flag itself never reaches the result."""
+    Where ``base`` has no such table the flag is kept, for a later merge onto one (the
+    ``--set`` and variant overrides are merged onto the file last); :func:`strip_replace`
+    removes what is left once everything is merged."""
     out = copy.deepcopy(base)
     for key, value in over.items():
-        if isinstance(value, dict):
+        if isinstance(value, dict) and isinstance(out.get(key), dict):
             value = dict(value)
-            replace = isinstance(value.get(REPLACE), bool) and value.pop(REPLACE)
-            if not replace and isinstance(out.get(key), dict):
-                out[key] = merge(out[key], value)
+            if value.get(REPLACE) is True:
+                del value[REPLACE]
+                out[key] = copy.deepcopy(value)
             else:
-                out[key] = merge({}, value)  # (strips flags nested inside)
+                out[key] = merge(out[key], value)
         else:
             out[key] = copy.deepcopy(value)
     return out
+
+
+def strip_replace(data: Any) -> Any:
+    """``data`` without the ``replace = true`` flags left after the last merge."""
+    if isinstance(data, dict):
+        return {k: strip_replace(v) for k, v in data.items() if not (k == REPLACE and v is True)}
+    return data
 
 
 def _set_nested(out: dict[str, Any], parts: list[str], value: Any) -> None:
@@ -618,6 +627,7 @@ def _reference(t: TomlTable) -> ArmReference:
 
 def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
     """Validate plain data (as read from TOML) into a :class:`Scenario`."""
+    data = strip_replace(data)
     top = TomlTable(data, "", source)
     if "reference" not in data:
         top.fail("reference", "missing: a scenario needs [reference.joint1] and .joint2")

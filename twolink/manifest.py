@@ -58,9 +58,15 @@ class Experiment:
 
 @dataclass(frozen=True)
 class Variant:
+    """A plant or regime every experiment runs in: scenario ``overrides``, and with
+    ``raw_steps`` the paper's own references (each smooth move replaced by the raw step
+    between the same angles; ramps stay ramps), its claims judged on the claims study's
+    plants in that regime too."""
+
     name: str
     title: str
     overrides: dict[str, Any]
+    raw_steps: bool = False
 
 
 @dataclass(frozen=True)
@@ -188,7 +194,10 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         overrides = v.raw("overrides", {})
         if not isinstance(overrides, dict):
             v.fail("overrides", "must be a table of scenario keys")
-        variants.append(Variant(name, v.string("title", name), overrides))
+        raw_steps = v.raw("raw_steps", False)
+        if not isinstance(raw_steps, bool):
+            v.fail("raw_steps", f"must be true or false, got {raw_steps!r}")
+        variants.append(Variant(name, v.string("title", name), overrides, raw_steps))
         v.done()
     experiments = []
     folders: dict[str, int] = {}  # result folder -> the experiment that writes it

@@ -20,8 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from twolink.claims_studies import raw_steps, run_claims
 from twolink.config import FUZZY_KINDS, ConfigError, Scenario, load_scenario, merge
 from twolink.experiment import (
     build_controller,
@@ -42,7 +41,7 @@ from twolink.manifest import (
 )
 from twolink.outcome import classify_run
 from twolink.sim import Trajectory
-from twolink.vocabulary import joint_values, metric
+from twolink.vocabulary import joint_values
 
 
 @dataclass(frozen=True)
@@ -78,6 +77,8 @@ def plan(
                 if ctrl.get("rule_base") == "designed":  # before the design: the paper's
                     ctrl["rule_base"] = str(rule_base.resolve()) if rule_base else "paper"
                 run = merge(merge(variant.overrides, {"controller": ctrl}), overrides or {})
+                if variant.raw_steps:
+                    run = merge(run, {"reference": raw_steps(exp.scenario)})
                 fuzzy = run["controller"].get("kind", "ctc") in FUZZY_KINDS
                 specs.append(RunSpec(exp, variant, name, run, centres if fuzzy else ()))
     return specs
@@ -482,10 +483,10 @@ def _reproduce(
             design_evidence = pool.submit(_design_figures, result, out)
             drawing = [design_evidence]
             claims: list[str] = []
-            claim_table = None
+            claim_tables: list[Any] = []
             if manifest.claims_study is not None:
                 phase(f"claims: {manifest.claims_study.name}, on the same pool")
-                claims, claim_table = _claims(manifest, out, pool, progress)
+                claims, claim_tables = run_claims(manifest, out, pool, progress)
             with tqdm(
                 total=len(specs),
                 initial=sum(bool(r) for r in rows),
@@ -548,74 +549,12 @@ def _reproduce(
             sections,
             lead_sections=claims,
             calibrated=calibrated,
-            claims_table=claim_table,
+            claims_tables=claim_tables,
         ),
     )
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
     atomic_write_json(out / "metrics.json", rows)
     return Reproduction(out, rows, designed, rule_base)
-
-
-def reference_values(scenario: Scenario, joints: Any) -> dict[tuple[int, str], float]:
-    """The step metrics of the reference itself, per moving joint: where both controllers
-    have the reference's own value (a smooth move's Td and Tr), no controller set it."""
-    from twolink.metrics import step_metrics
-
-    t = np.arange(0.0, scenario.duration + 1e-12, scenario.control_dt)
-    q_ref = scenario.reference.sample(t)[0]  # (N, 2)
-    out = {}
-    for j in joints:
-        target, start = scenario.reference.final[j - 1], scenario.q0[j - 1]
-        m = step_metrics(t, q_ref[:, j - 1], target, y0=start)
-        for key in ("delay_time_s", "rise_time_s", "peak_time_s"):
-            value = getattr(m, metric(key).source.split(".")[1])
-            if np.isfinite(value):
-                out[(j, key)] = float(value)
-    return out
-
-
-def _claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tuple[list[str], Any]:
-    """Run the claims sweep on ``pool`` into ``out/claims_study``, judge the paper's claims
-    on its plants (``claims.csv``), and return the report's sections on them and the
-    claims table."""
-    import pandas as pd
-
-    from twolink import report, sweep
-    from twolink.claims import paired_claims
-    from twolink.io import atomic_write_text
-
-    plan = sweep.load_sweep(manifest.claims_study)
-    try:
-        outcome = sweep.run_sweep(
-            plan, out / "claims_study", pool=pool, plots=False, progress=progress
-        )
-    except sweep.SweepInterrupted as exc:
-        from twolink.interrupts import CTRL_C_RECEIVED
-
-        CTRL_C_RECEIVED.append(exc.signum)  # the command ends as that signal asks (130/143)
-        raise KeyboardInterrupt from None  # the reproduction's own stop
-    refs = reference_values(plan.nominal_scenario(), plan.joints)
-    table = paired_claims(
-        outcome.results, manifest.proposed, manifest.baseline, joints=plan.joints,
-        reference_values=refs,
-    )  # fmt: skip
-    atomic_write_text(out / "claims.csv", table.to_csv(index=False))
-    source = f"{manifest.claims_study.parent.name}/{manifest.claims_study.name}"
-    met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
-    # Who wins on what: every controller of the sweep against the baseline, on one table.
-    versus = {
-        name: paired_claims(
-            outcome.results, name, manifest.baseline, report.WINNER_METRICS, plan.joints, refs
-        )
-        for name in plan.controller_names
-        if name != manifest.baseline
-    }
-    every = pd.concat([t.assign(controller=n) for n, t in versus.items()], ignore_index=True)
-    atomic_write_text(out / "claims_all.csv", every.to_csv(index=False))
-    sections = report.winners_section(versus, manifest.baseline, met, plan.samples) + (
-        report.claims_section(table, manifest, plan.samples, source, met)
-    )
-    return sections, (table, met, plan.samples)
 
 
 def _design_figures(result: Any, out: Path) -> list[Any]:

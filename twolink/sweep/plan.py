@@ -74,6 +74,7 @@ from twolink.config import (
     read_toml,
     resolve_rule_base,
     scenario_from_dict,
+    strip_replace,
 )
 from twolink.executors import EXECUTORS
 from twolink.io import unsafe_name_problem
@@ -478,6 +479,7 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     expect_kind(data, file, "sweep")
     if overrides:
         data = merge(data, dict(overrides))
+    data = strip_replace(data)  # the flags merged onto the sweep's own tables are spent
     top = TomlTable(data, "", file)
     name = top.string("name", path.stem)
     if problem := unsafe_name_problem(name):
