@@ -684,8 +684,8 @@ SWEEP_SETS = {
     "chunk_size float by --set": ("chunk_size=1.5", "chunk_size: must be an integer >= 1"),
     "unknown top key by --set": ("foo=1", "foo: unknown key"),
     "unknown parameter by --set": (
-        "parameters.mass.dist=uniform",
-        "parameters.mass: unknown parameter",
+        "parameters.mass_ratio.dist=uniform",
+        "parameters.mass_ratio: unknown parameter",
     ),
     "controller escapes by --set": ("controllers.x/y.kind=ctc", "controllers.x/y: must be 1-100"),
     "controller not a table by --set": (

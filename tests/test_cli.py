@@ -94,6 +94,7 @@ def test_version_and_short_help():
         "design",
         "gains",
         "models",
+        "regimes",
         "reproduce",
         "run",
         "sweep",

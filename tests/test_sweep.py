@@ -365,8 +365,8 @@ BAD_CASES = {
     "unknown top-level key": ("seed = 7", "seed = 7\nsample = 3", "sample: unknown key"),
     "unknown distribution key": ("low = 0.8, high", "lo = 0.8, high",
                                  "parameters.m1.lo: unknown key"),  # fmt: skip
-    "unknown parameter": ("[parameters]", "[parameters]\nmass = 1.0",
-                          "parameters.mass: unknown parameter"),  # fmt: skip
+    "unknown parameter": ("[parameters]", "[parameters]\nmass_ratio = 1.0",
+                          "parameters.mass_ratio: unknown parameter"),  # fmt: skip
     "unknown distribution": ('dist = "uniform"', 'dist = "beta"',
                              "parameters.m1.dist: must be one of"),  # fmt: skip
     "n < 1": ("samples = 8", "samples = 0", "samples: must be an integer >= 1, got 0"),

@@ -139,8 +139,18 @@ def _tost_p(d: np.ndarray, tolerance: float) -> float:
     for shifted, side in ((d - tolerance, "less"), (d + tolerance, "greater")):
         if not np.any(shifted):
             return 1.0
-        p.append(float(stats.wilcoxon(shifted, alternative=side, zero_method="zsplit").pvalue))
+        p.append(float(_signed_rank(shifted, side)))
     return max(p)
+
+
+def _signed_rank(d: np.ndarray, side: str) -> float:
+    """One-sided Wilcoxon signed-rank p, by the normal approximation (with ties and zeros
+    split, scipy's exact path is a permutation test: ~0.1 s a call)."""
+    try:
+        result = stats.wilcoxon(d, alternative=side, zero_method="zsplit", method="asymptotic")
+    except ValueError:  # scipy < 1.13 names it "approx"
+        result = stats.wilcoxon(d, alternative=side, zero_method="zsplit", method="approx")
+    return result.pvalue
 
 
 def judge(

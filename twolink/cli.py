@@ -682,8 +682,10 @@ def sweep_command(
 
 
 from twolink.cli_fuzzy import coverage_command  # noqa: E402
+from twolink.cli_studies import regimes_command  # noqa: E402
 
 main.add_command(coverage_command)
+main.add_command(regimes_command)
 
 
 if __name__ == "__main__":

@@ -98,6 +98,7 @@ FLEX_PARAMETERS = ("k", "d", "j")
 PARAMETERS: Mapping[str, str] = {
     "m1": "positive",
     "m2": "positive",
+    "mass": "positive",  # a factor on both masses (times m1's and m2's own)
     "l1": "positive",
     "l2": "positive",
     "g": "any",
@@ -283,6 +284,9 @@ class SweepPlan:
         """The scenario data of a sample: the base with the drawn plant."""
         plant: dict[str, Any] = {}
         scale = {n: v for n, v in values.items() if n in SCALE_PARAMETERS}
+        if "mass" in values:  # the model mismatch of both links at once
+            for m in ("m1", "m2"):
+                scale[m] = scale.get(m, 1.0) * values["mass"]
         if scale:
             plant["scale"] = scale
         if "payload" in values:
