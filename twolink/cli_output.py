@@ -14,6 +14,17 @@ def fail_input(message: str) -> None:
     sys.exit(2)
 
 
+# What each command writes at the top of its folder: a folder of only these, from a
+# twolink before owner records, is the command's own.
+KNOWN_OUTPUTS = {
+    "run": frozenset({"config.toml", "trajectory.npz", "metrics.json", "angles.png",
+                      "errors.png", "torques.png", "trace.rrd", "seal.json"}),
+    "gains": frozenset({"gains.csv", "gain_tradeoff.png"}),
+    "calibrate": frozenset({"calibrated.toml", "calibration_profile.png"}),
+    "models": frozenset({"twolink.xml", "twolink_flexible.xml", "scene.xml"}),
+}  # fmt: skip
+
+
 def own_output(out: Path, command: str, source: str | None = None, default: bool = False) -> None:
     """Check that ``twolink COMMAND`` may write into ``out`` (exit 2 if not), then hold it
     (lock and owner record) until the command ends (docs/reliability.md)."""
@@ -21,10 +32,13 @@ def own_output(out: Path, command: str, source: str | None = None, default: bool
 
     try:
         check_output_folder(out)
-        check_ownership(out, command, source, default)
+        known = KNOWN_OUTPUTS.get(command, frozenset())
+        check_ownership(out, command, source, default, known=known)
     except OSError as exc:
         fail_input(str(exc))
-    click.get_current_context().with_resource(owned_output(out, command, source, default))
+    click.get_current_context().with_resource(
+        owned_output(out, command, source, default, known=known)
+    )
 
 
 def format_metrics(metrics) -> str:

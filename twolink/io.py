@@ -183,6 +183,7 @@ def check_ownership(
     source: str | None = None,
     default: bool = False,
     option: str = "--out",
+    known: frozenset[str] = frozenset(),
 ) -> None:
     """Refuse (:class:`ForeignOutput`) an output folder that ``twolink COMMAND`` may not
     write into; read-only, so it can run before any work.
@@ -191,7 +192,9 @@ def check_ownership(
     empty, or was written by the same command before and holds nothing else. A folder
     with anything twolink did not write is refused, naming what is there; so is another
     command's folder (a sweep's, a reproduction's), and with ``default`` (the command
-    picked the folder, not the user) one written for another ``source`` file.
+    picked the folder, not the user) one written for another ``source`` file. A folder
+    with no owner record that holds only names in ``known`` (the command's own outputs,
+    written by a twolink from before owner records) is taken as the command's.
     """
     path = Path(path)
     if path.is_symlink():
@@ -206,7 +209,7 @@ def check_ownership(
     owner = _read_owner(path)
     entries = _entries(path)
     if owner is None:
-        if entries and not (path / LOCK_NAME).is_file():
+        if entries and not (path / LOCK_NAME).is_file() and not entries <= known:
             raise ForeignOutput(
                 f"{option} {path}: holds files twolink did not write ({_show(entries)}); "
                 "twolink writes only into a new or empty folder or one it wrote before: "
@@ -239,6 +242,7 @@ def owned_output(
     source: str | None = None,
     default: bool = False,
     option: str = "--out",
+    known: frozenset[str] = frozenset(),
 ) -> Iterator[Path]:
     """Check (:func:`check_ownership`), lock (:func:`output_lock`) and record the output
     folder of ``twolink COMMAND`` for the command's life.
@@ -247,10 +251,10 @@ def owned_output(
     file and every top-level entry twolink wrote there, so that a later command can tell
     twolink's files from a user's."""
     path = Path(path)
-    check_ownership(path, command, source, default, option)
+    check_ownership(path, command, source, default, option, known)
     refuse_links(path / LOCK_NAME)
     with output_lock(path, option) as held:
-        check_ownership(path, command, source, default, option)  # again, now that it is held
+        check_ownership(path, command, source, default, option, known)  # again, now held
         record = {"command": command, "source": source}
         owner = _read_owner(path) or {}
         try:
