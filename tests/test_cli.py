@@ -92,6 +92,7 @@ def test_version_and_short_help():
         "calibrate",
         "coverage",
         "design",
+        "fis",
         "gains",
         "models",
         "regimes",

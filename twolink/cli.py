@@ -681,10 +681,11 @@ def sweep_command(
     click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")
 
 
-from twolink.cli_fuzzy import coverage_command  # noqa: E402
+from twolink.cli_fuzzy import coverage_command, fis_command  # noqa: E402
 from twolink.cli_studies import regimes_command  # noqa: E402
 
 main.add_command(coverage_command)
+main.add_command(fis_command)
 main.add_command(regimes_command)
 
 

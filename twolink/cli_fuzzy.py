@@ -41,12 +41,13 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
       twolink coverage designed --threshold 0.1
     """
     from twolink.config import resolve_rule_base
-    from twolink.controllers.fuzzy import default_fuzzy_pd, load_rule_base
+    from twolink.controllers.fuzzy import default_fuzzy_pd
     from twolink.controllers.fuzzy.coverage import coverage
+    from twolink.controllers.fuzzy.fis import read_rule_base
 
     path = resolve_rule_base(rule_base)
     try:
-        engine = default_fuzzy_pd().with_rules(load_rule_base(path))
+        engine = default_fuzzy_pd().with_rules(read_rule_base(path))
         result = coverage(engine, threshold=threshold, grid=grid)
     except (OSError, ValueError, KeyError) as exc:
         click.echo(f"error: {rule_base}: {exc}", err=True)
@@ -78,3 +79,54 @@ def write_validity_figure(result: Any, path: Path) -> tuple:
     rows = validity_sweep(result.points, result.weights)
     save_figure(validity_figure(rows, int(result.clustering.n_clusters)), path)
     return rows
+
+
+@click.command("fis", short_help="Export a rule base as a MATLAB .fis file.")
+@click.argument("rule_base", default="designed", required=False)
+@click.option(
+    "--scenario",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Scenario whose fuzzy scaling (ke, kde, ku) the file carries "
+    "[default: runs/paper/base.toml as FCM-CTC].",
+)
+@click.option(
+    "--out",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=Path("results/fis/rule_base.fis"),
+    show_default=True,
+    help=".fis file to write.",
+)
+def fis_command(rule_base: str, scenario: Path | None, out: Path) -> None:
+    """Write RULE_BASE ("designed", "paper", "default" or a rule-base file) as a MATLAB
+    Fuzzy Logic Toolbox .fis file (readfis reads it): Mamdani, the engine's triangular
+    membership functions, min / max, centroid, in physical units (the error in rad, its
+    rate in rad/s, the output in rad/s²) by the scenario's scaling.
+
+    \b
+    Examples:
+      twolink fis                              # the designed rule base, shipped scaling
+      twolink fis paper --out table1.fis       # the paper's Table 1
+    """
+    from twolink.config import ConfigError, load_scenario, resolve_rule_base
+    from twolink.controllers.fuzzy import default_fuzzy_pd
+    from twolink.controllers.fuzzy.fis import read_rule_base, write_fis, written_by_twolink
+    from twolink.experiment import build_controller
+    from twolink.io import check_output_file
+
+    base = scenario or Path(__file__).resolve().parents[1] / "runs" / "paper" / "base.toml"
+    try:
+        # a .fis cannot carry twolink's mark: an existing one is twolink's if it is exactly
+        # what twolink writes for its content
+        check_output_file(out, "--out", ours_only=not written_by_twolink(out))
+        rules = read_rule_base(resolve_rule_base(rule_base))
+        over = {} if scenario else {"controller": {"kind": "fcm_ctc", "rule_base": "designed"}}
+        controller = build_controller(load_scenario(base, over))
+        scaling = (controller.ke, controller.kde, controller.ku)
+    except (ConfigError, OSError, ValueError, AttributeError) as exc:
+        click.echo(f"error: {rule_base}: {exc}", err=True)
+        sys.exit(2)
+    engine = default_fuzzy_pd().with_rules(rules)
+    write_fis(out, engine, Path(rule_base).stem, scaling)
+    click.echo(f"{out}: {len(engine.rules)} rules, ke {scaling[0]:.4g} /rad, "
+               f"kde {scaling[1]:.4g} s/rad, ku {scaling[2]:.4g} rad/s²")  # fmt: skip

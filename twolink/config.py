@@ -43,7 +43,6 @@ Schema (all keys optional except the reference)::
 
 from __future__ import annotations
 
-import copy
 import importlib.util
 import math
 import tomllib
@@ -52,6 +51,10 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from twolink.overrides import REPLACE as REPLACE  # merging: re-exported, callers' old home
+from twolink.overrides import merge as merge
+from twolink.overrides import set_nested
+from twolink.overrides import strip_replace as strip_replace
 from twolink.params import ArmParams, Flexibility
 from twolink.references import ArmReference, make_reference, reference_params
 
@@ -84,7 +87,7 @@ BUILTIN_RULE_BASES = {
 
 
 def resolve_rule_base(name: str, relative_to: str | Path = ".") -> Path:
-    """Path of a rule base: "paper", "designed", "default" or a TOML path."""
+    """Path of a rule base: "paper", "designed", "default" or a TOML or ``.fis`` path."""
     if name in BUILTIN_RULE_BASES:
         return RULEBASE_DIR / BUILTIN_RULE_BASES[name]
     path = Path(name)
@@ -261,47 +264,7 @@ class Scenario:
 # ----------------------------------------------------------------------------- reading
 
 
-REPLACE = "replace"  # a table with ``replace = true`` replaces the inherited one whole
-
-
-def merge(base: dict[str, Any], over: dict[str, Any]) -> dict[str, Any]:
-    """Deep-merge ``over`` into a copy of ``base``: tables merge, other values replace.
-
-    A table of ``over`` with ``replace = true`` replaces ``base``'s table whole instead of
-    merging into it: how a scenario that ``extends`` another changes a reference's kind
-    (a step over an inherited quintic would otherwise keep the quintic's ``duration``).
-    Where ``base`` has no such table the flag is kept, for a later merge onto one (the
-    ``--set`` and variant overrides are merged onto the file last); :func:`strip_replace`
-    removes what is left once everything is merged."""
-    out = copy.deepcopy(base)
-    for key, value in over.items():
-        if isinstance(value, dict) and isinstance(out.get(key), dict):
-            value = dict(value)
-            if value.get(REPLACE) is True:
-                del value[REPLACE]
-                out[key] = copy.deepcopy(value)
-            else:
-                out[key] = merge(out[key], value)
-        else:
-            out[key] = copy.deepcopy(value)
-    return out
-
-
-def strip_replace(data: Any) -> Any:
-    """``data`` without the ``replace = true`` flags left after the last merge."""
-    if isinstance(data, dict):
-        return {k: strip_replace(v) for k, v in data.items() if not (k == REPLACE and v is True)}
-    return data
-
-
-def _set_nested(out: dict[str, Any], parts: list[str], value: Any) -> None:
-    """``out[p0][p1]... = value``, making tables on the way (``--set`` accumulation: a
-    ``replace`` flag among the items is kept for the merge onto the file)."""
-    for part in parts[:-1]:
-        if not isinstance(out.get(part), dict):
-            out[part] = {}
-        out = out[part]
-    out[parts[-1]] = value
+MAX_DEPTH = 32  # tables nested deeper are a mistake (tomllib would recurse past its limit)
 
 
 def parse_set(items: Sequence[str]) -> dict[str, Any]:
@@ -323,14 +286,13 @@ def parse_set(items: Sequence[str]) -> dict[str, Any]:
             raise ConfigError(f"--set {key}: the value is nested too deep") from None
         if len(parts) > MAX_DEPTH:
             raise ConfigError(f"--set {key}: more than {MAX_DEPTH} dotted parts")
-        _set_nested(out, parts, value)
+        set_nested(out, parts, value)
     return out
 
 
 MAX_PHYSICS_STEPS = 1e8  # per run: 1e8 MuJoCo steps take about 15 min here
 MAX_EXTENDS = 64  # a longer ``extends`` chain is a mistake, not a design
 MAX_TOML_BYTES = 1 << 20  # 1 MiB: a scenario or study file is a few kB
-MAX_DEPTH = 32  # tables nested deeper are a mistake (tomllib would recurse past its limit)
 # No number twolink reads means anything beyond this (kg, m, s, gains, N·m/rad): larger
 # ones only overflow later, far from the key that caused it.
 MAX_MAGNITUDE = 1e12
@@ -683,10 +645,11 @@ def _check_rule_base(top: TomlTable, s: Scenario) -> None:
     path = resolve_rule_base(name, s.source)
     if not path.is_file():
         top.fail("controller.rule_base", f"no such file {path}")
-    from twolink.controllers.fuzzy import default_fuzzy_pd, load_rule_base
+    from twolink.controllers.fuzzy import default_fuzzy_pd
+    from twolink.controllers.fuzzy.fis import read_rule_base
 
     try:
-        default_fuzzy_pd().with_rules(load_rule_base(path))  # its labels must be the engine's
+        default_fuzzy_pd().with_rules(read_rule_base(path))  # its labels must be the engine's
     except (ValueError, OSError) as exc:
         top.fail("controller.rule_base", f"{path}: {exc}")
 

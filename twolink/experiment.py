@@ -104,10 +104,11 @@ def _engine(rule_base: str | None, *version: int):
     version: controllers of one rule base share their engine, which is what lets the
     batch engine run them as one law (``controllers/batch.py``)."""
     from twolink.controllers import fuzzy
+    from twolink.controllers.fuzzy.fis import read_rule_base
 
     if rule_base is None:
         return fuzzy.default_fuzzy_pd()
-    return fuzzy.default_fuzzy_pd().with_rules(fuzzy.load_rule_base(rule_base))
+    return fuzzy.default_fuzzy_pd().with_rules(read_rule_base(rule_base))
 
 
 @functools.lru_cache(maxsize=32)
