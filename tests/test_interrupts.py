@@ -4,6 +4,7 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 
 import pytest
 
@@ -33,7 +34,9 @@ def test_a_ctrl_c_inside_the_block_arrives_when_it_ends():
     reached_the_end = False
     with pytest.raises(KeyboardInterrupt):
         with interrupts_held():
-            os.kill(os.getpid(), signal.SIGINT)
+            # to the main thread itself: a process-wide signal may land in another thread
+            # (earlier tests leave some), whose handler can run only after the block
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGINT)
             for _ in range(1000):  # the handler would run here
                 pass
             reached_the_end = True
