@@ -46,3 +46,14 @@ def test_reproduction_doc_gives_the_shipped_gains_and_fuzzy_scaling():
         assert _printed(float(value), shown), (row, value, shown)
     wn = math.sqrt(s.controller.kp[0])
     assert f"ωn = {wn:g} rad/s" in text
+
+
+def test_the_load_results_example_names_real_columns():
+    """The docstring's example column is one a sweep table has (it raised KeyError)."""
+    import re as _re
+
+    from twolink.sweep import load_results
+    from twolink.sweep.results import METRIC_COLUMNS
+
+    used = _re.findall(r'\["(joint\d_\w+)"\]', load_results.__doc__ or "")
+    assert used and all(c in METRIC_COLUMNS for c in used), used

@@ -127,7 +127,7 @@ def load_results(out: str | Path) -> pd.DataFrame:
     Examples
     --------
     >>> df = load_results("results/sweeps/robustness")            # doctest: +SKIP
-    >>> df.groupby("controller")["joint2_steady_state_error"].median()  # doctest: +SKIP
+    >>> df.groupby("controller")["joint2_steady_state_error_rad"].median()  # doctest: +SKIP
     """
     return read_table(Path(out) / "results.parquet")
 
