@@ -79,17 +79,16 @@ def _claims_study(
     from twolink.io import atomic_write_text
 
     study = manifest.claims_study
-    overrides: dict[str, Any] = {}
+    plan = sweep.load_sweep(study)
     suffix, regime = "", ""
-    if variant is not None:
+    if variant is not None:  # the same study in the variant's regime
         suffix, regime = f"_{variant.name}", variant.title
-        base = sweep.load_sweep(study)
         overrides = {
-            "name": f"{base.name}{suffix}",
+            "name": f"{plan.name}{suffix}",
             "overrides": variant.overrides,
             "reference": raw_steps(read_toml(study).get("reference", {})),
         }
-    plan = sweep.load_sweep(study, overrides)
+        plan = sweep.load_sweep(study, overrides)
     try:
         outcome = sweep.run_sweep(
             plan, out / f"claims_study{suffix}", pool=pool, plots=False, progress=progress

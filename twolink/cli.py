@@ -234,7 +234,7 @@ def run(
                 err=True,
             )
     traj = run_scenario(s, controller, plant)
-    metrics = measure(s, traj)
+    metrics = measure(s, traj, controller)
     folder = write_run(
         folder,
         s,

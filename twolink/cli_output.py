@@ -14,11 +14,9 @@ def fail_input(message: str) -> None:
     sys.exit(2)
 
 
-# What each command writes at the top of its folder: a folder of only these, from a
-# twolink before owner records, is the command's own.
+# What each command writes at the top of its folder (run: twolink.experiment.RUN_FILES):
+# a folder of only these, from a twolink before owner records, is the command's own.
 KNOWN_OUTPUTS = {
-    "run": frozenset({"config.toml", "trajectory.npz", "metrics.json", "angles.png",
-                      "errors.png", "torques.png", "trace.rrd", "seal.json"}),
     "gains": frozenset({"gains.csv", "gain_tradeoff.png"}),
     "calibrate": frozenset({"calibrated.toml", "calibration_profile.png"}),
     "models": frozenset({"twolink.xml", "twolink_flexible.xml", "scene.xml"}),
@@ -33,6 +31,11 @@ def own_output(out: Path, command: str, source: str | None = None, default: bool
     try:
         check_output_folder(out)
         known = KNOWN_OUTPUTS.get(command, frozenset())
+        if command == "run":  # a run folder's own files, as write_run names them
+            from twolink.experiment import RUN_FILES
+            from twolink.io import SEAL_NAME
+
+            known = frozenset({*RUN_FILES, SEAL_NAME})
         check_ownership(out, command, source, default, known=known)
     except OSError as exc:
         fail_input(str(exc))

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 
@@ -66,4 +65,3 @@ def regimes_command(
     click.echo("\n".join(regimes.markdown(summ)[:14]))
     click.echo(f"-> {out}: regimes.md, regimes.csv, regimes_summary.csv, regimes.png")
     click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")
-    sys.exit(0)

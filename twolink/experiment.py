@@ -27,17 +27,16 @@ from twolink.config import (
 from twolink.controllers.base import Controller
 from twolink.controllers.ctc import ComputedTorque
 from twolink.io import (
-    LOCK_NAME,
-    OWNER_NAME,
     SEAL_NAME,
-    TEMPORARY,
     ForeignOutput,
     WriteFailed,
     atomic_write_json,
     atomic_write_text,
+    folder_entries,
     refuse_links,
     replace_files,
     scratch_folder,
+    show_names,
     to_toml,
     write_seal,
 )
@@ -466,16 +465,12 @@ def check_run_folder(out: Path) -> None:
     run's files, or is reached through a link inside its output folder."""
     refuse_links(out)
     if out.is_dir():
-        extra = {
-            n
-            for n in os.listdir(out)
-            if n not in (*RUN_FILES, SEAL_NAME, LOCK_NAME, OWNER_NAME) and not TEMPORARY.match(n)
-        }
+        extra = folder_entries(out) - {*RUN_FILES, SEAL_NAME}
         if extra:
-            shown = ", ".join(sorted(extra)[:3]) + (" ..." if len(extra) > 3 else "")
             raise ForeignOutput(
-                f"{out}: holds files that are not a twolink run's ({shown}); twolink does "
-                "not overwrite a folder it did not write: move them away or use another --out"
+                f"{out}: holds files that are not a twolink run's ({show_names(extra)}); "
+                "twolink does not overwrite a folder it did not write: move them away or "
+                "use another --out"
             )
 
 

@@ -155,7 +155,7 @@ def refuse_links(path: str | os.PathLike) -> None:
             )
 
 
-def _entries(path: Path) -> set[str]:
+def folder_entries(path: Path) -> set[str]:
     """What a folder holds, less twolink's own lock, owner record and temporaries."""
     return {
         name
@@ -172,7 +172,8 @@ def _read_owner(path: Path) -> dict[str, Any] | None:
     return owner if isinstance(owner, dict) else None
 
 
-def _show(names: set[str]) -> str:
+def show_names(names: set[str]) -> str:
+    """Up to three of ``names`` for a one-line message, and how many more."""
     shown = sorted(names)[:3]
     return ", ".join(shown) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
 
@@ -207,11 +208,11 @@ def check_ownership(
     if not path.is_dir():
         raise NotADirectoryError(f"{option} {path}: is not a folder")
     owner = _read_owner(path)
-    entries = _entries(path)
+    entries = folder_entries(path)
     if owner is None:
         if entries and not (path / LOCK_NAME).is_file() and not entries <= known:
             raise ForeignOutput(
-                f"{option} {path}: holds files twolink did not write ({_show(entries)}); "
+                f"{option} {path}: holds files twolink did not write ({show_names(entries)}); "
                 "twolink writes only into a new or empty folder or one it wrote before: "
                 f"choose another {option}"
             )
@@ -230,7 +231,7 @@ def check_ownership(
     foreign = entries - set(owner.get("entries", ()))
     if foreign:
         raise ForeignOutput(
-            f"{option} {path}: holds files twolink did not write ({_show(foreign)}); "
+            f"{option} {path}: holds files twolink did not write ({show_names(foreign)}); "
             f"move them away or choose another {option}"
         )
 
@@ -260,7 +261,7 @@ def owned_output(
         try:
             yield held
         finally:
-            entries = set(owner.get("entries", ())) | _entries(path)
+            entries = set(owner.get("entries", ())) | folder_entries(path)
             try:
                 atomic_write_json(path / OWNER_NAME, {**record, "entries": sorted(entries)})
             except OSError:
@@ -372,34 +373,6 @@ def discard_pending() -> None:
             shutil.rmtree(tmp, ignore_errors=True)
         else:
             tmp.unlink(missing_ok=True)
-        _PENDING.discard(tmp)
-
-
-@contextmanager
-def atomic_folder(path: str | os.PathLike) -> Iterator[Path]:
-    """Yield a fresh temporary folder beside ``path``; on success it replaces ``path`` as a
-    whole, so no file of an earlier result stays beside the new ones, and two writers
-    into one folder cannot mix (the last to finish wins whole).
-
-    On failure the temporary folder is removed and ``path`` is left as it was.
-    """
-    path = Path(path)
-    refuse_links(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent))
-    _PENDING.add(tmp)
-    _usual_permissions(tmp, 0o777)
-    try:
-        yield tmp
-        old = None
-        if path.exists():  # move the old result aside first: rename cannot replace a folder
-            old = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".old", dir=path.parent))
-            os.replace(path, old / path.name)
-        os.replace(tmp, path)
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
         _PENDING.discard(tmp)
 
 

@@ -94,7 +94,7 @@ def _execute(specs: list[RunSpec], out: Path, trace: bool) -> list[dict[str, Any
         spec, scenario, controller = specs[i], scenarios[i], controllers[i]
         if isinstance(traj, Exception):  # validated before: MuJoCo refused this arm
             raise traj
-        metrics = measure(scenario, traj)
+        metrics = measure(scenario, traj, controller)
         write_run(
             out / spec.folder,
             scenario,
