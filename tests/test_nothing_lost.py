@@ -487,3 +487,33 @@ def test_a_run_folder_of_a_twolink_before_owner_records_is_still_its_own(tmp_pat
     (out / OWNER_NAME).unlink()
     (out / LOCK_NAME).unlink()
     assert invoke("run", STEP, "--out", out, *QUICK).exit_code == 2
+
+
+@pytest.mark.parametrize("when", ["made", "removed"])
+def test_a_ctrl_c_while_a_temporary_is_made_or_removed_leaves_none(tmp_path, monkeypatch, when):
+    # CI once found `.seal.json.*.tmp` after a Ctrl-C: the signal landed between mkstemp
+    # and the temporary's registration. Here it lands exactly there, every time.
+    from twolink import io
+
+    def ctrl_c(*args, **kwargs):
+        signal.raise_signal(signal.SIGINT)
+
+    if when == "made":
+        mkstemp = io.tempfile.mkstemp
+        monkeypatch.setattr(io.tempfile, "mkstemp", lambda *a, **k: (mkstemp(*a, **k), ctrl_c())[0])
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with io.atomic_path(tmp_path / "seal.json") as tmp:
+                tmp.write_text("{}")
+                if when == "removed":
+                    # the write fails, and the signal lands as its temporary is removed
+                    unlink = Path.unlink
+                    monkeypatch.setattr(
+                        Path, "unlink", lambda self, **k: (ctrl_c(), unlink(self, **k))
+                    )
+                    raise OSError(28, "No space left on device")
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert list(tmp_path.iterdir()) == []
+    assert not io._PENDING

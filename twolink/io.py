@@ -14,12 +14,15 @@ import os
 import re
 import shutil
 import tempfile
+import threading
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO, Any
 
 import numpy as np
+
+from twolink.interrupts import interrupts_held
 
 # Names from files that become folder or file names (sweep, controller and variant names):
 # one rule, so that none can reach outside the output folder ("../x", "/etc", "a/b").
@@ -334,24 +337,20 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
     refuse_links(path)
     if path.exists() and not path.is_file():
         raise ForeignOutput(f"{path}: is not a regular file; twolink does not replace it")
-    try:
+
+    def make() -> Path:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix + ".tmp", dir=path.parent)
-    except OSError as exc:
-        raise _write_failed(path, exc) from None
-    os.close(fd)
-    tmp_path = Path(tmp)
-    _PENDING.add(tmp_path)
-    try:
-        _usual_permissions(tmp_path, 0o666)
+        os.close(fd)
+        return Path(tmp)
+
+    with _pending(path, make, lambda tmp: tmp.unlink(missing_ok=True)) as tmp_path:
         try:
+            _usual_permissions(tmp_path, 0o666)
             yield tmp_path
             os.replace(tmp_path, path)
         except OSError as exc:
             raise _write_failed(path, exc) from None
-    finally:
-        tmp_path.unlink(missing_ok=True)
-        _PENDING.discard(tmp_path)
 
 
 def _usual_permissions(path: Path, mode: int) -> None:
@@ -364,16 +363,44 @@ def _usual_permissions(path: Path, mode: int) -> None:
 # Temporaries being written in this process: a pool worker stopped by SIGTERM removes
 # them before it exits (``discard_pending``), so an interrupted command leaves none.
 _PENDING: set[Path] = set()
+# Held while a temporary is made and registered, or removed and forgotten, so that
+# discard_pending (a worker's SIGTERM handler, or its thread that watches the command)
+# never runs between the two and misses one.
+_PENDING_LOCK = threading.RLock()
+
+
+@contextmanager
+def _pending(
+    target: Path, make: Callable[[], Path], remove: Callable[[Path], Any]
+) -> Iterator[Path]:
+    """A temporary made by ``make`` for ``target``, known to :func:`discard_pending` for
+    as long as it exists: Ctrl-C and SIGTERM wait while it is made and while it is removed."""
+    tmp: Path | None = None
+    try:
+        # A signal held here is handled as the block ends, once the temporary is known.
+        with interrupts_held(), _PENDING_LOCK:
+            try:
+                tmp = make()
+            except OSError as exc:
+                raise _write_failed(target, exc) from None
+            _PENDING.add(tmp)
+        yield tmp
+    finally:
+        if tmp is not None:
+            with interrupts_held(), _PENDING_LOCK:
+                remove(tmp)
+                _PENDING.discard(tmp)
 
 
 def discard_pending() -> None:
     """Remove this process's temporary files and folders that are still being written."""
-    for tmp in list(_PENDING):
-        if tmp.is_dir():
-            shutil.rmtree(tmp, ignore_errors=True)
-        else:
-            tmp.unlink(missing_ok=True)
-        _PENDING.discard(tmp)
+    with _PENDING_LOCK:
+        for tmp in list(_PENDING):
+            if tmp.is_dir():
+                shutil.rmtree(tmp, ignore_errors=True)
+            else:
+                tmp.unlink(missing_ok=True)
+            _PENDING.discard(tmp)
 
 
 def _write_with(path: str | os.PathLike, mode: str, write: Callable[[IO], Any]) -> None:
@@ -543,15 +570,11 @@ def scratch_folder(beside: str | os.PathLike) -> Iterator[Path]:
     atomic), removed afterwards, and by a stopped worker (:func:`discard_pending`)."""
     beside = Path(beside)
     refuse_links(beside)
-    try:
+
+    def make() -> Path:
         beside.parent.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{beside.name}.", suffix=".tmp", dir=beside.parent))
-    except OSError as exc:
-        raise _write_failed(beside, exc) from None
-    _PENDING.add(tmp)
-    _usual_permissions(tmp, 0o777)
-    try:
+        return Path(tempfile.mkdtemp(prefix=f".{beside.name}.", suffix=".tmp", dir=beside.parent))
+
+    with _pending(beside, make, lambda tmp: shutil.rmtree(tmp, ignore_errors=True)) as tmp:
+        _usual_permissions(tmp, 0o777)
         yield tmp
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-        _PENDING.discard(tmp)
