@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from twolink.config import merge, parse_set, scenario_from_dict
-from twolink.experiment import iter_scenarios, measure, run_scenario
+from twolink.interface.config import merge, parse_set, scenario_from_dict
+from twolink.simulation.experiment import iter_scenarios, measure, run_scenario
 from twolink.sweep import load_sweep
 from twolink.sweep.execution import _metric_values
 

@@ -2,7 +2,7 @@
 
 For N = 1, 10, 100, 1,000 and 10,000 arms (each with its own drawn masses, lengths,
 gravity and payload, as in ``runs/sweeps/robustness.toml``) under CTC and FCM-CTC, the
-time of :func:`twolink.batch.simulate_batch` per arm and control step, divided by the
+time of :func:`twolink.simulation.batch.simulate_batch` per arm and control step, divided by the
 time of one ``mj_step`` of a single arm called from Python with its torques set each
 step (the baseline, measured in the same process just before). Then, with ``--sweep``,
 the wall time of a whole in-process ``twolink sweep runs/sweeps/robustness.toml``
@@ -26,10 +26,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from twolink.batch import Arm, BatchPlant, simulate_batch
-from twolink.config import load_scenario
-from twolink.experiment import build_controller
-from twolink.plant import Plant
+from twolink.arm.plant import Plant
+from twolink.interface.config import load_scenario
+from twolink.simulation.batch import Arm, BatchPlant, simulate_batch
+from twolink.simulation.experiment import build_controller
 
 ROOT = Path(__file__).resolve().parents[1]
 SIZES = (1, 10, 100, 1000, 10000)
@@ -100,7 +100,7 @@ def sweep_step_us(threads: int | None = None) -> tuple[float, int]:
     """Wall time of an in-process robustness sweep (a fresh process, start-up included)
     per arm-step [µs], and its arm-steps; ``threads``: its ``--workers`` (default: all
     cores)."""
-    from twolink.config import scenario_from_dict
+    from twolink.interface.config import scenario_from_dict
     from twolink.sweep import load_sweep
 
     plan = load_sweep(ROOT / "runs/sweeps/robustness.toml")

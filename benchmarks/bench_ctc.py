@@ -14,11 +14,11 @@ import time
 
 import mujoco
 
+from twolink.arm.params import ArmParams
+from twolink.arm.plant import Plant
 from twolink.controllers.ctc import ComputedTorque
-from twolink.params import ArmParams
-from twolink.plant import Plant
-from twolink.references import ArmReference, Step
-from twolink.sim import simulate
+from twolink.simulation.references import ArmReference, Step
+from twolink.simulation.sim import simulate
 
 DURATION, DT, REPEATS = 10.0, 1e-3, 5
 

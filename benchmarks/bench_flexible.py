@@ -1,10 +1,10 @@
 """The flexible-joint controllers' cost per step, as a ratio to a bare ``mj_step``.
 
-Single-arm path: each controller closes the loop (:func:`twolink.sim.simulate`, 10 s at
+Single-arm path: each controller closes the loop (:func:`twolink.simulation.sim.simulate`, 10 s at
 1 kHz) on the flexible-joint arm, and its time per control step is divided by the time
 of a bare ``mj_step`` loop on the same model in the same process (constant torques,
 nothing else). Rigid CTC on the same arm is the reference row. Batch path: the same laws
-on the batch engine (:func:`twolink.batch.simulate_batch`), N arms with their own
+on the batch engine (:func:`twolink.simulation.batch.simulate_batch`), N arms with their own
 stiffness, time per arm and step over the same bare single-arm step. Absolute times are
 noisy on shared machines, so only ratios (best of several repeats) are claimed.
 
@@ -21,13 +21,13 @@ import time
 import mujoco
 import numpy as np
 
-from twolink.batch import Arm, BatchPlant, simulate_batch
+from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.plant import Plant
 from twolink.controllers.ctc import ComputedTorque
 from twolink.controllers.flexible import CompositeControl, FlexibleFeedbackLinearisation, MotorPD
-from twolink.params import ArmParams, Flexibility
-from twolink.plant import Plant
-from twolink.references import ArmReference, Septic
-from twolink.sim import simulate
+from twolink.simulation.batch import Arm, BatchPlant, simulate_batch
+from twolink.simulation.references import ArmReference, Septic
+from twolink.simulation.sim import simulate
 
 DURATION, DT, REPEATS = 10.0, 1e-3, 5
 KP, KD = 100.0, 20.0

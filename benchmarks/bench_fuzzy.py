@@ -12,7 +12,7 @@ only the ratios are claimed; each engine figure is the best of several repeats.
     and >= 1,000x faster than skfuzzy's array-input compute() of the same rule base.
 
 Also printed: the control loop's call (both joints at once, arrays of length 2) next
-to one ``mujoco.mj_step`` of the arm, when ``twolink.plant`` is importable.
+to one ``mujoco.mj_step`` of the arm, when ``twolink.arm.plant`` is importable.
 
     python benchmarks/bench_fuzzy.py
 """
@@ -68,8 +68,8 @@ def mj_step_time() -> float | None:
     try:
         import mujoco
 
-        from twolink.params import ArmParams
-        from twolink.plant import build_model
+        from twolink.arm.params import ArmParams
+        from twolink.arm.plant import build_model
     except ImportError:
         return None
     model = build_model(ArmParams())
@@ -166,11 +166,11 @@ def closed_loop_ratio() -> None:
     """(c) a 10 s, 1 kHz FCM-CTC closed loop vs a bare mj_step loop of the same length."""
     from bench_ctc import DT, REPEATS, bare_loop, closed_loop  # same folder
 
+    from twolink.arm.params import ArmParams
+    from twolink.arm.plant import Plant
     from twolink.controllers.fuzzy import paper_fuzzy_pd
     from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
-    from twolink.params import ArmParams
-    from twolink.plant import Plant
-    from twolink.references import ArmReference, Step
+    from twolink.simulation.references import ArmReference, Step
 
     p = ArmParams()
     plant = Plant.build(p, timestep=DT)

@@ -37,9 +37,9 @@ import tomllib
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from twolink.config import scenario_from_dict
-from twolink.experiment import build_controller, build_plant, run_scenario
-from twolink.io import to_toml
+from twolink.interface.config import scenario_from_dict
+from twolink.interface.io import to_toml
+from twolink.simulation.experiment import build_controller, build_plant, run_scenario
 from twolink.sweep import format_summary, load_sweep, run_sweep, save_sweep_plots
 
 SWEEP = Path(__file__).resolve().parents[1] / "runs" / "sweeps" / "robustness.toml"

@@ -20,10 +20,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from twolink.arm.dynamics import terms
+from twolink.arm.params import ArmParams
 from twolink.controllers.base import pair, saturate
 from twolink.controllers.ctc import ComputedTorque
-from twolink.dynamics import terms
-from twolink.params import ArmParams
 
 # Integral gain [1/s^3]: s^3 + Kd s^2 + Kp s + Ki is Hurwitz for Ki < Kd Kp (9.6 with the
 # default Kp = 4, Kd = 2.4); 2 puts the integral pole near s = -0.6, slower than the PD

@@ -21,12 +21,12 @@ from typing import Any
 
 import numpy as np
 
+from twolink.arm.dynamics import terms
 from twolink.controllers.base import Controller
 from twolink.controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity
 from twolink.controllers.ctc import ComputedTorque
 from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
-from twolink.dynamics import terms
-from twolink.references import ArmReference
+from twolink.simulation.references import ArmReference
 
 __all__ = [
     "BatchComputedTorque",

@@ -20,15 +20,16 @@ controllers", has each law, its source and its stiffness bound):
 
 The interface: these controllers set ``needs_motor = True`` and are called as
 ``controller(t, q, qd, motor_q, motor_qd)``; the simulation loop
-(:func:`twolink.sim.simulate`) and the batch engine (:mod:`twolink.batch`) pass the
+(:func:`twolink.simulation.sim.simulate`) and the batch engine
+(:mod:`twolink.simulation.batch`) pass the
 rotor angles and rates to such a controller, and refuse to run one on a rigid arm. Rigid
 controllers keep their three-argument call. Each controller models the links with its
 ``model`` (the nominal arm, as every controller) and the joints with ``joints`` (a
-:class:`~twolink.params.Flexibility`, in scenarios the plant's own: identified joints).
+:class:`~twolink.arm.params.Flexibility`, in scenarios the plant's own: identified joints).
 
 Every law is written once, component by component, as a kernel that runs on floats (the
 1 kHz single-arm path, ``math``) and on per-arm arrays (the batch forms, ``numpy``), the
-same arithmetic in the same order, as :func:`twolink.dynamics.terms` does.
+same arithmetic in the same order, as :func:`twolink.arm.dynamics.terms` does.
 """
 
 from __future__ import annotations
@@ -41,13 +42,13 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from twolink.arm.dynamics import derivative_terms, gravity_gradient_bound, terms
+from twolink.arm.params import Flexibility
 from twolink.controllers.base import saturate
 from twolink.controllers.baselines import straight_inertia
 from twolink.controllers.batch import ReferenceTable, _Models
 from twolink.controllers.ctc import ComputedTorque
-from twolink.dynamics import derivative_terms, gravity_gradient_bound, terms
-from twolink.params import Flexibility
-from twolink.references import ArmReference
+from twolink.simulation.references import ArmReference
 
 __all__ = [
     "DEFAULT_FAST_DAMPING",
@@ -263,7 +264,7 @@ class StiffnessBound:
     Attributes
     ----------
     alpha : float
-        max over q of ‖∂Ĝ/∂q‖ [N m/rad] (:func:`twolink.dynamics.gravity_gradient_bound`).
+        max over q of ‖∂Ĝ/∂q‖ [N m/rad] (:func:`twolink.arm.dynamics.gravity_gradient_bound`).
     lambda_min : float
         Smallest eigenvalue of ``[[K, −K], [−K, K + Kp]]`` [N m/rad], over both joints.
     """

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from twolink.cli import main
+from twolink.interface.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
 BASE = REPO / "runs" / "paper" / "base.toml"

@@ -8,8 +8,9 @@ import pytest
 from scipy import optimize
 from scipy.linalg import expm
 
-from twolink import dynamics
-from twolink.config import load_scenario
+from twolink.arm import dynamics
+from twolink.arm.params import ArmParams
+from twolink.arm.plant import Plant
 from twolink.controllers.baselines import (
     FuzzyPD,
     IntegralComputedTorque,
@@ -18,11 +19,10 @@ from twolink.controllers.baselines import (
 )
 from twolink.controllers.ctc import ComputedTorque
 from twolink.controllers.fuzzy import paper_fuzzy_pd
-from twolink.experiment import build_controller
-from twolink.params import ArmParams
-from twolink.plant import Plant
-from twolink.references import ArmReference, Step
-from twolink.sim import simulate
+from twolink.interface.config import load_scenario
+from twolink.simulation.experiment import build_controller
+from twolink.simulation.references import ArmReference, Step
+from twolink.simulation.sim import simulate
 
 KP, KD, KI = 4.0, 2.4, 2.0
 TARGET = np.array([0.8, -0.4])

@@ -17,16 +17,16 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twolink import experiment
-from twolink.batch import Arm, BatchPlant, model_gravity, simulate_batch
-from twolink.config import load_scenario, merge
+from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.plant import Plant, incline
 from twolink.controllers.batch import batch_laws
 from twolink.controllers.ctc import ComputedTorque
-from twolink.experiment import measure, run_scenario, run_scenarios
-from twolink.params import ArmParams, Flexibility
-from twolink.plant import Plant, incline
-from twolink.sim import simulate
-from twolink.vocabulary import joint_values
+from twolink.interface.config import load_scenario, merge
+from twolink.simulation import experiment
+from twolink.simulation.batch import Arm, BatchPlant, model_gravity, simulate_batch
+from twolink.simulation.experiment import measure, run_scenario, run_scenarios
+from twolink.simulation.sim import simulate
+from twolink.simulation.vocabulary import joint_values
 
 BASE = "runs/paper/theta1_step.toml"
 ANGLE_TOL = 1e-12  # rad
@@ -199,7 +199,7 @@ def test_records_are_split_into_batches_under_the_memory_bound(monkeypatch):
             sizes.append(len(arms))
             super().__init__(arms, timestep)
 
-    monkeypatch.setattr("twolink.batch.BatchPlant", Counting)
+    monkeypatch.setattr("twolink.simulation.batch.BatchPlant", Counting)
     scenarios = [scenario(plant={"scale": {"m1": 1 + i / 20}}) for i in range(7)]
     check_against_single(scenarios)
     assert sizes == [3, 3, 1]

@@ -10,12 +10,12 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-import twolink.validation
-from twolink.cli import main
-from twolink.config import load_scenario
+import twolink.arm.validation
+from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.plant import model_xml
 from twolink.controllers.fuzzy import load_rule_base
-from twolink.params import ArmParams, Flexibility
-from twolink.plant import model_xml
+from twolink.interface.cli import main
+from twolink.interface.config import load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -30,7 +30,7 @@ def test_validate_prints_the_table_and_exits_0():
 
 def test_validate_exits_1_when_a_check_fails(monkeypatch):
     # An impossible tolerance: the command must report the failure, not hide it.
-    monkeypatch.setattr(twolink.validation, "TOLERANCE", 0.0)
+    monkeypatch.setattr(twolink.arm.validation, "TOLERANCE", 0.0)
     result = CliRunner().invoke(main, ["validate", "-n", "20"])
     assert result.exit_code == 1
     assert "FAIL" in result.output
@@ -176,8 +176,8 @@ def test_set_overrides_keys_and_the_saved_config_records_them(tmp_path):
 def test_a_results_folder_can_move_with_its_rule_base(tmp_path):
     import shutil
 
-    from twolink.config import RULEBASE_DIR
-    from twolink.experiment import build_controller, measure, run_scenario, write_run
+    from twolink.interface.config import RULEBASE_DIR
+    from twolink.simulation.experiment import build_controller, measure, run_scenario, write_run
 
     project = tmp_path / "a"
     project.mkdir()

@@ -8,15 +8,15 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from twolink import dynamics
-from twolink.cli import main
-from twolink.config import ConfigError, load_scenario
+from twolink.arm import dynamics
+from twolink.arm.params import ArmParams
+from twolink.arm.plant import Plant
 from twolink.controllers.ctc import ComputedTorque
-from twolink.experiment import build_controller, measure, run_scenario, write_run
-from twolink.params import ArmParams
-from twolink.plant import Plant
-from twolink.references import ArmReference, Ramp, Step
-from twolink.sim import Trajectory, simulate
+from twolink.interface.cli import main
+from twolink.interface.config import ConfigError, load_scenario
+from twolink.simulation.experiment import build_controller, measure, run_scenario, write_run
+from twolink.simulation.references import ArmReference, Ramp, Step
+from twolink.simulation.sim import Trajectory, simulate
 
 RUNS = Path(__file__).resolve().parents[1] / "runs"
 KP, KD = 4.0, 2.4
@@ -182,7 +182,7 @@ def test_twolink_run_writes_one_folder(tmp_path):
         "trajectory.npz",
     ]
     # one line per metric key (the keys of metrics.json), undefined values as "—"
-    from twolink.vocabulary import METRICS
+    from twolink.simulation.vocabulary import METRICS
 
     for m in METRICS:
         assert m.key in result.output

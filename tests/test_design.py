@@ -5,18 +5,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twolink.config import RULEBASE_DIR, ConfigError, load_scenario
 from twolink.controllers.fuzzy import Rule, fired_rule_labels, load_rule_base
 from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
-from twolink.design import (
+from twolink.interface.config import RULEBASE_DIR, ConfigError, load_scenario
+from twolink.simulation.experiment import build_controller, run_scenario
+from twolink.studies.design import (
     DEFAULT_DESIGN,
     design,
     design_or_load,
     load_design_config,
     save_design,
 )
-from twolink.design_checks import mirror_rule
-from twolink.experiment import build_controller, run_scenario
+from twolink.studies.design_checks import mirror_rule
 
 PAPER = Path(__file__).resolve().parents[1] / "runs" / "paper"
 

@@ -12,15 +12,19 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from twolink.config import (
+from twolink.arm.dynamics import gravity, mass_matrix
+from twolink.arm.params import ArmParams
+from twolink.controllers.fuzzy import Rule, default_fuzzy_pd, load_rule_base, paper_fuzzy_pd
+from twolink.interface.config import (
     RULEBASE_DIR,
     ConfigError,
     auto_fuzzy_scaling,
     linear_span,
     load_scenario,
 )
-from twolink.controllers.fuzzy import Rule, default_fuzzy_pd, load_rule_base, paper_fuzzy_pd
-from twolink.design import (
+from twolink.simulation.experiment import build_controller, run_scenario
+from twolink.simulation.metrics import error_measures, step_metrics
+from twolink.studies.design import (
     DEFAULT_DESIGN,
     DOCS,
     QUADRANTS,
@@ -31,12 +35,8 @@ from twolink.design import (
     sample_weights,
     save_design,
 )
-from twolink.design_checks import check_symmetry, mirror_rule, validation_rows, with_mirrors
-from twolink.dynamics import gravity, mass_matrix
-from twolink.experiment import build_controller, run_scenario
-from twolink.manifest import load_manifest
-from twolink.metrics import error_measures, step_metrics
-from twolink.params import ArmParams
+from twolink.studies.design_checks import check_symmetry, mirror_rule, validation_rows, with_mirrors
+from twolink.studies.manifest import load_manifest
 
 PAPER = Path(__file__).resolve().parents[1] / "runs" / "paper"
 

@@ -7,8 +7,8 @@ import math
 import re
 from pathlib import Path
 
-from twolink.config import load_scenario
-from twolink.experiment import build_controller
+from twolink.interface.config import load_scenario
+from twolink.simulation.experiment import build_controller
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from twolink import dynamics
-from twolink.params import ArmParams
-from twolink.plant import Plant
-from twolink.validation import (
+from twolink.arm import dynamics
+from twolink.arm.params import ArmParams
+from twolink.arm.plant import Plant
+from twolink.arm.validation import (
     ENERGY_TOLERANCE,
     TOLERANCE,
     compare_dynamics,

@@ -27,8 +27,10 @@ import pytest
 from scipy.linalg import expm
 from scipy.optimize import brentq, fsolve
 
-from twolink import dynamics
-from twolink.config import ConfigError, load_scenario, merge
+from twolink.arm import dynamics
+from twolink.arm.params import TWIST_LIMIT, ArmParams, Flexibility
+from twolink.arm.plant import Plant
+from twolink.arm.validation import random_arm
 from twolink.controllers.baselines import straight_inertia
 from twolink.controllers.ctc import ComputedTorque
 from twolink.controllers.flexible import (
@@ -39,12 +41,10 @@ from twolink.controllers.flexible import (
     motor_pd_bound,
     spring_frequency,
 )
-from twolink.experiment import build_controller, measure, run_scenario, run_scenarios
-from twolink.params import TWIST_LIMIT, ArmParams, Flexibility
-from twolink.plant import Plant
-from twolink.references import ArmReference, Quintic, Septic, Step
-from twolink.sim import simulate
-from twolink.validation import random_arm
+from twolink.interface.config import ConfigError, load_scenario, merge
+from twolink.simulation.experiment import build_controller, measure, run_scenario, run_scenarios
+from twolink.simulation.references import ArmReference, Quintic, Septic, Step
+from twolink.simulation.sim import simulate
 
 BASE = Path(__file__).resolve().parents[1] / "runs" / "paper" / "base.toml"
 ARM = ArmParams()

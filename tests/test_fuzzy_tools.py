@@ -60,7 +60,7 @@ def test_coverage_of_the_three_rule_bases_and_regions():
 
 
 def test_coverage_cli_exit_codes():
-    from twolink.cli import main
+    from twolink.interface.cli import main
 
     runner = CliRunner()
     assert runner.invoke(main, ["coverage", "paper", "--grid", "41"]).exit_code == 1
@@ -181,8 +181,8 @@ def test_table_matches_the_engine_at_nodes():
 
 
 def test_closed_loop_with_table_agrees_with_exact_engine():
-    from twolink.config import load_scenario
-    from twolink.experiment import build_controller, measure, run_scenario
+    from twolink.interface.config import load_scenario
+    from twolink.simulation.experiment import build_controller, measure, run_scenario
 
     f = "runs/paper/design/heldout_theta1_up.toml"
     for kind, tol in (("fuzzy_ctc", 1e-5), ("fcm_ctc", 1e-3)):

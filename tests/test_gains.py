@@ -1,4 +1,4 @@
-"""The gain study (twolink.gains): its rule, its physics against closed forms, and that the
+"""The gain study (twolink.studies.gains): its rule, its physics against closed forms, and that the
 shipped table and the gains in use are what the study and its rule give."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from twolink import gains
-from twolink.config import ConfigError, load_scenario
-from twolink.dynamics import gravity, mass_matrix
-from twolink.params import ArmParams
+from twolink.arm.dynamics import gravity, mass_matrix
+from twolink.arm.params import ArmParams
+from twolink.interface.config import ConfigError, load_scenario
+from twolink.studies import gains
 from twolink.sweep import load_sweep
 
 SMALL = {"plants": 3, "natural_frequencies": [2.0, 15.0], "damping_ratios": [1.0]}
@@ -159,7 +159,7 @@ def test_rerun_study_equals_the_shipped_table():
 def test_cli_runs_a_small_study_and_refuses_bad_input(tmp_path):
     from click.testing import CliRunner
 
-    from twolink.cli import main
+    from twolink.interface.cli import main
 
     runner = CliRunner()
     args = ["gains", "--out", str(tmp_path / "g"), "--workers", "1"]

@@ -1,7 +1,7 @@
 """A flexible arm starts at rest: its springs twisted to hold it up at the start pose
 (``[plant.flexibility] start = "holding"``, the default), on the single path and in a batch.
 
-The twist is analytic (twolink.plant.holding_motor_q: K⁻¹ G(q), payload included); the
+The twist is analytic (twolink.arm.plant.holding_motor_q: K⁻¹ G(q), payload included); the
 independent reference is MuJoCo itself: its gravity load at rest (``qfrc_bias``) is the
 same, and with the motors giving the springs' torque every acceleration of a held arm is
 zero.
@@ -13,13 +13,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from twolink import dynamics
-from twolink.batch import Arm, BatchPlant
-from twolink.config import ConfigError, load_scenario
-from twolink.experiment import build_plant, run_scenario, run_scenarios, start_motor_q
-from twolink.params import ArmParams, Flexibility
-from twolink.plant import Plant, holding_motor_q
-from twolink.sim import simulate
+from twolink.arm import dynamics
+from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.plant import Plant, holding_motor_q
+from twolink.interface.config import ConfigError, load_scenario
+from twolink.simulation.batch import Arm, BatchPlant
+from twolink.simulation.experiment import build_plant, run_scenario, run_scenarios, start_motor_q
+from twolink.simulation.sim import simulate
 
 BASE = "runs/paper/theta1_step.toml"
 
@@ -130,7 +130,7 @@ def test_a_scenario_holds_its_true_plant_not_the_controllers_model():
 
 def test_relaxed_is_the_old_start_exactly():
     s = scenario(flexibility={"k": [300.0, 150.0], "start": "relaxed"})
-    from twolink.experiment import build_controller, build_plant
+    from twolink.simulation.experiment import build_controller, build_plant
 
     old = simulate(build_plant(s), build_controller(s), s.duration, s.control_dt, s.q0, s.qd0)
     new = run_scenario(s)

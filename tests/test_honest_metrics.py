@@ -13,10 +13,10 @@ import control
 import numpy as np
 import pytest
 
-from twolink.config import merge, scenario_from_dict
-from twolink.experiment import measure, run_scenario, run_scenarios
-from twolink.metrics import error_measures, step_metrics
-from twolink.vocabulary import METRICS, format_value, joint_values, metric
+from twolink.interface.config import merge, scenario_from_dict
+from twolink.simulation.experiment import measure, run_scenario, run_scenarios
+from twolink.simulation.metrics import error_measures, step_metrics
+from twolink.simulation.vocabulary import METRICS, format_value, joint_values, metric
 
 NEW_KEYS = ("settling_time_target_s", "max_error_rad")
 
@@ -220,7 +220,7 @@ def test_the_batch_path_gives_the_single_arm_paths_new_metrics() -> None:
 
 
 def test_the_new_keys_are_in_the_vocabulary_and_not_among_the_papers_symbols() -> None:
-    from twolink.manifest import PAPER_SYMBOLS
+    from twolink.studies.manifest import PAPER_SYMBOLS
     from twolink.sweep import METRIC_COLUMNS
 
     keys = [m.key for m in METRICS]
@@ -244,8 +244,8 @@ def report_rows():
     quintic experiment of θ1 (θ2 held), two controllers each, with paper values for one."""
     from pathlib import Path
 
-    from twolink.manifest import Experiment, Variant
-    from twolink.reproduce import RunSpec, _row
+    from twolink.studies.manifest import Experiment, Variant
+    from twolink.studies.reproduce import RunSpec, _row
 
     paper = {"CTC": {"Tp": 5.89, "Ts": 12.3, "Mp": 0.655}}
     exps = {
@@ -268,7 +268,7 @@ def report_rows():
 
 
 def test_every_experiment_table_shows_the_held_joint(report_rows) -> None:
-    from twolink.report import CLAIMED_BETTER, experiment_table
+    from twolink.studies.report import CLAIMED_BETTER, experiment_table
 
     variant, exps, controllers, rows = report_rows
     for key, kind in (("table2", "step"), ("table3", "ramp"), ("figure6", "quintic")):

@@ -1,4 +1,4 @@
-"""Ctrl-C wherever it lands (twolink.interrupts, and the command line's handling)."""
+"""Ctrl-C wherever it lands (twolink.interface.interrupts, and the command line's handling)."""
 
 import os
 import signal
@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from twolink.interrupts import interrupts_held
+from twolink.interface.interrupts import interrupts_held
 
 
 def python(*args: str, cwd=None) -> subprocess.CompletedProcess:
@@ -62,7 +62,7 @@ def test_handlers_are_restored_and_ignored_signals_stay_ignored():
 # complete; unheld, it breaks the import.
 IMPORT_WITH_CTRL_C = """
 import os, signal, sys
-from twolink.interrupts import import_mujoco
+from twolink.interface.interrupts import import_mujoco
 
 class CtrlCOnFind:
     def find_spec(self, name, path=None, target=None):
@@ -99,7 +99,7 @@ def test_a_ctrl_c_during_mujocos_import_waits_for_it(importer, says):
 WORKER_START_WITH_CTRL_C = """
 import os, signal, sys, time
 from multiprocessing import forkserver
-from twolink.executors import ProcessExecutor
+from twolink.interface.executors import ProcessExecutor
 
 started = []
 real_read_signed = forkserver.read_signed
@@ -138,10 +138,10 @@ def test_a_worker_started_as_ctrl_c_comes_is_ended_with_the_pool(held):
     code = WORKER_START_WITH_CTRL_C
     if not held:
         code = code.replace(
-            "from twolink.executors import ProcessExecutor",
-            "import contextlib, twolink.executors as ex\n"
+            "from twolink.interface.executors import ProcessExecutor",
+            "import contextlib, twolink.interface.executors as ex\n"
             "ex.interrupts_held = contextlib.nullcontext\n"
-            "from twolink.executors import ProcessExecutor",
+            "from twolink.interface.executors import ProcessExecutor",
         )
     proc = python("-c", code)
     clean = proc.stdout.strip() == "worker ended" and "Traceback" not in proc.stderr
@@ -156,7 +156,7 @@ def test_ctrl_c_that_a_compiled_extension_turns_into_another_error_still_exits_1
     # TypeError (seen in matplotlib's transforms during the reproduction's figures).
     code = """
 import os, signal, sys
-from twolink.cli import main
+from twolink.interface.cli import main
 
 @main.command()
 def mangled():
@@ -184,7 +184,7 @@ def test_ctrl_c_inside_code_run_from_a_string_still_exits_130_under_python_m(tmp
     # the whole process, and `python -m` then dies by SIGINT (-2) after the command exited
     # 130. Dataclasses, scipy and MuJoCo's module init all run such strings.
     code = """
-from twolink.cli import main
+from twolink.interface.cli import main
 
 @main.command()
 def stuck():
@@ -202,7 +202,7 @@ def test_ctrl_c_that_python_drops_is_sent_again(tmp_path):
     # ignored" and dropped: the command would go on as if no Ctrl-C had come.
     code = """
 import os, signal, weakref
-from twolink.cli import main
+from twolink.interface.cli import main
 
 class Thing:
     pass
@@ -233,8 +233,8 @@ def test_ctrl_c_that_a_library_swallows_stops_the_reproduction_at_its_next_phase
     # numpy.random's module init (imported by pandas) was seen catching a KeyboardInterrupt.
     code = """
 import os, signal
-from twolink.cli import main
-from twolink.reproduce import _Phases
+from twolink.interface.cli import main
+from twolink.studies.reproduce import _Phases
 
 @main.command()
 def swallowed():

@@ -41,7 +41,7 @@ def test_every_public_name_resolves_from_the_package():
     for name in twolink.__all__:
         assert getattr(twolink, name) is not None, name
     from twolink.controllers.ctc import ComputedTorque
-    from twolink.sim import simulate
+    from twolink.simulation.sim import simulate
 
     assert twolink.ComputedTorque is ComputedTorque and twolink.simulate is simulate
     assert set(twolink.__all__) <= set(dir(twolink))

@@ -11,7 +11,7 @@ import control
 import numpy as np
 import pytest
 
-from twolink.metrics import (
+from twolink.simulation.metrics import (
     ErrorMeasures,
     StepMetrics,
     error_measures,
@@ -358,7 +358,7 @@ def test_metrics_dict_is_strict_json() -> None:
 def test_docs_list_every_output_key_with_its_unit():
     from pathlib import Path
 
-    from twolink.vocabulary import METRICS
+    from twolink.simulation.vocabulary import METRICS
 
     doc = (Path(__file__).resolve().parents[1] / "docs" / "metrics.md").read_text()
     table = [line for line in doc.splitlines() if line.startswith("| `")]
@@ -377,7 +377,7 @@ def test_torque_rms_of_a_huge_demand_is_finite_and_right():
 
 
 def test_oscillation_is_the_amplitude_of_a_limit_cycle_and_not_of_drift_or_offset():
-    from twolink.metrics import oscillation_amplitude
+    from twolink.simulation.metrics import oscillation_amplitude
 
     t = np.linspace(0.0, 10.0, 10001)
     cycle = 0.175 * np.sin(2 * np.pi * t / 3.0)  # Table 4's FCM-CTC: ~3 s, 0.35 rad p2p

@@ -6,9 +6,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from twolink import dynamics
-from twolink.params import ArmParams, Flexibility
-from twolink.plant import Plant, build_model, model_xml, scene_xml
+from twolink.arm import dynamics
+from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.plant import Plant, build_model, model_xml, scene_xml
 
 MODELS = Path(__file__).resolve().parents[1] / "models"
 

@@ -8,9 +8,9 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from twolink.cli import main
-from twolink.config import ConfigError, load_scenario, parse_set
-from twolink.experiment import measure, run_scenario
+from twolink.interface.cli import main
+from twolink.interface.config import ConfigError, load_scenario, parse_set
+from twolink.simulation.experiment import measure, run_scenario
 
 STEP = Path(__file__).resolve().parents[1] / "runs" / "paper" / "theta1_step.toml"
 RAW = {"joint1": {"replace": True, "kind": "step", "final": 1.0}}
@@ -66,9 +66,9 @@ def test_on_the_papers_raw_step_it_acts_and_helps_at_the_same_gain():
 
 
 def test_the_raw_variant_runs_the_papers_own_references_at_its_stated_gain():
-    from twolink.claims_studies import raw_steps
-    from twolink.manifest import load_manifest
-    from twolink.reproduce import plan
+    from twolink.studies.claims_studies import raw_steps
+    from twolink.studies.manifest import load_manifest
+    from twolink.studies.reproduce import plan
 
     manifest = load_manifest()
     (raw,) = [v for v in manifest.variants if v.raw_steps]

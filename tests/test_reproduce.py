@@ -13,12 +13,12 @@ from pathlib import Path
 
 import pytest
 
-from twolink.config import load_scenario
-from twolink.manifest import load_manifest
-from twolink.metrics import StepMetrics, step_metrics
-from twolink.reproduce import reproduce
-from twolink.sim import Trajectory
-from twolink.vocabulary import STEP_KEYS, metric
+from twolink.interface.config import load_scenario
+from twolink.simulation.metrics import StepMetrics, step_metrics
+from twolink.simulation.sim import Trajectory
+from twolink.simulation.vocabulary import STEP_KEYS, metric
+from twolink.studies.manifest import load_manifest
+from twolink.studies.reproduce import reproduce
 
 STEP_FIELDS = [f.name for f in fields(StepMetrics)]  # in STEP_KEYS order
 
@@ -52,8 +52,8 @@ def test_every_paper_table_is_in_the_report_beside_the_papers_values(reproductio
 def test_the_rigid_tables_calibrated_column_is_the_saved_calibration_rerun(reproduction):
     """Tables 2, 3, 5 and 7 of the rigid arm print ours / calibrated / paper; the middle
     value is the saved calibrated scenario (runs/paper/calibrated.toml) run again here."""
-    from twolink import calibrate
-    from twolink.report import CLAIMED_BETTER, calibrated_value, fmt
+    from twolink.studies import calibrate
+    from twolink.studies.report import CLAIMED_BETTER, calibrated_value, fmt
 
     study = calibrate.load_calibration()
     result, current = calibrate.load_result(study)
@@ -79,7 +79,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     shows it before the paper's tables."""
     import pandas as pd
 
-    from twolink.claims import paired_claims
+    from twolink.studies.claims import paired_claims
     from twolink.sweep import load_results
 
     report = (reproduction.out / "report.md").read_text()
@@ -93,7 +93,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     assert len(results) == 800
     assert set(results["controller"]) == {"CTC", "PD-G", "CTC-I", "FCM-CTC"}
     saved = pd.read_csv(reproduction.out / "claims.csv")
-    from twolink.claims_studies import reference_values
+    from twolink.studies.claims_studies import reference_values
     from twolink.sweep import load_sweep
 
     plan = load_sweep(load_manifest().claims_study)
@@ -176,7 +176,7 @@ def test_interrupted_reproduction_leaves_whole_files_and_reruns_to_completion(
     tmp_path, reproduction
 ):
     out = tmp_path / "r"
-    cmd = [sys.executable, "-m", "twolink.cli", "reproduce", "--out", str(out)]
+    cmd = [sys.executable, "-m", "twolink.interface.cli", "reproduce", "--out", str(out)]
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
     )
@@ -201,7 +201,7 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     """The same controller names and metric keys (with units) everywhere."""
     import pandas as pd
 
-    from twolink.vocabulary import METRICS
+    from twolink.simulation.vocabulary import METRICS
 
     keys = [m.key for m in METRICS]
     names = {"CTC", "FCM-CTC"}  # the paper's two; the manifest adds three baselines
@@ -282,7 +282,7 @@ def test_the_design_section_shows_the_design_held_out_and_the_downward_step(repr
     metrics.csv (issue 14 item 4)."""
     import pandas as pd
 
-    from twolink.vocabulary import format_value
+    from twolink.simulation.vocabulary import format_value
 
     report = (reproduction.out / "report.md").read_text()
     section = report[report.index("## The FCM design") :]

@@ -16,12 +16,12 @@ import pandas as pd
 import pytest
 from click.testing import CliRunner
 
-from twolink import experiment
 from twolink import sweep as sw
-from twolink.cli import main as cli_main
-from twolink.config import ConfigError, load_scenario
-from twolink.experiment import measure, run_scenario
-from twolink.vocabulary import STEP_KEYS
+from twolink.interface.cli import main as cli_main
+from twolink.interface.config import ConfigError, load_scenario
+from twolink.simulation import experiment
+from twolink.simulation.experiment import measure, run_scenario
+from twolink.simulation.vocabulary import STEP_KEYS
 
 REPO = Path(__file__).resolve().parents[1]
 BASE = REPO / "runs" / "paper" / "base.toml"

@@ -14,11 +14,11 @@ import rerun as rr
 from rerun.chunk import RrdReader
 
 from twolink import tracing
-from twolink.config import load_scenario
-from twolink.experiment import run_scenario
-from twolink.params import ArmParams
-from twolink.plant import Plant
-from twolink.sim import Trajectory
+from twolink.arm.params import ArmParams
+from twolink.arm.plant import Plant
+from twolink.interface.config import load_scenario
+from twolink.simulation.experiment import run_scenario
+from twolink.simulation.sim import Trajectory
 
 ROOT = Path(__file__).resolve().parents[1]
 SCALARS = {  # entity leaf -> Trajectory attribute it holds

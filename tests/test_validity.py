@@ -1,4 +1,4 @@
-"""Cluster validity indices (twolink/validity.py) against scikit-fuzzy and closed forms."""
+"""Cluster validity indices (twolink/studies/validity.py) against scikit-fuzzy and closed forms."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import skfuzzy
 
 from twolink.controllers.fcm import fcm
 from twolink.controllers.fuzzy import default_fuzzy_pd
-from twolink.validity import (
+from twolink.studies.validity import (
     partition_coefficient,
     partition_entropy,
     surface_difference,
@@ -70,7 +70,7 @@ def test_design_figure_writes_the_validity_figure_beside_it(tmp_path):
     shows); here on a stand-in design result."""
     from types import SimpleNamespace
 
-    from twolink.cli_fuzzy import validity_figure_path, write_validity_figure
+    from twolink.interface.cli_fuzzy import validity_figure_path, write_validity_figure
 
     path = validity_figure_path(tmp_path / "phase.png")
     assert path == tmp_path / "phase_validity.png"

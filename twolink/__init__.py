@@ -13,7 +13,11 @@ package imports nothing it does not need: MuJoCo comes with ``Plant``, matplotli
 from __future__ import annotations
 
 import importlib
+import importlib.abc
+import importlib.util
+import sys
 from importlib.metadata import PackageNotFoundError, version
+from types import ModuleType
 from typing import Any
 
 try:
@@ -24,17 +28,17 @@ except PackageNotFoundError:  # a source tree that was never installed
 # public name -> the module that defines it
 _EXPORTS = {
     # the arm and its model
-    "ArmParams": "twolink.params",
-    "Flexibility": "twolink.params",
-    "Plant": "twolink.plant",
+    "ArmParams": "twolink.arm.params",
+    "Flexibility": "twolink.arm.params",
+    "Plant": "twolink.arm.plant",
     # references and the closed loop
-    "ArmReference": "twolink.references",
-    "Step": "twolink.references",
-    "Ramp": "twolink.references",
-    "Sine": "twolink.references",
-    "Quintic": "twolink.references",
-    "simulate": "twolink.sim",
-    "Trajectory": "twolink.sim",
+    "ArmReference": "twolink.simulation.references",
+    "Step": "twolink.simulation.references",
+    "Ramp": "twolink.simulation.references",
+    "Sine": "twolink.simulation.references",
+    "Quintic": "twolink.simulation.references",
+    "simulate": "twolink.simulation.sim",
+    "Trajectory": "twolink.simulation.sim",
     # controllers
     "ComputedTorque": "twolink.controllers.ctc",
     "FuzzyComputedTorque": "twolink.controllers.fuzzy_ctc",
@@ -42,18 +46,65 @@ _EXPORTS = {
     "default_fuzzy_pd": "twolink.controllers.fuzzy",
     "paper_fuzzy_pd": "twolink.controllers.fuzzy",
     # metrics
-    "step_metrics": "twolink.metrics",
-    "StepMetrics": "twolink.metrics",
-    "error_measures": "twolink.metrics",
+    "step_metrics": "twolink.simulation.metrics",
+    "StepMetrics": "twolink.simulation.metrics",
+    "error_measures": "twolink.simulation.metrics",
     # scenario files, sweeps, figures
-    "load_scenario": "twolink.config",
-    "run_scenario": "twolink.experiment",
-    "measure": "twolink.experiment",
+    "load_scenario": "twolink.interface.config",
+    "run_scenario": "twolink.simulation.experiment",
+    "measure": "twolink.simulation.experiment",
     "load_results": "twolink.sweep",
-    "run_figures": "twolink.plots",
+    "run_figures": "twolink.interface.plots",
 }
 
 __all__ = ["__version__", *_EXPORTS]
+
+# The modules grouped by layer (arm, simulation, studies, interface) answer to their
+# earlier flat names too: ``import twolink.params`` gives ``twolink.arm.params`` itself,
+# the same module object, so older code, pickles and DESIGN.md's names keep working.
+_LAYERS = {
+    "arm": ("params", "dynamics", "plant", "validation"),
+    "simulation": (
+        "references", "sim", "batch", "metrics", "outcome", "stability", "experiment",
+        "vocabulary",
+    ),
+    "studies": (
+        "design", "design_checks", "validity", "gains", "calibrate", "calibration_report",
+        "claims", "claims_studies", "regimes", "reproduce", "manifest", "report",
+        "report_sections",
+    ),
+    "interface": (
+        "config", "overrides", "io", "plots", "executors", "interrupts", "cli",
+        "cli_fuzzy", "cli_output", "cli_studies",
+    ),
+}  # fmt: skip
+_FLAT_NAMES = {
+    f"twolink.{name}": f"twolink.{layer}.{name}"
+    for layer, names in _LAYERS.items()
+    for name in names
+}
+
+
+class _FlatNames(importlib.abc.MetaPathFinder, importlib.abc.Loader):
+    """Imports a flat name (``twolink.params``) as the module of its layer."""
+
+    def find_spec(self, name: str, path: Any = None, target: Any = None) -> Any:
+        if name in _FLAT_NAMES:
+            return importlib.util.spec_from_loader(name, self)
+        return None
+
+    def create_module(self, spec: Any) -> ModuleType:
+        module = importlib.import_module(_FLAT_NAMES[spec.name])
+        spec.loader_state = module.__spec__
+        return module
+
+    def exec_module(self, module: ModuleType) -> None:
+        # the import system has just given the module the flat name's spec: give it back
+        module.__spec__ = module.__spec__.loader_state
+
+
+if not any(isinstance(finder, _FlatNames) for finder in sys.meta_path):
+    sys.meta_path.append(_FlatNames())
 
 
 def __getattr__(name: str) -> Any:

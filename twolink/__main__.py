@@ -1,5 +1,5 @@
 """``python -m twolink``: the same command line as ``twolink``."""
 
-from twolink.cli import main
+from twolink.interface.cli import main
 
 main(prog_name="twolink")

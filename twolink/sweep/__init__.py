@@ -10,7 +10,7 @@ One concern per module:
 - :mod:`twolink.sweep.studies`: studies built on sweeps (the flexible-joint study).
 - :mod:`twolink.sweep.flexmap`: the flexible-joint stiffness x bandwidth map.
 
-The command (``twolink sweep``) is in :mod:`twolink.cli`; ``docs/sweeps.md`` has the
+The command (``twolink sweep``) is in :mod:`twolink.interface.cli`; ``docs/sweeps.md`` has the
 schema and the output folder.
 """
 

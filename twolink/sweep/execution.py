@@ -24,18 +24,19 @@ from typing import Any
 
 import pandas as pd
 
-from twolink.config import scenario_from_dict
-from twolink.executors import SweepExecutor, check_options, open_executor
-from twolink.experiment import build_controller, iter_scenarios, measure
-from twolink.interrupts import interrupts_held
-from twolink.io import (
+from twolink.interface.config import scenario_from_dict
+from twolink.interface.executors import SweepExecutor, check_options, open_executor
+from twolink.interface.interrupts import interrupts_held
+from twolink.interface.io import (
     append_line,
     atomic_write_json,
     atomic_write_text,
     owned_output,
     refuse_links,
 )
-from twolink.outcome import classify
+from twolink.simulation.experiment import build_controller, iter_scenarios, measure
+from twolink.simulation.outcome import classify
+from twolink.simulation.vocabulary import joint_values
 from twolink.sweep.plan import FORMAT_VERSION, SweepPlan, gains
 from twolink.sweep.results import (
     METRIC_COLUMNS,
@@ -46,7 +47,6 @@ from twolink.sweep.results import (
     write_summary,
     write_table,
 )
-from twolink.vocabulary import joint_values
 
 __all__ = [
     "ChunkResult",
@@ -100,7 +100,7 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
     The controllers are built once per chunk, and once per swept ``wn`` (they are modelled
     on the nominal arm, which does not change; a flexible-joint controller is given each
     sample's joints, ``with_joints``); every (sample, controller) is one arm of the batch engine
-    (:func:`twolink.experiment.iter_scenarios`). A sample that raises or diverges gives
+    (:func:`twolink.simulation.experiment.iter_scenarios`). A sample that raises or diverges gives
     rows with status "error" or "diverged" and the message; it never stops the chunk.
     """
     start = time.perf_counter()
@@ -355,7 +355,7 @@ class _StopSignals:
     """SIGINT and SIGTERM as KeyboardInterrupt, recorded (the first decides the exit code).
 
     A chunk file and its log line are written with both held back
-    (:func:`twolink.interrupts.interrupts_held`): a handler runs in the main thread,
+    (:func:`twolink.interface.interrupts.interrupts_held`): a handler runs in the main thread,
     whichever thread the signal reached, so a deferred handler, not a signal mask, is
     what keeps them together.
     """
@@ -402,7 +402,7 @@ def run_sweep(
     out : str or Path
         Output folder. Chunks already there (of the same sweep) are kept, not recomputed.
     executor, workers, scheduler : optional
-        See :func:`twolink.executors.open_executor`; default: the sweep file's
+        See :func:`twolink.interface.executors.open_executor`; default: the sweep file's
         ``[execution]`` table, else a process pool on all cores.
     pool : SweepExecutor, optional
         An executor already running (the reproduction's pool): the chunks go to it, and

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from twolink.simulation.vocabulary import metric
 from twolink.sweep.results import SUMMARY_METRICS, rows_of, summarize, sweep_meta
-from twolink.vocabulary import metric
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -19,8 +19,8 @@ __all__ = ["save_sweep_plots", "sweep_figures"]
 
 
 def pyplot() -> Any:
-    # Through twolink.plots, which selects the headless Agg backend before pyplot loads.
-    from twolink import plots
+    # Through twolink.interface.plots, which selects the headless Agg backend before pyplot loads.
+    from twolink.interface import plots
 
     return plots.plt
 
@@ -111,7 +111,7 @@ def sweep_figures(results: pd.DataFrame) -> dict[str, Figure]:
 
 def save_sweep_plots(out: str | Path, results: pd.DataFrame) -> list[Path]:
     """Write the :func:`sweep_figures` as PNG files under ``out/plots``."""
-    from twolink.plots import save_figure
+    from twolink.interface.plots import save_figure
 
     paths = []
     for name, fig in sweep_figures(results).items():

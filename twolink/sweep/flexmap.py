@@ -3,11 +3,11 @@
 A sweep over ``k`` and ``wn`` (``runs/sweeps/flexible_map.toml``) gives one run per
 (stiffness, bandwidth, controller). Each cell is classified (:func:`map_cells`):
 
-- ``settled``: met the spec (``twolink.outcome``: within 2 % of the move at the end),
+- ``settled``: met the spec (``twolink.simulation.outcome``: within 2 % of the move at the end),
   with Ts to the target and Mp, the worse of the moving joints;
 - ``off target``: bounded, not settled (a slow or biased response);
 - ``unstable``: not settled, its loop linearised at the target unstable (σ > 0,
-  :mod:`twolink.stability`), though the run may still end calm;
+  :mod:`twolink.simulation.stability`), though the run may still end calm;
 - ``limit cycle``: not settled, with an oscillation larger than the 2 % band over the
   run's last 30 % (a linearly unstable loop held bounded by the torque limit);
 - ``diverged``: the simulation left its bounds (or failed).
@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from twolink.params import TWIST_LIMIT
+from twolink.arm.params import TWIST_LIMIT
 from twolink.sweep.figures import pyplot
 from twolink.sweep.results import load_results, sweep_meta
 
@@ -131,8 +131,8 @@ def disagreements(cells: pd.DataFrame) -> list[str]:
 def rigid_reference(plan: SweepPlan, controller: str = "CTC") -> dict[float, tuple[float, float]]:
     """Ts [s] and Mp [%] (worse moving joint) of ``controller`` on the rigid arm, per
     bandwidth of the map's ``wn`` grid: what "within the rigid arm's values" compares to."""
-    from twolink.config import scenario_from_dict
-    from twolink.experiment import iter_scenarios, measure
+    from twolink.interface.config import scenario_from_dict
+    from twolink.simulation.experiment import iter_scenarios, measure
 
     wn_grid = [float(wn) for wn in next(p.values for p in plan.parameters if p.name == "wn")]
     scenarios = []

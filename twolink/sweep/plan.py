@@ -64,7 +64,8 @@ from typing import Any
 
 import numpy as np
 
-from twolink.config import (
+from twolink.arm.params import Flexibility
+from twolink.interface.config import (
     BUILTIN_RULE_BASES,
     RULE_BASE_KINDS,
     ConfigError,
@@ -76,10 +77,9 @@ from twolink.config import (
     scenario_from_dict,
     strip_replace,
 )
-from twolink.executors import EXECUTORS
-from twolink.io import unsafe_name_problem
-from twolink.outcome import SuccessSpec, finished, largest_step
-from twolink.params import Flexibility
+from twolink.interface.executors import EXECUTORS
+from twolink.interface.io import unsafe_name_problem
+from twolink.simulation.outcome import SuccessSpec, finished, largest_step
 from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
 
 __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan", "load_sweep"]
@@ -228,7 +228,7 @@ class SweepPlan:
     success: SuccessSpec = field(default_factory=SuccessSpec)
     step: float = 1.0
     # Whether the base scenario's reference finishes before its settling window: else
-    # every run is "off target" (twolink.outcome.finished)
+    # every run is "off target" (twolink.simulation.outcome.finished)
     finished: bool = True
 
     def nominal_scenario(self) -> Any:

@@ -2,7 +2,7 @@
 
 The table is a pandas DataFrame with one row per (sample, controller): ``sample``,
 ``controller``, the drawn parameters, the metrics of both joints (``joint1_overshoot_pct``,
-..., keys of :mod:`twolink.vocabulary`), ``status`` ("ok", "diverged" or "error") and
+..., keys of :mod:`twolink.simulation.vocabulary`), ``status`` ("ok", "diverged" or "error") and
 ``message``. What it was computed from (the controllers in the sweep file's order, the
 swept parameters, the joints that move) travels in ``DataFrame.attrs``, which Parquet
 keeps, so ``pandas.read_parquet`` on a ``results.parquet`` gives the same frame as
@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from twolink.io import atomic_path, atomic_write_json, atomic_write_text
-from twolink.outcome import OUTCOMES
-from twolink.vocabulary import METRICS, format_value
+from twolink.interface.io import atomic_path, atomic_write_json, atomic_write_text
+from twolink.simulation.outcome import OUTCOMES
+from twolink.simulation.vocabulary import METRICS, format_value
 
 __all__ = [
     "METRIC_COLUMNS",
@@ -41,7 +41,7 @@ __all__ = [
 METRIC_COLUMNS = tuple(f"joint{j}_{m.key}" for j in (1, 2) for m in METRICS)
 SUMMARY_METRICS = ("steady_state_error_rad", "overshoot_pct", "settling_time_s")
 STATUS_ERROR = "error"  # a sample that raised (the simulation's own are "ok", "diverged")
-# outcome (twolink.outcome) -> its count's key in the summary
+# outcome (twolink.simulation.outcome) -> its count's key in the summary
 OUTCOME_KEYS = {o: o.replace(" ", "_") for o in OUTCOMES}
 _TEXT_COLUMNS = ("controller", "status", "message")
 _NOT_PARAMETERS = ("sample", "outcome", *_TEXT_COLUMNS)
@@ -148,7 +148,7 @@ def summarize(df: pd.DataFrame) -> dict[str, Any]:
     """Per controller: how many runs met the spec, missed it, diverged or raised, the
     success rate (met spec / runs), and stats of ess, Mp and Ts.
 
-    The outcomes are the table's ``outcome`` column (:mod:`twolink.outcome`). The metric
+    The outcomes are the table's ``outcome`` column (:mod:`twolink.simulation.outcome`). The metric
     statistics (mean, median, 95th percentile, and ``n`` finite values) are over the runs
     that completed (met spec or off target), so a sag shows in them.
     """

@@ -9,9 +9,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
+from twolink.simulation.vocabulary import metric
 from twolink.sweep.figures import metric_grid, pyplot
 from twolink.sweep.results import SUMMARY_METRICS, load_results, met_spec, rows_of, sweep_meta
-from twolink.vocabulary import metric
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -62,7 +62,7 @@ def flexible_study_table(
     -------
     str
         Rows from stiff to soft; per controller the runs, the share that met the spec
-        (``twolink.outcome``) and the medians of ess, Mp and Ts of each moving joint over
+        (``twolink.simulation.outcome``) and the medians of ess, Mp and Ts of each moving joint over
         the runs that completed.
     """
     r = _as_results(results, parameter)

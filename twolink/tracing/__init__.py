@@ -2,7 +2,7 @@
 
 This package is the only place that imports ``rerun``; everything else imports it lazily,
 so runs work without rerun installed. Nothing is logged while a run is computed: a
-finished :class:`~twolink.sim.Trajectory` is sent in columns (``send_columns``) along one
+finished :class:`~twolink.simulation.sim.Trajectory` is sent in columns (``send_columns``) along one
 duration timeline, ``"time"`` (seconds). One concern per module:
 
 - :mod:`twolink.tracing.runs`: one run's entities (the list is in its docstring);

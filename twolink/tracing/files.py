@@ -14,9 +14,9 @@ import numpy as np
 import rerun as rr
 from rerun.error_utils import catch_and_log_exceptions
 
-from twolink.io import atomic_path
-from twolink.params import ArmParams
-from twolink.sim import Trajectory
+from twolink.arm.params import ArmParams
+from twolink.interface.io import atomic_path
+from twolink.simulation.sim import Trajectory
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -153,7 +153,7 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
     slash (``"run/joint1/angle"``, ``"rigid/table2/CTC/joint1/torque"``), the index is
     ``time_s``; a series missing at some time is NaN there. A recording keeps the samples
     its writer kept (``every``; see the file's writer); ``trajectory.npz`` beside a run's
-    recording has every sample (:meth:`twolink.sim.Trajectory.load`).
+    recording has every sample (:meth:`twolink.simulation.sim.Trajectory.load`).
 
     Parameters
     ----------

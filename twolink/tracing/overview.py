@@ -10,8 +10,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from twolink.params import ArmParams
-from twolink.sim import Trajectory
+from twolink.arm.params import ArmParams
+from twolink.simulation.sim import Trajectory
 
 if TYPE_CHECKING:
     pass

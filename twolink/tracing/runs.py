@@ -2,7 +2,7 @@
 
 The tracing package is the only one that imports ``rerun``; everything else imports it
 lazily, so runs work without rerun installed. Nothing is logged while a run is computed: a
-finished :class:`~twolink.sim.Trajectory` is sent in columns (``send_columns``) along
+finished :class:`~twolink.simulation.sim.Trajectory` is sent in columns (``send_columns``) along
 one duration timeline, ``"time"`` (seconds).
 
 Entity paths of one run, under its prefix ``P`` (``j`` is 1 or 2)::
@@ -45,8 +45,8 @@ import numpy as np
 import rerun as rr
 from rerun.error_utils import catch_and_log_exceptions
 
-from twolink.params import ArmParams
-from twolink.sim import Trajectory
+from twolink.arm.params import ArmParams
+from twolink.simulation.sim import Trajectory
 
 if TYPE_CHECKING:
     pass

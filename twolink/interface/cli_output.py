@@ -1,0 +1,56 @@
+"""Helpers of the command line: its one-line errors, its output folders, its tables."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import click
+
+
+def fail_input(message: str) -> None:
+    """Print one error line and exit 2 (bad input)."""
+    click.echo(f"error: {message}", err=True)
+    sys.exit(2)
+
+
+# What each command writes at the top of its folder (run: twolink.simulation.experiment.RUN_FILES):
+# a folder of only these, from a twolink before owner records, is the command's own.
+KNOWN_OUTPUTS = {
+    "gains": frozenset({"gains.csv", "gain_tradeoff.png"}),
+    "calibrate": frozenset({"calibrated.toml", "calibration_profile.png"}),
+    "models": frozenset({"twolink.xml", "twolink_flexible.xml", "scene.xml"}),
+}  # fmt: skip
+
+
+def own_output(out: Path, command: str, source: str | None = None, default: bool = False) -> None:
+    """Check that ``twolink COMMAND`` may write into ``out`` (exit 2 if not), then hold it
+    (lock and owner record) until the command ends (docs/reliability.md)."""
+    from twolink.interface.io import check_output_folder, check_ownership, owned_output
+
+    try:
+        check_output_folder(out)
+        known = KNOWN_OUTPUTS.get(command, frozenset())
+        if command == "run":  # a run folder's own files, as write_run names them
+            from twolink.interface.io import SEAL_NAME
+            from twolink.simulation.experiment import RUN_FILES
+
+            known = frozenset({*RUN_FILES, SEAL_NAME})
+        check_ownership(out, command, source, default, known=known)
+    except OSError as exc:
+        fail_input(str(exc))
+    click.get_current_context().with_resource(
+        owned_output(out, command, source, default, known=known)
+    )
+
+
+def format_metrics(metrics) -> str:
+    """A run's metrics as a table: one line per key (with its unit), one column per joint."""
+    from twolink.simulation.vocabulary import METRICS, format_value, joint_values
+
+    joints = [joint_values(metrics, j) for j in (1, 2)]
+    lines = [f"{'metric':24s} {'symbol':7s} {'joint 1':>10s} {'joint 2':>10s}"]
+    for m in METRICS:
+        cells = [format_value(v[m.key], 4) for v in joints]
+        lines.append(f"{m.key:24s} {m.symbol:7s} {cells[0]:>10s} {cells[1]:>10s}")
+    return "\n".join(lines)

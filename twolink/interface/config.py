@@ -1,0 +1,665 @@
+"""Scenario files: TOML read with :mod:`tomllib` into frozen, validated configs.
+
+A scenario is one closed-loop run: the arm, how the plant differs from it, the
+controller, the reference, timing and seed. A file may ``extend`` another (paths
+relative to the file); its tables are merged over the base's, key by key, so a family
+of experiments shares one base and states only what differs. Every error names the
+file and the key: ``runs/x.toml: controller.kp: must be >= 0, got -1``.
+
+Schema (all keys optional except the reference)::
+
+    extends = "base.toml"
+    name = "theta1 step"
+    duration = 10.0          # s
+    control_dt = 0.001       # s, controller period (zero-order hold)
+    timestep = 0.001         # s, physics step (RK4)
+    seed = 0                 # measurement noise draws
+    [arm]                    # the nominal arm = the controller's model
+    m1 = 1.0  m2 = 1.0  l1 = 1.0  l2 = 1.0  g = 9.81
+    [plant]                  # the simulated arm: the nominal one, maybe perturbed
+    scale = { m1 = 1.2, g = 1.1 }   # uncertainty as factors on [arm]
+    payload = 0.0            # kg point mass at the tip
+    noise_std = 0.0          # rad, Gaussian noise on measured angles
+    [plant.flexibility]      # present = Spong flexible joints
+    k = [500, 500]  d = [1, 1]  j = [0.05, 0.05]
+    start = "holding"        # springs holding the arm at rest at q0, or "relaxed"
+    [controller]
+    kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules);
+                             # baselines: "pd_gravity", "ctc_integral", "fuzzy_pd";
+                             # flexible joints: "motor_pd", "composite", "flexible_fl"
+    kp = [4, 4]  kd = [2.4, 2.4]  torque_limit = 1e3
+    ki = [2, 2]              # ctc_integral: integral gain, 1/s^3
+    rule_base = "paper"      # fcm_ctc, fuzzy_pd: "paper", "designed", "default" or a path
+    [controller.fuzzy]       # u = ku f(ke e, kde de); "auto": tied to the gains (docs/fuzzy.md)
+    ke = "auto"  kde = "auto"  ku = "auto"  span = "auto"  authority = 1.0  mode = "add"
+    engine = "exact"        # or "table": bilinear lookup, table_points = 201 per axis
+    [reference.joint1]
+    kind = "step"  initial = 0.0  final = 1.0
+    [reference.joint2]
+    kind = "ramp"  initial = 0.0  final = 0.5  duration = 2.0
+    [initial]
+    q = [0, 0]  qd = [0, 0]
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import tomllib
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from twolink.arm.params import ArmParams, Flexibility
+from twolink.interface.overrides import (
+    REPLACE as REPLACE,  # merging: re-exported, callers' old home
+)
+from twolink.interface.overrides import merge as merge
+from twolink.interface.overrides import set_nested
+from twolink.interface.overrides import strip_replace as strip_replace
+from twolink.simulation.references import ArmReference, make_reference, reference_params
+
+# Controllers of flexible joints (controllers/flexible.py): they read the motor states and
+# model the joints with [plant.flexibility], so they need a flexible plant.
+FLEXIBLE_KINDS = ("motor_pd", "composite", "flexible_fl")
+CONTROLLER_KINDS = (
+    "ctc",
+    "fuzzy_ctc",
+    "fcm_ctc",
+    "pd_gravity",
+    "ctc_integral",
+    "fuzzy_pd",
+    *FLEXIBLE_KINDS,
+)
+FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc", "fuzzy_pd")  # controllers with a fuzzy engine
+RULE_BASE_KINDS = ("fcm_ctc", "fuzzy_pd")  # those whose rule base is the rule_base key
+FUZZY_MODES = ("add", "replace")
+FUZZY_ENGINES = ("exact", "table")  # [controller.fuzzy] engine: docs/fuzzy.md
+
+
+# The shipped rule bases, where twolink.controllers is installed (the repository's
+# controllers/ in a checkout, twolink/controllers/ in a wheel)
+RULEBASE_DIR = Path(importlib.util.find_spec("twolink.controllers").origin).parent / "rulebases"
+BUILTIN_RULE_BASES = {
+    "paper": "paper_table1.toml",
+    "designed": "designed.toml",
+    "default": "default_7x7.toml",
+}
+
+
+def resolve_rule_base(name: str, relative_to: str | Path = ".") -> Path:
+    """Path of a rule base: "paper", "designed", "default" or a TOML or ``.fis`` path."""
+    if name in BUILTIN_RULE_BASES:
+        return RULEBASE_DIR / BUILTIN_RULE_BASES[name]
+    path = Path(name)
+    return path if path.is_absolute() else Path(relative_to).parent / path
+
+
+class ConfigError(ValueError):
+    """An invalid scenario: the message names the file and the key."""
+
+
+SPRING_STARTS = ("holding", "relaxed")
+
+
+@dataclass(frozen=True)
+class PlantConfig:
+    """How the simulated arm differs from the nominal one."""
+
+    scale: dict[str, float] = field(default_factory=dict)
+    payload: float = 0.0
+    noise_std: float = 0.0
+    flexibility: Flexibility | None = None
+    # A flexible arm's springs at t = 0: "holding" (twisted to hold the arm at rest at its
+    # start pose) or "relaxed" (rotors at the links: the arm starts to fall).
+    springs: str = "holding"
+
+
+@dataclass(frozen=True)
+class FuzzyConfig:
+    """Scaling of the fuzzy term: u = ku * engine(ke * e, kde * de), and how it joins CTC.
+
+    In a scenario each of ``ke``, ``kde``, ``ku`` is a number or ``"auto"`` (the default),
+    resolved when the scenario is read by :func:`auto_fuzzy_scaling` from the controller's
+    gains, ``span`` and ``authority``; a resolved config holds numbers only.
+    """
+
+    ke: float = 1.0
+    kde: float = 1.0
+    ku: float = 4.0
+    mode: str = "add"
+    span: float = 1.0  # rad: E, the error that reaches the edge of the input universe
+    authority: float = 1.0  # fuzzy full scale / PD term at full-scale error ("auto")
+    engine: str = "exact"  # "exact" (the Mamdani engine) or "table" (bilinear lookup)
+    table_points: int = 201  # engine = "table": grid points per axis
+
+
+AUTO = "auto"
+DEFAULT_SPAN = 1.0  # rad: E where no joint has a torque limit (the paper's 1 rad moves)
+
+
+def linear_span(
+    arm: ArmParams, kp: Sequence[float], torque_limit: Sequence[float] = (math.inf, math.inf)
+) -> float:
+    """E, the largest error the PD term answers without saturating the actuator [rad].
+
+    Per joint j, the torque left over the largest static gravity torque, divided by the
+    PD term's torque per radian at the largest inertia, M̂jj Kp_j (both at θ = 0, the arm
+    straight and horizontal); the smaller of the two joints. A joint with Kp = 0, no
+    limit, or a limit that does not exceed gravity's torque (it cannot hold itself,
+    whatever the span) gives none; :data:`DEFAULT_SPAN` where neither gives one.
+    """
+    import numpy as np
+
+    from twolink.arm.dynamics import gravity, mass_matrix
+
+    m = mass_matrix(arm, np.zeros(2))
+    g = np.abs(gravity(arm, np.zeros(2))).tolist()
+    spans = []
+    for j in range(2):
+        if not math.isfinite(torque_limit[j]) or not kp[j] > 0:
+            continue
+        headroom = torque_limit[j] - g[j]
+        if headroom > 0:  # else the joint cannot even hold itself: no linear range
+            spans.append(float(headroom / (m[j, j] * kp[j])))
+    return min(spans, default=DEFAULT_SPAN)
+
+
+def auto_fuzzy_scaling(
+    kp: Sequence[float],
+    span: float = DEFAULT_SPAN,
+    authority: float = 1.0,
+    ke: float | None = None,
+    kde: float | None = None,
+    ku: float | None = None,
+) -> tuple[float, float, float]:
+    """The fuzzy scaling tied to the CTC gains (docs/fuzzy.md, "Scaling"); a value given
+    (not None) is kept, and the others follow from it.
+
+    With the softer joint's stiffness (the smaller Kp = ωn²; both joints share one
+    scaling):
+
+    - ``ke = 1 / span``: an error of ``span`` (E; by default :func:`linear_span`, the
+      largest error the PD term answers unsaturated) fills the error universe;
+    - ``kde = ke / ωn``: a rate of ωn E, a full-scale error changing on the loop's own
+      time scale 1/ωn, fills the rate universe;
+    - ``ku = authority · Kp / ke``: the fuzzy term's full scale is ``authority`` times the
+      PD term's Kp · E at full-scale error E = 1/ke.
+
+    The damping (Kd) does not enter. Raises ValueError where the softer joint's Kp is 0
+    and ``kde`` or ``ku`` is derived.
+    """
+    kp_s = float(min(kp))
+    ke = 1.0 / span if ke is None else ke
+    if (kde is None or ku is None) and not kp_s > 0:
+        raise ValueError(f"needs kp > 0 on both joints, got kp = {list(kp)}")
+    kde = ke / math.sqrt(kp_s) if kde is None else kde
+    ku = authority * kp_s / ke if ku is None else ku
+    return ke, kde, ku
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    kind: str = "ctc"
+    kp: tuple[float, float] = (4.0, 4.0)
+    kd: tuple[float, float] = (2.4, 2.4)
+    ki: tuple[float, float] = (2.0, 2.0)
+    torque_limit: tuple[float, float] = (math.inf, math.inf)  # N m per joint
+    rule_base: str = "paper"
+    fuzzy: FuzzyConfig = FuzzyConfig()
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """One closed-loop experiment, fully resolved and validated."""
+
+    name: str
+    arm: ArmParams
+    plant: PlantConfig
+    controller: ControllerConfig
+    reference: ArmReference
+    duration: float = 10.0
+    control_dt: float = 1e-3
+    timestep: float = 1e-3
+    seed: int = 0
+    q0: tuple[float, float] = (0.0, 0.0)
+    qd0: tuple[float, float] = (0.0, 0.0)
+    source: str = ""
+
+    @property
+    def plant_params(self) -> ArmParams:
+        """The simulated arm's parameters: the nominal arm with the uncertainty factors."""
+        return self.arm.scaled(**self.plant.scale)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The resolved config as plain data (what a run writes as ``config.toml``)."""
+        plant: dict[str, Any] = {
+            "scale": dict(self.plant.scale),
+            "payload": self.plant.payload,
+            "noise_std": self.plant.noise_std,
+        }
+        if self.plant.flexibility is not None:
+            plant["flexibility"] = {k: list(v) for k, v in asdict(self.plant.flexibility).items()}
+            plant["flexibility"]["start"] = self.plant.springs
+        ctrl = asdict(self.controller)
+        ctrl["kp"], ctrl["kd"], ctrl["ki"] = list(ctrl["kp"]), list(ctrl["kd"]), list(ctrl["ki"])
+        if self.controller.fuzzy.engine == "exact":  # the default: digests stay as they were
+            del ctrl["fuzzy"]["engine"], ctrl["fuzzy"]["table_points"]
+        return {
+            "name": self.name,
+            "duration": self.duration,
+            "control_dt": self.control_dt,
+            "timestep": self.timestep,
+            "seed": self.seed,
+            "arm": asdict(self.arm),
+            "plant": plant,
+            "controller": ctrl,
+            "reference": {
+                "joint1": reference_params(self.reference.joint1),
+                "joint2": reference_params(self.reference.joint2),
+            },
+            "initial": {"q": list(self.q0), "qd": list(self.qd0)},
+        }
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+MAX_DEPTH = 32  # tables nested deeper are a mistake (tomllib would recurse past its limit)
+
+
+def parse_set(items: Sequence[str]) -> dict[str, Any]:
+    """``--set KEY=VALUE`` options as nested overrides: dotted keys make tables, values are
+    TOML (``25``, ``[1, 2]``, ``true``, ``"text"``) or else plain strings."""
+    out: dict[str, Any] = {}
+    for item in items:
+        if any(ch in item for ch in "\n\r\x00"):
+            raise ConfigError(f"--set {item!r}: a line break or NUL in a value is not allowed")
+        key, sep, text = item.partition("=")
+        parts = key.strip().split(".")
+        if not sep or not all(parts):
+            raise ConfigError(f"--set {item!r}: expected KEY=VALUE, e.g. controller.kp=25")
+        try:
+            value = tomllib.loads(f"value = {text}")["value"]
+        except tomllib.TOMLDecodeError:
+            value = text
+        except RecursionError:
+            raise ConfigError(f"--set {key}: the value is nested too deep") from None
+        if len(parts) > MAX_DEPTH:
+            raise ConfigError(f"--set {key}: more than {MAX_DEPTH} dotted parts")
+        set_nested(out, parts, value)
+    return out
+
+
+MAX_PHYSICS_STEPS = 1e8  # per run: 1e8 MuJoCo steps take about 15 min here
+MAX_EXTENDS = 64  # a longer ``extends`` chain is a mistake, not a design
+MAX_TOML_BYTES = 1 << 20  # 1 MiB: a scenario or study file is a few kB
+# No number twolink reads means anything beyond this (kg, m, s, gains, N·m/rad): larger
+# ones only overflow later, far from the key that caused it.
+MAX_MAGNITUDE = 1e12
+MAX_TABLE_POINTS = 2001  # per axis: 4e6 cells, ~100 MB of lookup table
+MIN_TIME_STEP = 1e-6  # s: timestep and control_dt; finer is not a control loop
+
+
+def read_toml(path: str | Path) -> dict[str, Any]:
+    """Read a TOML file, following ``extends`` chains; errors name the file (and, for a
+    missing or broken base, the file and key that point to it)."""
+    path = Path(path)
+    chain: list[tuple[Path, dict[str, Any]]] = []
+    while True:
+        data = _read_one(path, chain[-1][0] if chain else None)
+        chain.append((path, data))
+        base = data.pop("extends", None)
+        if base is None:
+            break
+        if not isinstance(base, str):
+            raise ConfigError(f"{path}: extends: must be a file path, got {base!r}")
+        if len(chain) > MAX_EXTENDS:
+            raise ConfigError(f"{chain[0][0]}: extends: a chain of more than {MAX_EXTENDS} files")
+        following = path.parent / base
+        seen = [p.resolve() for p, _ in chain]
+        if following.resolve() in seen:
+            raise ConfigError(f"{path}: extends: {base} extends itself (cycle through {seen})")
+        path = following
+    merged: dict[str, Any] = {}
+    for _, data in reversed(chain):
+        merged = merge(merged, data)
+    return merged
+
+
+def _read_one(path: Path, referrer: Path | None) -> dict[str, Any]:
+    where = f"{referrer}: extends: " if referrer is not None else ""
+    if path.is_dir():
+        raise ConfigError(f"{where}{path}: is a folder, not a TOML file")
+    if path.exists() and not path.is_file():
+        raise ConfigError(f"{where}{path}: is not a regular file (a pipe, a device)")
+    if not path.is_file():
+        raise ConfigError(f"{where}{path}: no such file")
+    if path.stat().st_size > MAX_TOML_BYTES:
+        raise ConfigError(f"{where}{path}: larger than {MAX_TOML_BYTES} bytes")
+    try:
+        return tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: not valid TOML: nested too deep") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"{where}{path}: cannot be read: {exc}") from None
+
+
+# Keys found in one kind of this project's files and in no other, and the command that
+# reads that kind: so a file given to the wrong command is named as such.
+FILE_KINDS = {
+    "scenario": (("extends", "arm", "plant", "initial", "duration"), "twolink run FILE"),
+    "sweep": (("samples", "parameters", "chunk_size"), "twolink sweep FILE"),
+    "manifest": (("experiment", "variants"), "twolink reproduce --manifest FILE"),
+    "design": (("scenarios", "clusters", "fuzzifier"), "twolink design --config FILE"),
+    "gains": (("natural_frequencies", "damping_ratios"), "twolink gains FILE"),
+}
+
+
+def expect_kind(data: dict[str, Any], file: str | Path, kind: str) -> None:
+    """Raise a :class:`ConfigError` that names the right command when ``data`` (a file
+    read for ``kind``) has another kind's keys and none of its own."""
+    if any(key in data for key in FILE_KINDS[kind][0]):
+        return
+    for other, (keys, command) in FILE_KINDS.items():
+        if other != kind and any(key in data for key in keys):
+            raise ConfigError(
+                f"{file}: this is a {other} file, not a {kind} file; did you mean "
+                f"`{command.replace('FILE', str(file))}`?"
+            )
+
+
+class TomlTable:
+    """Reads one TOML table, checking types; ``done()`` rejects keys nobody read.
+
+    Every error names the file and the dotted key. Shared by all the project's TOML
+    readers (scenarios, designs, reproduction manifests, sweeps).
+    """
+
+    def __init__(self, data: Any, where: str, file: str):
+        self.where, self.file = where, file
+        if not isinstance(data, dict):
+            self.fail("", f"must be a table, got {data!r}")
+        self.data = dict(data)
+        self.read: set[str] = set()
+
+    def fail(self, key: str, problem: str):
+        name = f"{self.where}.{key}" if self.where and key else self.where or key
+        raise ConfigError(f"{self.file}: {name}: {problem}")
+
+    def raw(self, key: str, default: Any = None) -> Any:
+        self.read.add(key)
+        return self.data.get(key, default)
+
+    def number(self, key: str, default: float, **checks: Any) -> float:
+        return self._checked(key, self.raw(key, default), **checks)
+
+    def pair(self, key: str, default: tuple[float, float], **checks: Any) -> tuple[float, float]:
+        value = self.raw(key, default)
+        if isinstance(value, int | float) and not isinstance(value, bool):
+            value = (value, value)
+        if not isinstance(value, list | tuple) or len(value) != 2:
+            self.fail(key, f"must be a number or a list of 2 numbers, got {value!r}")
+        return self._checked(key, value[0], **checks), self._checked(key, value[1], **checks)
+
+    def _checked(
+        self,
+        key: str,
+        value: Any,
+        *,
+        minimum: float | None = None,
+        positive: bool = False,
+        allow_inf: bool = False,
+        allow_nan: bool = False,
+    ) -> float:
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            self.fail(key, f"must be a number, got {value!r}")
+        try:
+            value = float(value)
+        except OverflowError:
+            self.fail(
+                key,
+                f"must be a number a float can hold, got an integer of {len(str(value))} digits",
+            )
+        if (math.isnan(value) and not allow_nan) or (math.isinf(value) and not allow_inf):
+            self.fail(key, f"must be finite, got {value!r}")
+        if math.isfinite(value) and abs(value) > MAX_MAGNITUDE:
+            self.fail(key, f"must be at most {MAX_MAGNITUDE:g} in size, got {value!r}")
+        if positive and not value > 0:
+            self.fail(key, f"must be > 0, got {value!r}")
+        if minimum is not None and value < minimum:
+            self.fail(key, f"must be >= {minimum}, got {value!r}")
+        return float(value)
+
+    def string(self, key: str, default: str, choices: tuple[str, ...] | None = None) -> str:
+        value = self.raw(key, default)
+        if not isinstance(value, str):
+            self.fail(key, f"must be a string, got {value!r}")
+        if choices is not None and value not in choices:
+            self.fail(key, f"must be one of {list(choices)}, got {value!r}")
+        return value
+
+    def integer(self, key: str, default: int) -> int:
+        value = self.raw(key, default)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            self.fail(key, f"must be an integer >= 0, got {value!r}")
+        return value
+
+    def table(self, key: str) -> TomlTable:
+        where = f"{self.where}.{key}" if self.where else key
+        return TomlTable(self.raw(key, {}), where, self.file)
+
+    def done(self) -> None:
+        unknown = sorted(set(self.data) - self.read)
+        if unknown:
+            self.fail(unknown[0], f"unknown key (known here: {sorted(self.read)})")
+
+
+def _arm(t: TomlTable) -> ArmParams:
+    d = ArmParams()
+    arm = ArmParams(
+        m1=t.number("m1", d.m1, positive=True),
+        m2=t.number("m2", d.m2, positive=True),
+        l1=t.number("l1", d.l1, positive=True),
+        l2=t.number("l2", d.l2, positive=True),
+        g=t.number("g", d.g),
+    )
+    t.done()
+    return arm
+
+
+def _plant(t: TomlTable) -> PlantConfig:
+    scale_t = t.table("scale")
+    scale = {}
+    for key in list(scale_t.data):
+        if key not in ("m1", "m2", "l1", "l2", "g"):
+            scale_t.fail(key, "unknown key (known here: ['g', 'l1', 'l2', 'm1', 'm2'])")
+        scale[key] = scale_t.number(key, 1.0, positive=key != "g")
+    flexibility, springs = None, PlantConfig.springs
+    if "flexibility" in t.data:
+        f = t.table("flexibility")
+        d = Flexibility()
+        flexibility = Flexibility(
+            k=f.pair("k", d.k, positive=True),
+            d=f.pair("d", d.d, minimum=0.0),
+            j=f.pair("j", d.j, positive=True),
+        )
+        springs = f.string("start", "holding", choices=SPRING_STARTS)
+        f.done()
+    plant = PlantConfig(
+        scale=scale,
+        payload=t.number("payload", 0.0, minimum=0.0),
+        noise_std=t.number("noise_std", 0.0, minimum=0.0),
+        flexibility=flexibility,
+        springs=springs,
+    )
+    t.done()
+    return plant
+
+
+def controller_from_table(t: TomlTable, arm: ArmParams | None = None) -> ControllerConfig:
+    """A ``[controller]`` table (or overrides of one) validated; errors name ``t``'s file.
+    ``arm`` (default: the default arm) is the model that an "auto" fuzzy span reads."""
+    d = ControllerConfig()
+    kind = t.string("kind", d.kind, CONTROLLER_KINDS)
+    kp = t.pair("kp", d.kp, minimum=0.0)
+    kd = t.pair("kd", d.kd, minimum=0.0)
+    limit = t.pair("torque_limit", d.torque_limit, positive=True, allow_inf=True)
+    fuzzy = _fuzzy(t.table("fuzzy"), kind, kp, limit, arm or ArmParams())
+    ctrl = ControllerConfig(
+        kind=kind,
+        kp=kp,
+        kd=kd,
+        ki=t.pair("ki", d.ki, minimum=0.0),
+        torque_limit=t.pair("torque_limit", d.torque_limit, positive=True, allow_inf=True),
+        rule_base=t.string("rule_base", d.rule_base),
+        fuzzy=fuzzy,
+    )
+    t.done()
+    return ctrl
+
+
+def _fuzzy(
+    f: TomlTable,
+    kind: str,
+    kp: Sequence[float],
+    limit: Sequence[float],
+    arm: ArmParams,
+) -> FuzzyConfig:
+    """``[controller.fuzzy]`` with its "auto" scalings resolved from the gains."""
+    fd = FuzzyConfig()
+    span = _auto_or_number(f, "span", positive=True)
+    if span is None:
+        span = linear_span(arm, kp, limit)
+    authority = f.number("authority", fd.authority, minimum=0.0)
+    given = {
+        "ke": _auto_or_number(f, "ke", positive=True),
+        "kde": _auto_or_number(f, "kde", positive=True),
+        "ku": _auto_or_number(f, "ku", minimum=0.0),
+    }
+    try:
+        ke, kde, ku = auto_fuzzy_scaling(kp, span, authority, **given)
+    except ValueError as exc:
+        if kind in FUZZY_KINDS:
+            auto = next(k for k in ("kde", "ku") if given[k] is None)
+            f.fail(auto, f'"auto" {exc} (or give {auto} as a number)')
+        ke, kde, ku = fd.ke, fd.kde, fd.ku  # a controller without a fuzzy term: unused
+    fuzzy = FuzzyConfig(
+        ke=ke,
+        kde=kde,
+        ku=ku,
+        mode=f.string("mode", fd.mode, FUZZY_MODES),
+        span=span,
+        authority=authority,
+        engine=f.string("engine", fd.engine, FUZZY_ENGINES),
+        table_points=f.integer("table_points", fd.table_points),
+    )
+    if not 2 <= fuzzy.table_points <= MAX_TABLE_POINTS:
+        f.fail("table_points", f"must be 2 to {MAX_TABLE_POINTS}, got {fuzzy.table_points}")
+    f.done()
+    return fuzzy
+
+
+def _auto_or_number(t: TomlTable, key: str, **checks: Any) -> float | None:
+    """A fuzzy scaling key: a checked number, or None for "auto" (its default)."""
+    value = t.raw(key, AUTO)
+    if value == AUTO:
+        return None
+    if isinstance(value, str):
+        t.fail(key, f'must be a number or "auto", got {value!r}')
+    return t.number(key, 0.0, **checks)
+
+
+def _reference(t: TomlTable) -> ArmReference:
+    joints = []
+    for name in ("joint1", "joint2"):
+        j = t.table(name)
+        params = dict(j.data)
+        kind = params.pop("kind", None)
+        if kind is None:
+            j.fail("kind", "missing (one of step, ramp, sine, quintic)")
+        try:
+            joints.append(make_reference(kind, **params))
+        except (ValueError, TypeError) as exc:
+            j.fail("", str(exc))
+    t.done()
+    return ArmReference(*joints)
+
+
+def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario:
+    """Validate plain data (as read from TOML) into a :class:`Scenario`."""
+    data = strip_replace(data)
+    top = TomlTable(data, "", source)
+    if "reference" not in data:
+        top.fail("reference", "missing: a scenario needs [reference.joint1] and .joint2")
+    initial = top.table("initial")
+    arm = _arm(top.table("arm"))
+    scenario = Scenario(
+        name=top.string("name", Path(source).stem),
+        arm=arm,
+        plant=_plant(top.table("plant")),
+        controller=controller_from_table(top.table("controller"), arm),
+        reference=_reference(top.table("reference")),
+        duration=top.number("duration", 10.0, positive=True),
+        control_dt=top.number("control_dt", 1e-3, positive=True, minimum=MIN_TIME_STEP),
+        timestep=top.number("timestep", 1e-3, positive=True, minimum=MIN_TIME_STEP),
+        seed=top.integer("seed", 0),
+        q0=initial.pair("q", (0.0, 0.0)),
+        qd0=initial.pair("qd", (0.0, 0.0)),
+        source=source,
+    )
+    initial.done()
+    top.done()
+    steps = scenario.control_dt / scenario.timestep
+    if abs(steps - round(steps)) > 1e-9 * steps or round(steps) < 1:
+        top.fail("control_dt", f"must be a whole multiple of timestep {scenario.timestep}")
+    if scenario.duration < scenario.control_dt:
+        top.fail("duration", f"must be at least control_dt {scenario.control_dt}")
+    if scenario.duration / scenario.timestep > MAX_PHYSICS_STEPS:
+        top.fail(
+            "duration",
+            f"{scenario.duration:g} s at a timestep of {scenario.timestep:g} s is "
+            f"{scenario.duration / scenario.timestep:.3g} physics steps; the limit is "
+            f"{MAX_PHYSICS_STEPS:.0e} (about 15 min of computing) per run",
+        )
+    try:
+        scenario.plant_params  # noqa: B018 - the scaled arm must be valid too
+    except ValueError as exc:
+        top.fail("plant.scale", str(exc))
+    _check_rule_base(top, scenario)
+    if scenario.controller.kind in FLEXIBLE_KINDS and scenario.plant.flexibility is None:
+        top.fail(
+            "controller.kind",
+            f"{scenario.controller.kind!r} reads the motors of flexible joints and models them "
+            "with [plant.flexibility], which this scenario lacks (a rigid arm)",
+        )
+    return scenario
+
+
+def _check_rule_base(top: TomlTable, s: Scenario) -> None:
+    # A rule-base file that is missing or broken is bad input, found before any run.
+    name = s.controller.rule_base
+    if s.controller.kind not in RULE_BASE_KINDS or name in BUILTIN_RULE_BASES:
+        return
+    path = resolve_rule_base(name, s.source)
+    if not path.is_file():
+        top.fail("controller.rule_base", f"no such file {path}")
+    from twolink.controllers.fuzzy import default_fuzzy_pd
+    from twolink.controllers.fuzzy.fis import read_rule_base
+
+    try:
+        default_fuzzy_pd().with_rules(read_rule_base(path))  # its labels must be the engine's
+    except (ValueError, OSError) as exc:
+        top.fail("controller.rule_base", f"{path}: {exc}")
+
+
+def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> Scenario:
+    """Read and validate a scenario file, with optional overrides merged on top."""
+    data = read_toml(path)
+    expect_kind(data, path, "scenario")
+    if overrides:
+        data = merge(data, overrides)
+    return scenario_from_dict(data, str(path))

@@ -1,0 +1,331 @@
+"""The batch engine: many arms in one MuJoCo model, stepped in lockstep.
+
+N arms, rigid or flexible, each with its own masses, lengths, payload, flexibility and
+gravity, are built into one MjModel (:func:`twolink.arm.plant.add_arm` with a name prefix per
+arm) and advanced by one ``mj_step`` per physics step. The arms are separate kinematic
+trees with no contacts, so MuJoCo's (block-diagonal) dynamics keep them independent:
+each arm moves as it does alone in its own model (``tests/test_batch.py``).
+
+Gravity is one option per model, the largest in magnitude of the arms'; an arm whose g
+differs moves in a plane tilted about the horizontal x axis by the angle whose cosine is
+``g / g_model`` (:func:`twolink.arm.plant.incline`): the model's gravity then has exactly the
+component g in the arm's plane, and the rest lies along its hinges, where it does no
+work. Arms at the model's g are bit-identical to the single-arm path and the others
+agree to rounding; the tilt costs nothing per step (the gravity compensation this
+replaced cost ~30 % of MuJoCo's step).
+
+:func:`simulate_batch` is :func:`twolink.simulation.sim.simulate` for N arms: the same zero-order
+hold, the same bounds and the same records, per arm. An arm that leaves its bounds stops
+there as "diverged", exactly as alone, and is then frozen (held at rest at zero, torque
+zero) so that it cannot disturb the others; MuJoCo's automatic reset is off, so a NaN in
+one arm never resets the rest. An arm whose run is over is frozen the same way.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.plant import add_arm, holding_motor_q, mujoco, new_spec
+from twolink.controllers.base import Controller
+from twolink.simulation.sim import (
+    STATUS_DIVERGED,
+    STATUS_OK,
+    Bounds,
+    Trajectory,
+    control_steps,
+    state_message,
+    torque_message,
+)
+
+__all__ = ["Arm", "BatchPlant", "BatchResult", "record_bytes", "simulate_batch"]
+
+
+@dataclass(frozen=True)
+class Arm:
+    """One arm of a batch: what :meth:`twolink.arm.plant.Plant.build` takes."""
+
+    params: ArmParams
+    flexibility: Flexibility | None = None
+    payload: float = 0.0
+
+
+def model_gravity(gs: Sequence[float]) -> float:
+    """The model's gravity for arms with gravities ``gs``: the one of largest magnitude
+    (the first of those), so that every arm's share ``g / g_model`` of it is a cosine
+    (:func:`twolink.arm.plant.incline`); a tilt can take gravity away, not add it."""
+    return max(gs, key=abs, default=0.0)
+
+
+class BatchPlant:
+    """N arms in one MuJoCo model. ``q_index``/``v_index``: (N, 2) addresses of each
+    arm's link angles in ``qpos``/``qvel``, and ``force_index`` the (N, 2) ``qfrc_applied``
+    addresses its torques are written to (its motors' joints)."""
+
+    def __init__(self, arms: Sequence[Arm], timestep: float = 1e-3) -> None:
+        if not arms:
+            raise ValueError("a batch needs at least one arm")
+        g_model = model_gravity([a.params.g for a in arms])
+        spec = new_spec(timestep, g_model, "twolink_batch")
+        for i, a in enumerate(arms):
+            # No geoms (nothing renders a batch) and no actuators (see force_index): each
+            # costs ~5 % of a step.
+            add_arm(
+                spec,
+                a.params,
+                a.flexibility,
+                a.payload,
+                prefix=f"arm{i}_",
+                model_g=g_model,
+                visual=False,
+                motors=False,
+            )
+        try:
+            self.model = spec.compile()
+        except ValueError as exc:
+            why = " ".join(str(exc).split()).removeprefix("Error: ")
+            raise ValueError(f"MuJoCo cannot build this batch of arms: {why}") from None
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self.arms = list(arms)
+        self.n_arms = len(arms)
+        self.flexible = np.array([a.flexibility is not None for a in arms])
+
+        def joint(i: int, name: str):
+            return self.model.joint(f"arm{i}_{name}")
+
+        links = [(joint(i, "theta1"), joint(i, "theta2")) for i in range(len(arms))]
+        self.q_index = np.array([[j.qposadr[0] for j in pair] for pair in links])
+        self.v_index = np.array([[j.dofadr[0] for j in pair] for pair in links])
+        # Rotor addresses; a rigid arm's point at its links (read, never used).
+        motors = [
+            (joint(i, "phi1"), joint(i, "phi2")) if flex else pair
+            for i, (flex, pair) in enumerate(zip(self.flexible, links, strict=True))
+        ]
+        self.motor_index = np.array([[j.qposadr[0] for j in pair] for pair in motors])
+        self.motor_v_index = np.array([[j.dofadr[0] for j in pair] for pair in motors])
+        # Each arm's spring stiffness (inf for a rigid arm: no twist), from the model.
+        self.stiffness = np.array(
+            [
+                [
+                    self.model.tendon_stiffness[self.model.tendon(f"arm{i}_spring{k}").id]
+                    for k in (1, 2)
+                ]
+                if flex
+                else [np.inf, np.inf]
+                for i, flex in enumerate(self.flexible)
+            ]
+        )
+        # The torques enter as applied forces on the motors' joints (``qfrc_applied``),
+        # which is exactly what the single arm's gear-1 motors add (no control limits:
+        # qfrc_actuator = ctrl); the batch model has no actuators, whose transmission
+        # MuJoCo would compute four times a step for nothing. (Sums are unchanged: MuJoCo
+        # adds applied, then actuator forces, and one of the two is zero either way.)
+        self.force_index = self.motor_v_index
+
+    def reset(self, q0: np.ndarray, qd0: np.ndarray, holding: np.ndarray | None = None) -> None:
+        """Every arm at (q0, qd0), time 0, its rotors at the links (springs relaxed) or,
+        for the flexible arms where ``holding`` is true, twisted to hold the arm at rest at
+        q0 by its own gravity and payload: :func:`twolink.arm.plant.holding_motor_q`, the
+        angles a single arm's run starts with
+        (:func:`twolink.simulation.experiment.start_motor_q`)."""
+        mujoco.mj_resetData(self.model, self.data)
+        motor_q0 = np.array(q0, dtype=float)
+        held = np.zeros(self.n_arms, bool) if holding is None else holding & self.flexible
+        for i in np.flatnonzero(held):
+            a = self.arms[i]
+            motor_q0[i] = holding_motor_q(a.params, a.flexibility, q0[i], a.payload)
+        for index, value in ((self.motor_index, motor_q0), (self.q_index, q0)):
+            self.data.qpos[index] = value
+        for index, value in ((self.motor_v_index, qd0), (self.v_index, qd0)):
+            self.data.qvel[index] = value
+        mujoco.mj_forward(self.model, self.data)
+
+    def freeze(self, arms: np.ndarray) -> None:
+        """Hold ``arms`` (indices) at rest at zero with no torque."""
+        for q_index, v_index in (
+            (self.q_index, self.v_index),
+            (self.motor_index, self.motor_v_index),
+        ):
+            self.data.qpos[q_index[arms]] = 0.0
+            self.data.qvel[v_index[arms]] = 0.0
+        self.data.qfrc_applied[self.force_index[arms]] = 0.0
+
+
+def record_bytes(steps: int, flexible: bool = False) -> int:
+    """Memory one arm's records take for ``steps`` control periods (what bounds a batch)."""
+    return (steps + 1) * (8 if flexible else 6) * 8
+
+
+@dataclass(frozen=True, eq=False)
+class BatchResult:
+    """The records of a batch; :meth:`trajectory` gives arm i's as a Trajectory."""
+
+    times: np.ndarray
+    q: np.ndarray  # (steps + 1, N, 2)
+    qd: np.ndarray
+    tau: np.ndarray
+    motor_q: np.ndarray | None
+    length: np.ndarray  # (N,) samples kept per arm
+    status: list[str]
+    message: list[str]
+    controllers: Sequence[Controller]
+    flexible: np.ndarray
+
+    def trajectory(self, i: int) -> Trajectory:
+        """Arm i's run, as :func:`twolink.simulation.sim.simulate` returns it."""
+        n = int(self.length[i])
+        t = self.times[:n].copy()
+        q_ref, qd_ref, qdd_ref = self.controllers[i].reference.sample(t)
+        motor = self.motor_q[:n, i].copy() if self.flexible[i] else np.empty((0, 2))
+        return Trajectory(
+            t=t,
+            q=self.q[:n, i].copy(),
+            qd=self.qd[:n, i].copy(),
+            q_ref=q_ref.reshape(-1, 2),
+            qd_ref=qd_ref.reshape(-1, 2),
+            qdd_ref=qdd_ref.reshape(-1, 2),
+            tau=self.tau[:n, i].copy(),
+            motor_q=motor,
+            status=self.status[i],
+            message=self.message[i],
+        )
+
+
+def simulate_batch(
+    plant: BatchPlant,
+    controllers: Sequence[Controller],
+    durations: Sequence[float],
+    control_dt: float = 1e-3,
+    q0: np.ndarray | None = None,
+    qd0: np.ndarray | None = None,
+    bounds: Bounds | None = None,
+    noise: Sequence[np.ndarray | None] | None = None,
+    holding: np.ndarray | None = None,
+) -> BatchResult:
+    """Run arm i of ``plant`` under ``controllers[i]`` for ``durations[i]`` seconds.
+
+    The arguments are those of :func:`twolink.simulation.sim.simulate`, one per arm (a controller
+    that reads the motors, ``needs_motor``, gets each arm's rotor states): ``q0`` and
+    ``qd0`` of shape (N, 2) (default zeros), ``noise[i]`` of shape (steps_i + 1, 2) or
+    None; ``holding`` (N,) bool: flexible arms that start with their springs holding them at
+    rest (:meth:`BatchPlant.reset`). Every arm shares the plant's timestep and ``control_dt``.
+    """
+    from twolink.controllers.batch import batch_laws
+
+    n_arms = plant.n_arms
+    if len(controllers) != n_arms or len(durations) != n_arms:
+        raise ValueError(f"need one controller and one duration per arm ({n_arms})")
+    steps = np.array([control_steps(d, control_dt, plant.dt)[0] for d in durations])
+    substeps = control_steps(durations[0], control_dt, plant.dt)[1]
+    n_max = int(steps.max())
+    q0 = np.zeros((n_arms, 2)) if q0 is None else np.asarray(q0, dtype=float)
+    qd0 = np.zeros((n_arms, 2)) if qd0 is None else np.asarray(qd0, dtype=float)
+    noisy = noise is not None and any(n is not None for n in noise)
+    noise_all = _stack_noise(noise, steps, n_max) if noisy else None
+
+    times = np.arange(n_max + 1) * control_dt
+    for c in controllers:
+        c.reset()
+    laws = batch_laws(controllers, times)
+    motor_laws = [bool(getattr(law, "needs_motor", False)) for _, law in laws]
+    rigid = [i for i, c in enumerate(controllers) if getattr(c, "needs_motor", False)]
+    rigid = [i for i in rigid if not plant.flexible[i]]
+    if rigid:
+        raise ValueError(
+            f"arm {rigid[0]}'s controller ({type(controllers[rigid[0]]).__name__}) reads the "
+            "motor states of flexible joints; that arm is rigid"
+        )
+    plant.reset(q0, qd0, None if holding is None else np.asarray(holding, bool))
+    model, data = plant.model, plant.data
+    qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
+    q_index, v_index, force_index = plant.q_index, plant.v_index, plant.force_index
+    any_flexible = bool(plant.flexible.any())
+
+    rec_q = np.empty((n_max + 1, n_arms, 2))
+    rec_qd = np.empty_like(rec_q)
+    rec_tau = np.empty_like(rec_q)
+    rec_motor = np.empty_like(rec_q) if any_flexible else None
+    length = np.zeros(n_arms, dtype=int)
+    status = [STATUS_OK] * n_arms
+    message = [""] * n_arms
+    active = np.ones(n_arms, dtype=bool)
+    bounds = bounds or Bounds()
+    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
+    tau = np.zeros((n_arms, 2))
+
+    ends = set(steps.tolist())  # instants where some arm's run is over
+    for k in range(n_max + 1):
+        t = float(times[k])
+        q, qd = qpos[q_index], qvel[v_index]
+        rec_q[k], rec_qd[k] = q, qd
+        if any_flexible:
+            rec_motor[k] = qpos[plant.motor_index]
+        # NaN fails every comparison, so this also catches non-finite states. (Frozen
+        # arms rest at zero, inside the bounds.)
+        if not (np.abs(q).max() < qmax and np.abs(qd).max() < wmax):
+            escaped = active & ~((np.abs(q) < qmax).all(axis=1) & (np.abs(qd) < wmax).all(axis=1))
+            for i in np.flatnonzero(escaped):
+                status[i] = STATUS_DIVERGED
+                message[i] = state_message(t, *q[i], *qd[i])
+            length[escaped] = k if k else 1  # at once: keep the one state, with no torque
+            active &= ~escaped
+            q[escaped] = qd[escaped] = 0.0  # the laws see finite numbers
+        seen = q if noise_all is None else q + noise_all[k]
+        if any(motor_laws):  # the rotors, for the laws of flexible joints
+            mq, mqd = qpos[plant.motor_index], qvel[plant.motor_v_index]
+            mq[~active] = mqd[~active] = 0.0
+        for (idx, law), motor in zip(laws, motor_laws, strict=True):
+            if motor:
+                tau[idx] = law(k, seen[idx], qd[idx], mq[idx], mqd[idx])
+            else:
+                tau[idx] = law(k, seen[idx], qd[idx])
+        stopped = not active.all()
+        if stopped:
+            tau[~active] = np.nan if k == 0 else 0.0
+        rec_tau[k] = tau
+        if not np.abs(tau).max() < tmax or k in ends:
+            runaway = active & ~(np.abs(tau) < tmax).all(axis=1)
+            for i in np.flatnonzero(runaway):
+                # Kept: the state measured and the torque asked for (not applied).
+                status[i] = STATUS_DIVERGED
+                message[i] = torque_message(t, *tau[i])
+            done = active & (runaway | (steps == k))
+            length[done] = k + 1
+            active &= ~done
+            if not active.any():
+                break
+            stopped = True
+        if stopped:
+            plant.freeze(np.flatnonzero(~active))
+            tau[~active] = 0.0
+        force[force_index] = tau
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+    return BatchResult(
+        times,
+        rec_q,
+        rec_qd,
+        rec_tau,
+        rec_motor,
+        length,
+        status,
+        message,
+        controllers,
+        plant.flexible,
+    )
+
+
+def _stack_noise(noise: Sequence[np.ndarray | None], steps: np.ndarray, n_max: int) -> np.ndarray:
+    """Per-arm noise as one (n_max + 1, N, 2) array; zeros where an arm has none."""
+    out = np.zeros((n_max + 1, len(steps), 2))
+    for i, (rows, n) in enumerate(zip(noise, steps, strict=True)):
+        if rows is None:
+            continue
+        if np.shape(rows) != (n + 1, 2):
+            raise ValueError(f"noise of arm {i} must have shape {(n + 1, 2)}, got {np.shape(rows)}")
+        out[: n + 1, i] = rows
+    return out

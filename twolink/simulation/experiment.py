@@ -1,0 +1,527 @@
+"""From a scenario to results: build the plant and controller, run, measure, write.
+
+This is the glue the CLI, the reproduction and the sweeps share; it holds no physics
+and no control law of its own.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import math
+import os
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twolink.arm.plant import Plant, holding_motor_q
+from twolink.controllers.base import Controller
+from twolink.controllers.ctc import ComputedTorque
+from twolink.interface.config import (
+    BUILTIN_RULE_BASES,
+    FLEXIBLE_KINDS,
+    FUZZY_KINDS,
+    Scenario,
+    resolve_rule_base,
+)
+from twolink.interface.io import (
+    SEAL_NAME,
+    ForeignOutput,
+    WriteFailed,
+    atomic_write_json,
+    atomic_write_text,
+    folder_entries,
+    refuse_links,
+    replace_files,
+    scratch_folder,
+    show_names,
+    to_toml,
+    write_seal,
+)
+from twolink.simulation.metrics import (
+    error_measures,
+    metrics_dict,
+    oscillation_amplitude,
+    step_metrics,
+    torque_measures,
+)
+from twolink.simulation.outcome import classify_run
+from twolink.simulation.sim import Trajectory, simulate
+from twolink.simulation.vocabulary import CONTROLLER_LABELS, joint_values
+
+
+def build_plant(s: Scenario) -> Plant:
+    """The simulated arm: the nominal arm with the scenario's uncertainty."""
+    return Plant.build(s.plant_params, s.plant.flexibility, s.plant.payload, s.timestep)
+
+
+def build_controller(s: Scenario) -> Controller:
+    """The scenario's controller, modelled on the nominal arm."""
+    c = s.controller
+    common = dict(model=s.arm, reference=s.reference, kp=c.kp, kd=c.kd, torque_limit=c.torque_limit)
+    if c.kind == "ctc":
+        return ComputedTorque(**common)
+    if c.kind in FLEXIBLE_KINDS:  # they model the joints with the plant's own (identified)
+        from twolink.controllers import flexible
+
+        joints = s.plant.flexibility
+        if c.kind == "motor_pd":
+            return flexible.MotorPD(**common, joints=joints)
+        if c.kind == "composite":
+            return flexible.CompositeControl(**common, joints=joints)
+        return flexible.FlexibleFeedbackLinearisation(
+            **common, joints=joints, control_dt=s.control_dt
+        )
+    from twolink.controllers import baselines
+
+    if c.kind == "pd_gravity":
+        return baselines.PDGravity(**common)
+    if c.kind == "ctc_integral":
+        return baselines.IntegralComputedTorque(**common, ki=c.ki, control_dt=s.control_dt)
+    if c.kind == "fuzzy_ctc":
+        engine = _engine(None)
+    else:
+        path = resolve_rule_base(c.rule_base, s.source).resolve()
+        stat = path.stat()
+        engine = _engine(str(path), stat.st_mtime_ns, stat.st_size)
+    f = c.fuzzy
+    if f.engine == "table":
+        engine = _table(engine, f.table_points)
+    if c.kind == "fuzzy_pd":
+        return baselines.FuzzyPD(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku)
+    from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
+
+    return FuzzyComputedTorque(**common, engine=engine, ke=f.ke, kde=f.kde, ku=f.ku, mode=f.mode)
+
+
+@functools.lru_cache(maxsize=32)
+def _engine(rule_base: str | None, *version: int):
+    """The engine of a rule-base file (None: the 7x7 heuristic), built once per file
+    version: controllers of one rule base share their engine, which is what lets the
+    batch engine run them as one law (``controllers/batch.py``)."""
+    from twolink.controllers import fuzzy
+    from twolink.controllers.fuzzy.fis import read_rule_base
+
+    if rule_base is None:
+        return fuzzy.default_fuzzy_pd()
+    return fuzzy.default_fuzzy_pd().with_rules(read_rule_base(rule_base))
+
+
+@functools.lru_cache(maxsize=32)
+def _table(engine, points: int):
+    """The lookup table of a cached engine (one per engine and size, shared like it)."""
+    from twolink.controllers.fuzzy.table import FuzzyTable
+
+    return FuzzyTable(engine, points)
+
+
+def measurement_noise(s: Scenario) -> np.ndarray | None:
+    """Seeded Gaussian noise on the measured angles, or None when the scenario has none."""
+    if s.plant.noise_std == 0:
+        return None
+    n = round(s.duration / s.control_dt)
+    return np.random.default_rng(s.seed).normal(0.0, s.plant.noise_std, size=(n + 1, 2))
+
+
+def run_scenario(
+    s: Scenario, controller: Controller | None = None, plant: Plant | None = None
+) -> Trajectory:
+    """Simulate the scenario (deterministic for its seed). A flexible arm starts as its
+    ``[plant.flexibility] start`` says (:func:`start_motor_q`, from the scenario's plant:
+    a ``plant`` passed in must be :func:`build_plant`'s)."""
+    plant = plant or build_plant(s)
+    return simulate(
+        plant,
+        controller or build_controller(s),
+        s.duration,
+        control_dt=s.control_dt,
+        q0=s.q0,
+        qd0=s.qd0,
+        noise=measurement_noise(s),
+        motor_q0=start_motor_q(s),
+    )
+
+
+def holding_start(s: Scenario) -> bool:
+    """Whether the scenario's arm starts with its springs holding it at rest (a flexible
+    arm whose ``[plant.flexibility] start`` is "holding", the default)."""
+    return s.plant.flexibility is not None and s.plant.springs == "holding"
+
+
+def start_motor_q(s: Scenario) -> tuple[float, float] | None:
+    """The rotor angles a scenario's arm starts with: twisted to hold the simulated arm
+    (its own gravity and payload, not the controller's model) at rest at q0 for a holding
+    start (:func:`twolink.arm.plant.holding_motor_q`), else None (at the links, or rigid)."""
+    if not holding_start(s):
+        return None
+    phi = holding_motor_q(s.plant_params, s.plant.flexibility, s.q0, s.plant.payload)
+    return (float(phi[0]), float(phi[1]))
+
+
+BATCH_RECORD_BYTES = 256 * 2**20  # one batch's records (and noise): peak RSS < 1 GB
+
+
+def run_scenarios(
+    scenarios: Sequence[Scenario], controllers: Sequence[Controller] | None = None
+) -> list[Trajectory | Exception]:
+    """Every trajectory of :func:`iter_scenarios`, in order (all of them in memory: for
+    many arms, iterate instead)."""
+    results: list[Trajectory | Exception] = [ValueError("not run")] * len(scenarios)
+    for i, traj in iter_scenarios(scenarios, controllers):
+        results[i] = traj
+    return results
+
+
+def iter_scenarios(
+    scenarios: Sequence[Scenario], controllers: Sequence[Controller] | None = None
+) -> Iterator[tuple[int, Trajectory | Exception]]:
+    """Simulate many scenarios on the batch engine (:mod:`twolink.simulation.batch`), yielding
+    ``(i, trajectory)`` as each batch ends: arm i is ``scenarios[i]`` under
+    ``controllers[i]`` (default: each scenario's own), and its trajectory equals
+    :func:`run_scenario`'s. Arms sharing a timestep and control period run in batches
+    whose records stay under :data:`BATCH_RECORD_BYTES`, and a trajectory is made only
+    when yielded, so memory stays bounded whatever the number of scenarios. An arm that
+    cannot be built (MuJoCo refuses it) yields its exception; the others still run.
+    """
+    from twolink.simulation.batch import record_bytes
+
+    controllers = controllers or [build_controller(s) for s in scenarios]
+    groups: dict[tuple[float, float], list[int]] = {}
+    for i, s in enumerate(scenarios):
+        groups.setdefault((s.timestep, s.control_dt), []).append(i)
+    for (timestep, control_dt), members in groups.items():
+        cost = max(_arm_bytes(scenarios[i], control_dt, record_bytes) for i in members)
+        size = max(1, BATCH_RECORD_BYTES // cost)
+        for start in range(0, len(members), size):
+            batch = members[start : start + size]
+            yield from _trajectories(
+                *_simulate_batch(scenarios, controllers, batch, timestep, control_dt)
+            )
+
+
+def _simulate_batch(
+    scenarios: Sequence[Scenario],
+    controllers: Sequence[Controller],
+    members: list[int],
+    timestep: float,
+    control_dt: float,
+) -> tuple[list[tuple[int, Exception]], list[int], Any]:
+    """One batch of :func:`iter_scenarios`: the arms MuJoCo refuses with their errors, and
+    the arms simulated with their records (a :class:`twolink.simulation.batch.BatchResult`)."""
+    from twolink.simulation.batch import BatchPlant, simulate_batch
+
+    errors: list[tuple[int, Exception]] = []
+    arms = {}
+    for i in members:
+        try:
+            arms[i] = _arm(scenarios[i])
+        except Exception as exc:  # this arm's error, not the batch's
+            errors.append((i, exc))
+    try:
+        plant = BatchPlant(list(arms.values()), timestep) if arms else None
+    except ValueError:  # find the arms MuJoCo refuses; run the rest
+        for i in list(arms):
+            try:
+                BatchPlant([arms[i]], timestep)
+            except ValueError as exc:
+                del arms[i]
+                errors.append((i, exc))
+        plant = BatchPlant(list(arms.values()), timestep) if arms else None
+    if plant is None:
+        return errors, [], None
+    batch = list(arms)
+    run = simulate_batch(
+        plant,
+        [controllers[i] for i in batch],
+        [scenarios[i].duration for i in batch],
+        control_dt,
+        q0=np.array([scenarios[i].q0 for i in batch]),
+        qd0=np.array([scenarios[i].qd0 for i in batch]),
+        noise=[measurement_noise(scenarios[i]) for i in batch],
+        holding=np.array([holding_start(scenarios[i]) for i in batch]),
+    )
+    return errors, batch, run
+
+
+def _trajectories(
+    errors: list[tuple[int, Exception]], batch: list[int], run: Any
+) -> Iterator[tuple[int, Trajectory | Exception]]:
+    """A simulated batch's ``(i, trajectory)``, each made only when it is asked for."""
+    yield from errors
+    for k, i in enumerate(batch):
+        yield i, run.trajectory(k)
+
+
+def _arm_bytes(s: Scenario, control_dt: float, record_bytes) -> int:
+    """Memory one arm of ``s`` takes in a batch: its records, and its noise if any."""
+    steps = round(s.duration / control_dt)
+    noise = (steps + 1) * 2 * 8 * 2 if s.plant.noise_std else 0  # drawn, then stacked
+    return record_bytes(steps, bool(s.plant.flexibility)) + noise
+
+
+def _arm(s: Scenario):
+    from twolink.simulation.batch import Arm
+
+    return Arm(s.plant_params, s.plant.flexibility, s.plant.payload)
+
+
+@dataclass(frozen=True)
+class RunMetrics:
+    """Everything measured on one run. ``step[j]`` is None where joint j has no step."""
+
+    step: tuple[Any, Any]
+    errors: Any
+    torque: Any
+    status: str
+    message: str
+    # |θ_target − θ(T)| per joint: against the target (the reference's final value), not
+    # the reference at T, so a run cut short is as far off as it is (|e(T)| for a sine)
+    final_error: tuple[float, float] = (math.nan, math.nan)
+    # Over the settling window (twolink.simulation.outcome.settling_window): the largest
+    # |θ_target − θ| per joint, and the growth of the error (twolink.simulation.outcome.tail_growth)
+    tail_error: tuple[float, float] = (math.nan, math.nan)
+    tail_growth: tuple[float, float] = (math.nan, math.nan)
+    # The closed loop's growth rate σ [1/s] linearised at the target (twolink.simulation.stability),
+    # the loop's, shown for both joints; NaN but for linearisable laws on flexible joints
+    linear_growth: tuple[float, float] = (math.nan, math.nan)
+    # Fuzzy laws: the share of samples where the fuzzy term's output is not 0 (it acts),
+    # per joint, on the run's errors; NaN for laws without a fuzzy term
+    fuzzy_active: tuple[float, float] = (math.nan, math.nan)
+    oscillation: tuple[float, float] = (math.nan, math.nan)  # sustained, per joint
+    # Ts to the target (within 2 % of the step of θd's final value), NaN where it never gets
+    # there or the joint has no step; ``step[j].settling_time`` is Ts to the final value.
+    settling_target: tuple[float, float] = (math.nan, math.nan)
+    # Flexible joints: the largest spring twist |φ − θ| per joint (NaN for the rigid arm);
+    # beyond twolink.arm.params.TWIST_LIMIT the joint is no physical spring (``warnings``).
+    max_twist: tuple[float, float] = (math.nan, math.nan)
+
+    @property
+    def warnings(self) -> list[str]:
+        """Physically meaningless states of the run, in words (empty when none)."""
+        from twolink.arm.params import TWIST_LIMIT
+
+        return [
+            f"joint {j} spring twisted by {twist:.3g} rad, beyond the {TWIST_LIMIT} rad a real "
+            "elastic joint takes (docs/model.md, 'Realistic joints')"
+            for j, twist in enumerate(self.max_twist, start=1)
+            if twist > TWIST_LIMIT
+        ]
+
+    def to_dict(self, controller: str = "", outcome: str = "") -> dict[str, Any]:
+        """``metrics.json``: status, outcome (``twolink.simulation.outcome``), and every metric of
+        each joint by its key (``twolink.simulation.vocabulary``); undefined values are ``null``."""
+        return metrics_dict(
+            controller=controller,
+            status=self.status,
+            outcome=outcome,
+            message=self.message,
+            joint1=joint_values(self, 1),
+            joint2=joint_values(self, 2),
+            max_twist_rad=list(self.max_twist),
+            warnings=self.warnings,
+        )
+
+
+def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None) -> RunMetrics:
+    """Step metrics per joint (towards the reference's final value, Ts both to the final
+    value and to the target), error measures (integrals, max |e|), torque, oscillation,
+    the settling window's error and growth, and (flexible joints, linearisable laws) the
+    loop's linear growth rate at the target, of ``controller`` (default: the scenario's;
+    a sweep's arms carry their own)."""
+    growth = math.nan
+    if controller is None and (s.plant.flexibility is not None or s.controller.kind in FUZZY_KINDS):
+        controller = build_controller(s)
+    if s.plant.flexibility is not None and traj.ok:
+        from twolink.simulation.stability import closed_loop_growth
+
+        growth = closed_loop_growth(s, build_plant(s), controller)
+    steps = []
+    to_target = []
+    for j, target in enumerate(s.reference.final):
+        moves = np.isfinite(target) and target != s.q0[j]
+        steps.append(step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j]) if moves else None)
+        to_target.append(
+            step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j], final_value=target).settling_time
+            if moves
+            else math.nan
+        )
+    return RunMetrics(
+        step=(steps[0], steps[1]),
+        errors=error_measures(traj.t, traj.e),
+        torque=torque_measures(traj.tau),
+        status=traj.status,
+        message=traj.message,
+        **_tail(s, traj),
+        linear_growth=(growth, growth),
+        fuzzy_active=fuzzy_active_share(controller, traj),
+        oscillation=oscillation_amplitude(traj.t, traj.e) if len(traj.t) else (math.nan,) * 2,
+        settling_target=(to_target[0], to_target[1]),
+        max_twist=max_twist(traj),
+    )
+
+
+# The fuzzy term acts where its normalised output exceeds this: the centroid of the Z label
+# alone (a rule firing at rest) is 4e-17 from rounding, not an action.
+FUZZY_ACTS = 1e-9
+
+
+def fuzzy_active_share(controller: Controller | None, traj: Trajectory) -> tuple[float, float]:
+    """Per joint, the share of a run's samples where ``controller``'s fuzzy term acts: its
+    engine's output on the run's (scaled) error and error rate exceeds :data:`FUZZY_ACTS`
+    of its full scale. NaN for a law
+    without a fuzzy term, or a run whose errors are not finite (it diverged). Where the
+    term is 0 the fuzzy law is its CTC (issue: the designed rule base fires on no sample
+    of the nominal quintic moves, so FCM-CTC equals CTC there)."""
+    engine = getattr(controller, "engine", None)
+    e, de = traj.e, traj.de
+    if engine is None or not len(traj.t) or not (np.isfinite(e).all() and np.isfinite(de).all()):
+        return (math.nan, math.nan)
+    u = engine(controller.ke * e, controller.kde * de)  # type: ignore[union-attr]
+    share = np.mean(np.abs(np.asarray(u)) > FUZZY_ACTS, axis=0)
+    return (float(share[0]), float(share[1]))
+
+
+def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:
+    """The final error, the settling window's largest error and its growth, per joint,
+    all against the target (twolink.simulation.outcome)."""
+    from twolink.simulation.outcome import settling_window, tail_growth
+
+    if not len(traj.t):
+        nan = (math.nan, math.nan)
+        return {"final_error": nan, "tail_error": nan, "tail_growth": nan}
+    target = np.array(s.reference.final, dtype=float)
+    off = np.where(np.isfinite(target), target - traj.q, traj.e)  # a sine: e itself
+    window = settling_window(s.duration)
+    tail = traj.t >= traj.t[-1] - window - 1e-12
+    with np.errstate(invalid="ignore"):
+        worst = np.abs(off[tail]).max(axis=0)
+    growth = tail_growth(traj.t, off, window)
+    return {
+        "final_error": tuple(float(x) for x in np.abs(off[-1])),  # type: ignore[dict-item]
+        "tail_error": tuple(float(x) for x in worst),  # type: ignore[dict-item]
+        "tail_growth": tuple(float(x) for x in growth),  # type: ignore[dict-item]
+    }
+
+
+def max_twist(traj: Trajectory) -> tuple[float, float]:
+    """The largest |φ − θ| per joint over a run (NaN for the rigid arm, or where the
+    twist was never finite)."""
+    twist = np.abs(traj.twist)
+    if not len(twist):
+        return (math.nan, math.nan)
+    finite = np.where(np.isfinite(twist), twist, -np.inf).max(axis=0)
+    return tuple(float(x) if np.isfinite(x) else math.nan for x in finite)  # type: ignore[return-value]
+
+
+TRACE_EVERY = 5  # recordings at 200 Hz: smooth to watch; trajectory.npz keeps every sample
+
+
+def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) -> dict[str, Any]:
+    """Phase-plane extras of a fuzzy run for its recording: the engine's normalised view,
+    the fired rule at each sample and, if given, FCM cluster centres. Empty for CTC."""
+    engine = getattr(controller, "engine", None)
+    if engine is None:
+        return {}
+    from twolink.controllers.fuzzy import fired_rule_labels
+
+    ke, kde = controller.ke, controller.kde
+    extras: dict[str, Any] = {
+        "phase_scale": (ke, kde),
+        "fired_rules": fired_rule_labels(engine, ke * traj.e, kde * traj.de),
+    }
+    if len(centres):
+        extras["centres"] = np.array(centres, dtype=float)
+    return extras
+
+
+def portable_config(s: Scenario, out: Path) -> dict[str, Any]:
+    """The resolved config, with a rule-base file path relative to the folder it is saved
+    in (it resolves against that folder when read back), so a results folder can move."""
+    data = s.to_dict()
+    name = data["controller"]["rule_base"]
+    if name not in BUILTIN_RULE_BASES:
+        path = resolve_rule_base(name, s.source).resolve()
+        data["controller"]["rule_base"] = os.path.relpath(path, out.resolve())
+    return data
+
+
+# What a run folder holds (besides its seal): the only names write_run replaces.
+RUN_FILES = (
+    "config.toml",
+    "trajectory.npz",
+    "metrics.json",
+    "angles.png",
+    "errors.png",
+    "torques.png",
+    "trace.rrd",
+)
+
+
+def check_run_folder(out: Path) -> None:
+    """Refuse (:class:`~twolink.interface.io.ForeignOutput`) a run folder that holds anything but a
+    run's files, or is reached through a link inside its output folder."""
+    refuse_links(out)
+    if out.is_dir():
+        extra = folder_entries(out) - {*RUN_FILES, SEAL_NAME}
+        if extra:
+            raise ForeignOutput(
+                f"{out}: holds files that are not a twolink run's ({show_names(extra)}); "
+                "twolink does not overwrite a folder it did not write: move them away or "
+                "use another --out"
+            )
+
+
+@contextlib.contextmanager
+def _named_in(out: Path) -> Iterator[None]:
+    try:
+        yield
+    except WriteFailed as exc:
+        raise exc.moved_to(out) from None
+
+
+def write_run(
+    out: str | Path,
+    s: Scenario,
+    traj: Trajectory,
+    metrics: RunMetrics,
+    plots: bool = True,
+    trace: bool = True,
+    controller: Controller | None = None,
+    centres: Any = (),
+    prefix: str = "run",
+    name: str | None = None,
+) -> Path:
+    """Write one run's folder: config.toml, trajectory.npz, metrics.json, PNG plots and a
+    rerun recording ``trace.rrd`` (of the run under ``prefix``).
+
+    The files are written into a temporary folder, then each moved into ``out`` by one
+    rename and sealed (``seal.json``: their SHA-256, written last), so no file of an
+    earlier run stays beside the new ones and a damaged or edited run is found on reuse.
+    Only the run's own files are replaced: a folder holding anything else is refused
+    (:class:`~twolink.interface.io.ForeignOutput`). ``name`` is the controller's name in the outputs
+    (default: its kind's label)."""
+    out = Path(out)
+    name = name or CONTROLLER_LABELS.get(s.controller.kind, s.controller.kind)
+    check_run_folder(out)
+    out.mkdir(parents=True, exist_ok=True)
+    with scratch_folder(out) as tmp, _named_in(out):
+        atomic_write_text(tmp / "config.toml", to_toml(portable_config(s, out)))
+        traj.save(tmp / "trajectory.npz")
+        atomic_write_json(tmp / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
+        if plots:
+            from twolink.interface.plots import save_run_plots
+
+            save_run_plots(tmp, traj, title=s.name)
+        if trace:
+            from twolink import tracing
+
+            extras = trace_extras(controller, traj, centres) if controller is not None else {}
+            tracing.write_recording(
+                tmp / "trace.rrd", [(prefix, traj, s.plant_params, extras)], every=TRACE_EVERY
+            )
+        replace_files(out, tmp, RUN_FILES)
+    write_seal(out, [n for n in RUN_FILES if (out / n).is_file()])
+    return out

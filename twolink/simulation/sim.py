@@ -1,0 +1,270 @@
+"""The closed loop: a controller against a MuJoCo plant, and the recorded trajectory.
+
+The controller runs at a fixed rate with zero-order hold: it is called every
+``control_dt`` with the measured link state, and its torques are held over the
+physics substeps until the next call. A run stops early, keeping what it computed,
+when the state or torque becomes non-finite or leaves sane bounds.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from twolink.arm.plant import Plant
+from twolink.controllers.base import Controller
+from twolink.interface.io import atomic_path
+
+if TYPE_CHECKING:
+    import pandas as pd
+    from matplotlib.figure import Figure
+
+STATUS_OK = "ok"
+STATUS_DIVERGED = "diverged"
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """What counts as a runaway: beyond these the run stops as diverged."""
+
+    angle: float = 100.0  # rad: ~16 turns, far past any reference
+    rate: float = 1e3  # rad/s
+    torque: float = 1e6  # N m
+
+
+@dataclass(frozen=True, eq=False)
+class Trajectory:
+    """A recorded closed-loop run, sampled at the control instants.
+
+    Sample k is the state measured at ``t[k]`` and the torque the controller chose
+    then. Arrays of pairs have shape (N, 2), columns joint 1 and joint 2.
+
+    Attributes
+    ----------
+    t : (N,) times [s]
+    q, qd : link angles [rad] and rates [rad/s]
+    q_ref, qd_ref, qdd_ref : reference position, velocity, acceleration
+    tau : torques [N m]
+    motor_q : rotor angles of the flexible arm (N, 2), or an empty (0, 2) array
+    status : "ok" or "diverged"
+    message : why a run stopped early ("" if it did not)
+    """
+
+    t: np.ndarray
+    q: np.ndarray
+    qd: np.ndarray
+    q_ref: np.ndarray
+    qd_ref: np.ndarray
+    qdd_ref: np.ndarray
+    tau: np.ndarray
+    motor_q: np.ndarray
+    status: str = STATUS_OK
+    message: str = ""
+
+    @property
+    def e(self) -> np.ndarray:
+        """Tracking error q_ref - q."""
+        return self.q_ref - self.q
+
+    @property
+    def de(self) -> np.ndarray:
+        """Error rate qd_ref - qd."""
+        return self.qd_ref - self.qd
+
+    @property
+    def twist(self) -> np.ndarray:
+        """Spring twist φ − θ of the flexible arm (rotor minus link angle), (N, 2); an
+        empty (0, 2) array for the rigid arm."""
+        return self.motor_q - self.q if len(self.motor_q) else np.empty((0, 2))
+
+    @property
+    def ok(self) -> bool:
+        return self.status == STATUS_OK
+
+    def save(self, path: str | Path) -> None:
+        """Write to ``.npz`` atomically."""
+        arrays = {f.name: getattr(self, f.name) for f in fields(self)}
+        with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+            np.savez(fh, **arrays)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Trajectory:
+        with np.load(path) as data:
+            kwargs = {f.name: data[f.name] for f in fields(cls)}
+        kwargs["status"] = str(kwargs["status"])
+        kwargs["message"] = str(kwargs["message"])
+        return cls(**kwargs)
+
+    def to_dataframe(self) -> pd.DataFrame:
+        """Every signal as a column, indexed by time ``t_s``: ``theta1_rad``,
+        ``theta1_ref_rad``, ``e1_rad``, ``tau1_Nm``, ... (units in the names, as in every
+        output's vocabulary); the flexible arm's rotor angles as ``motor1_rad``, ...
+
+        Examples
+        --------
+        >>> df = trajectory.to_dataframe()                        # doctest: +SKIP
+        >>> df[["theta1_rad", "theta1_ref_rad"]].plot()           # doctest: +SKIP
+        """
+        import pandas as pd
+
+        columns = {}
+        for j in (1, 2):
+            k = j - 1
+            columns[f"theta{j}_rad"] = self.q[:, k]
+            columns[f"theta{j}_ref_rad"] = self.q_ref[:, k]
+            columns[f"dtheta{j}_rad_s"] = self.qd[:, k]
+            columns[f"dtheta{j}_ref_rad_s"] = self.qd_ref[:, k]
+            columns[f"e{j}_rad"] = self.e[:, k]
+            columns[f"tau{j}_Nm"] = self.tau[:, k]
+            if len(self.motor_q):
+                columns[f"motor{j}_rad"] = self.motor_q[:, k]
+        return pd.DataFrame(columns, index=pd.Index(self.t, name="t_s"))
+
+    def plot(self, title: str = "") -> Figure:
+        """The joint angles against their references (matplotlib, headless); errors and
+        torques too: :func:`twolink.interface.plots.run_figures`."""
+        from twolink.interface.plots import angles_figure
+
+        return angles_figure(self, title)
+
+    def equals(self, other: Trajectory) -> bool:
+        """Bit-for-bit equality of every array and the status."""
+        return all(
+            np.array_equal(getattr(self, f.name), getattr(other, f.name)) for f in fields(self)
+        )
+
+
+def state_message(t: float, q1: float, q2: float, w1: float, w2: float) -> str:
+    return f"state out of bounds at t={t:.4f} s: q=({q1:.4g}, {q2:.4g}), qd=({w1:.4g}, {w2:.4g})"
+
+
+def torque_message(t: float, tau1: float, tau2: float) -> str:
+    return f"torque out of bounds at t={t:.4f} s: tau=({tau1:.4g}, {tau2:.4g})"
+
+
+def control_steps(duration: float, control_dt: float, timestep: float) -> tuple[int, int]:
+    """(control periods in ``duration``, physics substeps per period), or ValueError."""
+    substeps = round(control_dt / timestep)
+    if substeps < 1 or not math.isclose(substeps * timestep, control_dt, rel_tol=1e-9):
+        raise ValueError(
+            f"control_dt {control_dt} must be a whole multiple of the timestep {timestep}"
+        )
+    if not duration > 0:
+        raise ValueError(f"duration must be > 0, got {duration}")
+    return round(duration / control_dt), substeps
+
+
+def simulate(
+    plant: Plant,
+    controller: Controller,
+    duration: float,
+    control_dt: float = 1e-3,
+    q0: tuple[float, float] = (0.0, 0.0),
+    qd0: tuple[float, float] = (0.0, 0.0),
+    bounds: Bounds = Bounds(),
+    noise: np.ndarray | None = None,
+    motor_q0: tuple[float, float] | None = None,
+) -> Trajectory:
+    """Run ``controller`` against ``plant`` for ``duration`` seconds.
+
+    Parameters
+    ----------
+    plant : Plant
+        The MuJoCo plant; it is reset to (q0, qd0), its rotors at ``motor_q0``.
+    controller : Controller
+        Called every ``control_dt`` seconds; its torques are held in between. One whose
+        ``needs_motor`` is true is called ``controller(t, q, qd, motor_q, motor_qd)`` with
+        the rotor angles and rates too (flexible plants only; noise is on link angles).
+    duration, control_dt : float
+        Length of the run and control period [s]; ``control_dt`` must be a whole
+        number of physics timesteps.
+    q0, qd0 : pair of float
+        Initial link angles and rates.
+    bounds : Bounds
+        Past these (or at a non-finite value) the run stops with status "diverged".
+    noise : ndarray (N + 1, 2), optional
+        Measurement noise added to the angles the controller sees (not to the
+        recorded state), one row per control instant.
+    motor_q0 : pair of float, optional
+        Initial rotor angles of a flexible plant (default: at the links, springs relaxed);
+        :func:`twolink.arm.plant.holding_motor_q` (``q0 + K⁻¹ G(q0)``) starts the arm at rest
+        holding itself up, as a scenario's ``start = "holding"`` does.
+
+    Returns
+    -------
+    Trajectory
+        Samples at t = 0, control_dt, ..., duration; a run that diverged ends at the
+        sample where it did (its out-of-bounds torque, or NaN torque where the state left
+        its bounds), so even one that diverges at once has one sample.
+    """
+    n, substeps = control_steps(duration, control_dt, plant.dt)
+    # A controller of flexible joints (controllers/flexible.py) also reads the rotors.
+    needs_motor = bool(getattr(controller, "needs_motor", False))
+    if needs_motor and not plant.flexible:
+        raise ValueError(
+            f"{type(controller).__name__} reads the motor states of flexible joints; "
+            "this plant is rigid (build it with a Flexibility)"
+        )
+    if noise is not None and np.shape(noise) != (n + 1, 2):
+        raise ValueError(f"noise must have shape {(n + 1, 2)}, got {np.shape(noise)}")
+    noise_rows = None if noise is None else noise.tolist()
+    plant.reset(q0, qd0, motor_q=motor_q0)
+    controller.reset()
+    qpos, qvel = plant.data.qpos, plant.data.qvel
+    step = plant.step
+    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
+    rows: list[tuple[float, ...]] = []
+    motor: list[tuple[float, float]] = []
+    status, message = STATUS_OK, ""
+    for k in range(n + 1):
+        t = k * control_dt
+        q1, q2, w1, w2 = float(qpos[0]), float(qpos[1]), float(qvel[0]), float(qvel[1])
+        # NaN fails every comparison, so this also catches non-finite states.
+        if not (abs(q1) < qmax and abs(q2) < qmax and abs(w1) < wmax and abs(w2) < wmax):
+            status = STATUS_DIVERGED
+            message = state_message(t, q1, q2, w1, w2)
+            if not rows:  # keep the one state there is (no torque was asked for)
+                rows.append((t, q1, q2, w1, w2, math.nan, math.nan))
+                if plant.flexible:
+                    motor.append((float(qpos[2]), float(qpos[3])))
+            break
+        seen = (q1, q2)
+        if noise_rows is not None:
+            n1, n2 = noise_rows[k]
+            seen = (q1 + n1, q2 + n2)
+        if needs_motor:
+            motor_q = (float(qpos[2]), float(qpos[3]))
+            tau1, tau2 = controller(t, seen, (w1, w2), motor_q, (float(qvel[2]), float(qvel[3])))
+        else:
+            tau1, tau2 = controller(t, seen, (w1, w2))
+        rows.append((t, q1, q2, w1, w2, tau1, tau2))
+        if plant.flexible:
+            motor.append((float(qpos[2]), float(qpos[3])))
+        if not (abs(tau1) < tmax and abs(tau2) < tmax):
+            # Kept: the state measured and the torque the controller asked for (not applied).
+            status = STATUS_DIVERGED
+            message = torque_message(t, tau1, tau2)
+            break
+        if k == n:
+            break
+        for _ in range(substeps):
+            step(tau1, tau2)
+    rec = np.array(rows, dtype=float).reshape(-1, 7)
+    t = rec[:, 0]
+    q_ref, qd_ref, qdd_ref = controller.reference.sample(t)
+    return Trajectory(
+        t=t,
+        q=rec[:, 1:3],
+        qd=rec[:, 3:5],
+        q_ref=q_ref.reshape(-1, 2),
+        qd_ref=qd_ref.reshape(-1, 2),
+        qdd_ref=qdd_ref.reshape(-1, 2),
+        tau=rec[:, 5:7],
+        motor_q=np.array(motor, dtype=float).reshape(-1, 2),
+        status=status,
+        message=message,
+    )

@@ -1,0 +1,151 @@
+"""One vocabulary for every output: controller names and metric keys with their units.
+
+Every table, file and printout of a run's metrics uses the keys below: a run's
+``metrics.json``, the reproduction's ``metrics.csv``/``metrics.json`` and report, a
+sweep's Parquet table (``joint1_rise_time_s``, ...) and summaries, and ``twolink run``'s
+output. A key carries its unit (``_s`` seconds, ``_pct`` percent, ``_rad`` radians,
+``_Nm`` newton metres), so no header is without one. The paper's symbols (Tp, Td, Tr, Ts,
+Mp, ess) label the report's columns beside the keys. ``docs/metrics.md`` has the
+definitions.
+
+Controller names: CTC and FCM-CTC (and the other kinds' labels below) in the shipped
+manifest, sweep files, figures and docs; a manifest or sweep file may name its
+controllers otherwise, and those names are then used throughout its outputs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+__all__ = [
+    "CONTROLLER_LABELS",
+    "METRICS",
+    "STEP_KEYS",
+    "Metric",
+    "format_value",
+    "joint_values",
+    "metric",
+]
+
+# Scenario ``kind`` -> the controller's name in outputs.
+CONTROLLER_LABELS = {
+    "ctc": "CTC",
+    "fuzzy_ctc": "fuzzy-CTC",
+    "fcm_ctc": "FCM-CTC",
+    "pd_gravity": "PD+G",
+    "ctc_integral": "CTC+I",
+    "fuzzy_pd": "fuzzy-PD",
+    "motor_pd": "motor-PD",
+    "composite": "composite",
+    "flexible_fl": "flexible-FL",
+}
+
+
+@dataclass(frozen=True)
+class Metric:
+    """One metric of a joint's response.
+
+    Attributes
+    ----------
+    key : str
+        Its name in every table and file (unit included).
+    symbol : str
+        The paper's (or the literature's) symbol.
+    unit : str
+        Unit as printed.
+    source : str
+        Where the value comes from in :class:`twolink.simulation.experiment.RunMetrics`:
+        ``"step.<field>"``, ``"errors.<field>"``, ``"torque.<field>"`` (per joint) or a
+        per-joint field of its own (``"final_error"``, ``"oscillation"``,
+        ``"settling_target"``, ``"max_twist"``).
+    paper_scale : float
+        Factor from the unit of the paper's tables to ``unit`` (100: the paper gives Mp as
+        a fraction). Every value twolink computes is in ``unit`` already.
+    """
+
+    key: str
+    symbol: str
+    unit: str
+    source: str
+    paper_scale: float = 1.0
+
+    @property
+    def label(self) -> str:
+        """``"Tr [s]"``: symbol and unit, for table headers and axes."""
+        return f"{self.symbol} [{self.unit}]"
+
+
+METRICS: tuple[Metric, ...] = (
+    Metric("peak_time_s", "Tp", "s", "step.peak_time"),
+    Metric("delay_time_s", "Td", "s", "step.delay_time"),
+    Metric("rise_time_s", "Tr", "s", "step.rise_time"),
+    Metric("settling_time_s", "Ts", "s", "step.settling_time"),
+    Metric("settling_time_target_s", "Ts→θd", "s", "settling_target"),
+    Metric("overshoot_pct", "Mp", "%", "step.overshoot", paper_scale=100.0),
+    Metric("steady_state_error_rad", "ess", "rad", "step.steady_state_error"),
+    Metric("final_error_rad", "e(T)", "rad", "final_error"),
+    Metric("tail_error_rad", "max|e| tail", "rad", "tail_error"),
+    Metric("tail_growth", "growth", "×", "tail_growth"),
+    Metric("linear_growth_1_s", "σ", "1/s", "linear_growth"),  # the loop's; flexible joints
+    Metric("fuzzy_active_share", "fuzzy on", "1", "fuzzy_active"),  # fuzzy laws only
+    Metric("oscillation_rad", "osc", "rad", "oscillation"),
+    Metric("iae_rad_s", "IAE", "rad·s", "errors.iae"),
+    Metric("ise_rad2_s", "ISE", "rad²·s", "errors.ise"),
+    Metric("itae_rad_s2", "ITAE", "rad·s²", "errors.itae"),
+    Metric("max_error_rad", "max|e|", "rad", "errors.max_abs"),
+    Metric("torque_rms_Nm", "τ rms", "N·m", "torque.rms"),
+    Metric("torque_peak_Nm", "τ peak", "N·m", "torque.peak"),
+    Metric("torque_variation_Nm", "Σ|Δτ|", "N·m", "torque.variation"),
+    Metric("max_twist_rad", "twist", "rad", "max_twist"),  # flexible joints; NaN if rigid
+)
+STEP_KEYS = tuple(m.key for m in METRICS if m.source.startswith("step."))
+# The paper's claim (section 4): FCM reduces peak, delay, rise and settling time and
+# overshoot, and steady-state error, compared with CTC. Which of the manifest's
+# controllers play the two roles is the manifest's ``proposed`` and ``baseline``.
+# In the paper's column order (Tp, Td, Ts, Tr, Mp, ess).
+CLAIMED_BETTER = (
+    "peak_time_s",
+    "delay_time_s",
+    "settling_time_s",
+    "rise_time_s",
+    "overshoot_pct",
+    "steady_state_error_rad",
+)
+
+_BY_KEY = {m.key: m for m in METRICS}
+
+
+def metric(key: str) -> Metric:
+    """The :class:`Metric` of ``key``."""
+    return _BY_KEY[key]
+
+
+def joint_values(run_metrics: Any, joint: int) -> dict[str, float]:
+    """Every metric of joint ``joint`` (1 or 2) of a run, by key, in output units.
+
+    Step metrics are NaN for a joint whose reference does not move (it has no step).
+    """
+    out = {}
+    for m in METRICS:
+        section, _, field = m.source.partition(".")
+        if not field:
+            value = getattr(run_metrics, section)[joint - 1]
+        elif section == "step":
+            step = run_metrics.step[joint - 1]
+            value = math.nan if step is None else getattr(step, field)
+        else:
+            value = getattr(getattr(run_metrics, section), field)[joint - 1]
+        out[m.key] = float(value)
+    return out
+
+
+def format_value(value: Any, digits: int = 3) -> str:
+    """A number for a table or a printout: ``digits`` significant digits, "—" where the
+    value is undefined (NaN or missing), never "nan"."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "—"
+    if isinstance(value, float):
+        return f"{value:.{digits}g}" if abs(value) >= 1e-3 or value == 0 else f"{value:.1e}"
+    return str(value)

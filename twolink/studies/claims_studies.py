@@ -1,0 +1,124 @@
+"""The reproduction's claims studies: the claims sweep of the manifest, as its file says
+and again in each regime of a ``raw_steps`` variant (the paper's own references), judged
+with :mod:`twolink.studies.claims`; and the two pieces of a regime, the raw steps that replace
+smooth moves (:func:`raw_steps`) and the reference's own step metrics
+(:func:`reference_values`), where no controller decides a metric."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twolink.interface.config import Scenario, read_toml
+from twolink.simulation.vocabulary import metric
+from twolink.studies.manifest import Manifest
+
+__all__ = ["SMOOTH_KINDS", "raw_steps", "reference_values", "run_claims"]
+
+SMOOTH_KINDS = ("quintic", "septic")
+
+
+def raw_steps(source: Path | Mapping[str, Any]) -> dict[str, Any]:
+    """Reference overrides that make a scenario's (or a sweep's) smooth moves the raw steps
+    between the same angles at the same start: the paper's own references (``replace``:
+    a step takes no ``duration``). Other references (ramps, holds) are left as they are."""
+    tables = read_toml(source).get("reference", {}) if isinstance(source, Path) else source
+    out = {}
+    for joint, ref in tables.items():
+        if isinstance(ref, dict) and ref.get("kind") in SMOOTH_KINDS:
+            step = {k: ref[k] for k in ("initial", "final", "t0") if k in ref}
+            out[joint] = {"replace": True, "kind": "step", **step}
+    return out
+
+
+def reference_values(scenario: Scenario, joints: Any) -> dict[tuple[int, str], float]:
+    """The step metrics of the reference itself, per moving joint: where both controllers
+    have the reference's own value (a smooth move's Td and Tr), no controller set it."""
+    from twolink.simulation.metrics import step_metrics
+
+    t = np.arange(0.0, scenario.duration + 1e-12, scenario.control_dt)
+    q_ref = scenario.reference.sample(t)[0]  # (N, 2)
+    out = {}
+    for j in joints:
+        target, start = scenario.reference.final[j - 1], scenario.q0[j - 1]
+        m = step_metrics(t, q_ref[:, j - 1], target, y0=start)
+        for key in ("delay_time_s", "rise_time_s", "peak_time_s"):
+            value = getattr(m, metric(key).source.split(".")[1])
+            if np.isfinite(value):
+                out[(j, key)] = float(value)
+    return out
+
+
+def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tuple[list[str], Any]:
+    """The claims study on ``pool``: as its file says, and again in each regime of a
+    ``raw_steps`` variant (the paper's own references, the variant's gains). Returns the
+    report's sections and, per study, (label, claims table, plants that met the spec,
+    plants) for its conclusions."""
+    sections: list[str] = []
+    tables = []
+    for variant in (None, *(v for v in manifest.variants if v.raw_steps)):
+        more, table = _claims_study(manifest, out, pool, progress, variant)
+        sections += more
+        tables.append(table)
+    return sections, tables
+
+
+def _claims_study(
+    manifest: Manifest, out: Path, pool: Any, progress: bool, variant: Any = None
+) -> tuple[list[str], Any]:
+    """One claims study into ``out/claims_study[_VARIANT]``: the paper's claim judged on
+    its plants (``claims[_VARIANT].csv``), every controller against the baseline
+    (``claims_all[_VARIANT].csv``); the report's sections on them."""
+    import pandas as pd
+
+    from twolink import sweep
+    from twolink.interface.io import atomic_write_text
+    from twolink.studies import report
+    from twolink.studies.claims import paired_claims
+
+    study = manifest.claims_study
+    plan = sweep.load_sweep(study)
+    suffix, regime = "", ""
+    if variant is not None:  # the same study in the variant's regime
+        suffix, regime = f"_{variant.name}", variant.title
+        overrides = {
+            "name": f"{plan.name}{suffix}",
+            "overrides": variant.overrides,
+            "reference": raw_steps(read_toml(study).get("reference", {})),
+        }
+        plan = sweep.load_sweep(study, overrides)
+    try:
+        outcome = sweep.run_sweep(
+            plan, out / f"claims_study{suffix}", pool=pool, plots=False, progress=progress
+        )
+    except sweep.SweepInterrupted as exc:
+        from twolink.interface.interrupts import CTRL_C_RECEIVED
+
+        CTRL_C_RECEIVED.append(exc.signum)  # the command ends as that signal asks (130/143)
+        raise KeyboardInterrupt from None  # the reproduction's own stop
+    refs = reference_values(plan.nominal_scenario(), plan.joints)
+    table = paired_claims(
+        outcome.results, manifest.proposed, manifest.baseline, joints=plan.joints,
+        reference_values=refs,
+    )  # fmt: skip
+    atomic_write_text(out / f"claims{suffix}.csv", table.to_csv(index=False))
+    source = f"{study.parent.name}/{study.name}" + (f", {regime}" if regime else "")
+    met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
+    # Who wins on what: every controller of the sweep against the baseline, on one table.
+    versus = {
+        name: paired_claims(
+            outcome.results, name, manifest.baseline, report.WINNER_METRICS, plan.joints, refs
+        )
+        for name in plan.controller_names
+        if name != manifest.baseline
+    }
+    every = pd.concat([t.assign(controller=n) for n, t in versus.items()], ignore_index=True)
+    atomic_write_text(out / f"claims_all{suffix}.csv", every.to_csv(index=False))
+    sections = report.winners_section(versus, manifest.baseline, met, plan.samples, regime) + (
+        report.claims_section(table, manifest, plan.samples, source, met, regime)
+    )
+    label = regime or "the claims study's quintic moves"
+    return sections, (label, table, met, plan.samples)

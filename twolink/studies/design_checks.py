@@ -1,0 +1,162 @@
+"""Checks of a designed rule base: odd symmetry u(-e, -de) = -u(e, de), and the held-out
+validation (the designed FCM-CTC beside CTC on moves that are not design runs).
+:mod:`twolink.studies.design` runs them and keeps their results with the design's evidence."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from twolink.controllers.fuzzy import MIRROR_LABELS, MamdaniEngine, Rule
+from twolink.interface.config import Scenario
+from twolink.simulation.experiment import build_controller, run_scenarios
+
+SYMMETRY_GRID = 61  # points per axis of the asymmetry check: the universes' own samples
+VALIDATION_CONTROLLERS = ("CTC", "FCM-CTC")  # CTC, and the 7x7 fuzzy-CTC with the designed rules
+
+
+def mirror_rule(rule: Rule) -> Rule:
+    """The rule's odd-symmetric image: (e, de -> u) becomes (-e, -de -> -u)."""
+    return Rule(MIRROR_LABELS[rule.e], MIRROR_LABELS[rule.de], MIRROR_LABELS[rule.u])
+
+
+@dataclass(frozen=True)
+class SymmetryCheck:
+    """Odd symmetry u(-e, -de) = -u(e, de) of a rule base.
+
+    Attributes
+    ----------
+    missing : rules whose mirror (-e, -de -> -u) the rule base lacks
+    max_asymmetry : max |u(e, de) + u(-e, -de)| over a grid of the normalised plane
+        (the universes' 61 x 61 samples), in units of the output universe
+    """
+
+    missing: tuple[Rule, ...]
+    max_asymmetry: float
+
+    @property
+    def symmetric(self) -> bool:
+        return not self.missing and self.max_asymmetry <= 1e-9
+
+
+def check_symmetry(engine: MamdaniEngine, rules: Sequence[Rule]) -> SymmetryCheck:
+    """Check ``rules`` (on ``engine``'s variables) for odd symmetry: which rules miss their
+    mirror, and the largest asymmetry of the control surface on a grid."""
+    kept = set(rules)
+    missing = tuple(r for r in rules if mirror_rule(r) not in kept)
+    x = np.linspace(-1.0, 1.0, SYMMETRY_GRID)
+    e, de = np.meshgrid(x, x, indexing="ij")
+    u = np.asarray(engine.with_rules(rules)(e, de))
+    return SymmetryCheck(missing, float(np.max(np.abs(u + u[::-1, ::-1]))))
+
+
+def with_mirrors(engine: MamdaniEngine, rules: Sequence[Rule]) -> tuple[Rule, ...]:
+    """``rules`` and each one's mirror, once each, in ``engine``'s rule-table order (a
+    mirror that is not in the table goes last)."""
+    order = {r: i for i, r in enumerate(engine.rules)}
+    every = set(rules) | {mirror_rule(r) for r in rules}
+    return tuple(sorted(every, key=lambda r: (order.get(r, len(order)), r)))
+
+
+# ----------------------------------------------------------------------------- validation
+
+
+@dataclass(frozen=True)
+class ValidationRow:
+    """One held-out run under one controller: the largest of each metric over the joints.
+
+    Attributes
+    ----------
+    run, file : the scenario's name and file stem
+    controller : "CTC" or "FCM-CTC"
+    overshoot_pct : Mp of the joints that move, largest [%] (NaN: no joint moves)
+    settling_s : Ts to the target (2 % band), largest over the joints that move [s]
+        (NaN: no joint moves, or one never settles)
+    iae : integral of |e| over both joints [rad s]
+    ess_rad : largest |e| at the end of the run [rad]
+    peak_torque_Nm : largest |tau| [N m]
+    """
+
+    run: str
+    file: str
+    controller: str
+    overshoot_pct: float
+    settling_s: float
+    iae: float
+    ess_rad: float
+    peak_torque_Nm: float
+
+    COLUMNS = ("overshoot_pct", "settling_s", "iae", "ess_rad", "peak_torque_Nm")
+
+
+def validate(
+    engine: MamdaniEngine, rules: Sequence[Rule], scenarios: Sequence[Scenario]
+) -> tuple[ValidationRow, ...]:
+    """Run each held-out scenario under CTC and under FCM-CTC with ``rules`` (same gains,
+    same fuzzy scaling), and measure both."""
+    from twolink.simulation.metrics import error_measures, step_metrics
+
+    designed = engine.with_rules(rules)  # one engine object: one batch law for all
+    runs, controllers, names = [], [], []
+    for s in scenarios:
+        ctc, fuzzy = (
+            dataclasses.replace(s, controller=dataclasses.replace(s.controller, kind=kind))
+            for kind in ("ctc", "fuzzy_ctc")
+        )
+        runs += [ctc, fuzzy]
+        controllers += [
+            build_controller(ctc),
+            dataclasses.replace(build_controller(fuzzy), engine=designed),
+        ]
+        names += list(VALIDATION_CONTROLLERS)
+    rows = []
+    for s, name, traj in zip(runs, names, run_scenarios(runs, controllers), strict=True):
+        if isinstance(traj, Exception) or not traj.ok:
+            raise RuntimeError(f"held-out run {s.source} under {name} failed: {traj}")
+        mp, ts = [], []
+        for j, (target, q0) in enumerate(zip(s.reference.final, s.q0, strict=True)):
+            if target != q0:
+                m = step_metrics(traj.t, traj.q[:, j], target, y0=q0, final_value=target)
+                mp.append(m.overshoot)
+                ts.append(m.settling_time)
+        iae = error_measures(traj.t, traj.e).iae
+        rows.append(
+            ValidationRow(
+                s.name,
+                Path(s.source).stem,
+                name,
+                max(mp) if mp else math.nan,
+                max(ts) if ts and not any(math.isnan(x) for x in ts) else math.nan,
+                float(sum(iae)),
+                float(np.abs(traj.e[-1]).max()),
+                float(np.abs(traj.tau).max()),
+            )
+        )
+    return tuple(rows)
+
+
+def validation_csv(rows: Sequence[ValidationRow]) -> str:
+    """The held-out table as CSV (NaN: not defined for that run)."""
+    fields = [f.name for f in dataclasses.fields(ValidationRow)]
+    lines = [",".join(fields)]
+    for row in rows:
+        values = [getattr(row, f) for f in fields]
+        lines.append(",".join(f'"{v}"' if isinstance(v, str) else f"{v:.6g}" for v in values))
+    return "\n".join(lines) + "\n"
+
+
+def validation_rows(evidence: Mapping[str, Any]) -> tuple[ValidationRow, ...]:
+    """The held-out table stored in a design's evidence (as :func:`write_design` writes it)."""
+    rows = []
+    for file, entry in evidence.get("validation", {}).items():
+        for name in VALIDATION_CONTROLLERS:
+            if name in entry:
+                values = [float(entry[name][k]) for k in ValidationRow.COLUMNS]
+                rows.append(ValidationRow(entry["name"], file, name, *values))
+    return tuple(rows)

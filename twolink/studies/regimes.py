@@ -1,0 +1,180 @@
+"""The regime map (``twolink regimes``): where the paper's fuzzy term acts, and where it
+helps or hurts, against CTC and CTC with integral action.
+
+One sweep file (``runs/sweeps/regimes.toml``: a grid of bandwidth ωn x mass mismatch x
+tip payload, 100 plants per cell) runs twice: as written (2 s quintic moves) and with the
+paper's raw steps (:func:`twolink.studies.claims_studies.raw_steps`). Per cell, the share of
+samples where FCM-CTC's fuzzy term acts (``fuzzy_active_share``, mean over plants and
+joints) and FCM-CTC's paired verdicts (:func:`twolink.studies.claims.paired_claims`: sign test,
+Holm across the cell's table, equivalence) against each opponent on Ts to the target,
+max|e| of both joints, IAE, peak torque and oscillation (docs/reproduction.md, "The
+regime map").
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["CELL", "OPPONENTS", "REGIME_METRICS", "regime_table", "run_regimes", "summary"]
+
+DEFAULT_STUDY = Path(__file__).resolve().parents[2] / "runs" / "sweeps" / "regimes.toml"
+CELL = ("wn", "mass", "payload")
+PROPOSED = "FCM-CTC"
+OPPONENTS = ("CTC", "CTC-I")
+REGIME_METRICS = (
+    "settling_time_target_s",
+    "max_error_rad",
+    "iae_rad_s",
+    "torque_peak_Nm",
+    "oscillation_rad",
+)
+REGIMES = ("quintic", "raw steps")
+
+
+def run_regimes(
+    study: Path = DEFAULT_STUDY,
+    out: Path = Path("results/regimes"),
+    samples: int | None = None,
+    pool: Any = None,
+    progress: bool = True,
+) -> dict[str, pd.DataFrame]:
+    """Run the study in both regimes into ``out/<regime>``; their results tables."""
+    from twolink import sweep
+    from twolink.interface.config import read_toml
+    from twolink.studies.claims_studies import raw_steps
+
+    raw = {"reference": raw_steps(read_toml(study).get("reference", {})), "name": "regimes_raw"}
+    results = {}
+    for regime, overrides in zip(REGIMES, ({}, raw), strict=True):
+        if samples is not None:
+            overrides = {**overrides, "samples": samples}
+        plan = sweep.load_sweep(study, overrides)
+        folder = out / regime.replace(" ", "_")
+        outcome = sweep.run_sweep(plan, folder, pool=pool, plots=False, progress=progress)
+        results[regime] = outcome.results
+    return results
+
+
+def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """One row per (regime, cell, opponent, joint, metric): FCM-CTC's paired statistics
+    against the opponent on the cell's plants, and the cell's ``fuzzy_active_share``."""
+    from twolink.studies.claims import paired_claims
+
+    frames = []
+    for regime, r in results.items():
+        for cell, frame in r.groupby(list(CELL)):
+            fcm = frame[frame["controller"] == PROPOSED]
+            active = fcm[["joint1_fuzzy_active_share", "joint2_fuzzy_active_share"]]
+            share = float(np.nanmean(active.to_numpy(float)))
+            for opponent in OPPONENTS:
+                t = paired_claims(frame, PROPOSED, opponent, REGIME_METRICS, joints=(1, 2))
+                keys = dict(zip(CELL, cell, strict=True))
+                frames.append(
+                    t.assign(regime=regime, opponent=opponent, fuzzy_active_share=share, **keys)
+                )
+    table = pd.concat(frames, ignore_index=True)
+    first = ["regime", *CELL, "opponent", "fuzzy_active_share", "joint", "metric"]
+    return table[first + [c for c in table.columns if c not in first]]
+
+
+def _effect(verdicts: pd.Series) -> str:
+    better, worse = (verdicts == "better").sum(), (verdicts == "worse").sum()
+    if better and not worse:
+        return "helps"
+    if worse and not better:
+        return "hurts"
+    return "mixed" if better else "no difference shown"
+
+
+def summary(table: pd.DataFrame) -> pd.DataFrame:
+    """One row per (regime, cell, opponent): the fuzzy term's share, FCM-CTC's metrics
+    judged better and worse, and the effect: ``helps`` (better on some, worse on none),
+    ``hurts`` (the reverse), ``mixed``, or ``no difference shown``."""
+    rows = []
+    for key, t in table.groupby(["regime", *CELL, "opponent"], sort=False):
+        named = [(r.verdict, f"θ{r.joint} {_symbol(r.metric)}") for r in t.itertuples()]
+        better = [name for verdict, name in named if verdict == "better"]
+        worse = [name for verdict, name in named if verdict == "worse"]
+        rows.append(
+            {
+                **dict(zip(["regime", *CELL, "opponent"], key, strict=True)),
+                "fuzzy_active_share": float(t["fuzzy_active_share"].iloc[0]),
+                "plants": int(t["n"].max()),
+                "better": ", ".join(better),
+                "worse": ", ".join(worse),
+                "effect": _effect(t["verdict"]),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def _cell(text: str) -> str:
+    """A markdown table cell: "—" for none, a literal "|" (max|e|) escaped."""
+    return text.replace("|", "\\|") if text else "—"
+
+
+def _symbol(key: str) -> str:
+    from twolink.simulation.vocabulary import metric
+
+    return metric(key).symbol
+
+
+def markdown(summ: pd.DataFrame) -> list[str]:
+    """The regime map as markdown: per regime and opponent, the cells where FCM-CTC helps
+    and hurts, then every cell's line."""
+    out = ["# The regime map: where the FCM term acts, helps and hurts", ""]
+    for (regime, opponent), t in summ.groupby(["regime", "opponent"], sort=False):
+        counts = t["effect"].value_counts()
+        out += [
+            f"## {regime}, FCM-CTC against {opponent}",
+            "",
+            f"Cells: {len(t)}; helps in {counts.get('helps', 0)}, hurts in "
+            f"{counts.get('hurts', 0)}, mixed in {counts.get('mixed', 0)}, no difference "
+            f"shown in {counts.get('no difference shown', 0)}. The fuzzy term acts on "
+            f"{100 * t['fuzzy_active_share'].min():.0f}-{100 * t['fuzzy_active_share'].max():.0f} "
+            "% of samples.",
+            "",
+            "| ωn [rad/s] | mass × | payload [kg] | fuzzy on | plants | effect | better | worse |",
+            "|---|---|---|---|---|---|---|---|",
+        ]
+        for r in t.itertuples():
+            out.append(
+                f"| {r.wn:g} | {r.mass:g} | {r.payload:g} | {100 * r.fuzzy_active_share:.1f} % "
+                f"| {r.plants} | {r.effect} | {_cell(r.better)} | {_cell(r.worse)} |"
+            )
+        out.append("")
+    return out
+
+
+def figure(summ: pd.DataFrame) -> Any:
+    """Heatmaps, one per regime: the fuzzy term's share of samples per cell (rows ωn,
+    columns mass x payload), each cell marked with its effect against CTC."""
+    from twolink.interface.plots import fixed_layout, plt
+
+    regimes = list(dict.fromkeys(summ["regime"]))
+    fig, axes = plt.subplots(1, len(regimes), figsize=(5.5 * len(regimes), 4.2), squeeze=False)
+    fixed_layout(fig, left=0.08, right=0.9, top=0.86, bottom=0.2, wspace=0.3)
+    marks = {"helps": "+", "hurts": "−", "mixed": "±", "no difference shown": ""}
+    image = None
+    for ax, regime in zip(axes[0], regimes, strict=True):
+        t = summ[(summ["regime"] == regime) & (summ["opponent"] == OPPONENTS[0])]
+        wns = sorted(set(t["wn"]))
+        cols = sorted(set(zip(t["mass"], t["payload"], strict=True)))
+        grid = np.full((len(wns), len(cols)), np.nan)
+        for r in t.itertuples():
+            i, j = wns.index(r.wn), cols.index((r.mass, r.payload))
+            grid[i, j] = 100 * r.fuzzy_active_share
+            colour = "white" if grid[i, j] < 25 else "black"  # readable on viridis
+            ax.text(j, i, marks[r.effect], ha="center", va="center", fontsize=12, color=colour)
+        image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis", vmin=0, vmax=50)
+        ax.set_xticks(range(len(cols)), [f"m×{m:g}\n+{p:g} kg" for m, p in cols], fontsize=7)
+        ax.set_yticks(range(len(wns)), [f"{w:g}" for w in wns])
+        ax.set_ylabel("ωn [rad/s]")
+        ax.set_title(f"{regime}: fuzzy term on [% of samples]\n+ helps, − hurts vs CTC", fontsize=9)
+    if image is not None:
+        fig.colorbar(image, ax=list(axes[0]), fraction=0.03)
+    return fig

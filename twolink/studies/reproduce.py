@@ -1,0 +1,627 @@
+"""``twolink reproduce``: the paper's results section, run end to end.
+
+Reads the reproduction manifest (``runs/paper/reproduce.toml``): which scenario files
+make which paper table, which controllers to compare, on which plant variants. Designs
+the FCM rule base (or reuses the one already in the output folder when its design
+config is unchanged), runs every experiment with every controller on every variant
+(in a process pool), and writes per-run folders, the report, figures and rerun
+recordings. Everything written is written atomically, so an interrupted reproduction
+leaves only whole files, and running it again completes it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+from concurrent.futures import as_completed
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from twolink.interface.config import FUZZY_KINDS, ConfigError, Scenario, load_scenario, merge
+from twolink.interface.interrupts import raise_if_dropped
+from twolink.interface.io import SEAL_NAME, seal_intact, to_toml
+from twolink.simulation.experiment import (
+    build_controller,
+    iter_scenarios,
+    measure,
+    portable_config,
+    trace_extras,
+    write_run,
+)
+from twolink.simulation.outcome import classify_run
+from twolink.simulation.sim import Trajectory
+from twolink.simulation.vocabulary import joint_values
+from twolink.studies.claims_studies import raw_steps, run_claims
+from twolink.studies.manifest import (
+    DEFAULT_MANIFEST,
+    Experiment,
+    Manifest,
+    Variant,
+    load_manifest,
+)
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One simulation of the reproduction: experiment x variant x controller."""
+
+    experiment: Experiment
+    variant: Variant
+    controller: str
+    overrides: dict[str, Any]
+    centres: tuple[tuple[float, float], ...] = ()  # FCM centres, for the phase-plane trace
+
+    @property
+    def folder(self) -> str:
+        return f"{self.variant.name}/{self.experiment.key}/{self.controller}"
+
+
+def plan(
+    manifest: Manifest,
+    rule_base: Path | None,
+    centres=(),
+    overrides: dict[str, Any] | None = None,
+) -> list[RunSpec]:
+    """Every run of the reproduction, in report order; ``overrides`` (``--set``) are merged
+    over every run's scenario last. ``rule_base`` is the designed rule base (None before
+    the design: the paper's stands in, to validate the scenarios)."""
+    centres = tuple(tuple(map(float, c)) for c in centres)
+    specs = []
+    for variant in manifest.variants:
+        for exp in manifest.experiments:
+            for name, ctrl in manifest.controllers.items():
+                ctrl = dict(ctrl)
+                if ctrl.get("rule_base") == "designed":  # before the design: the paper's
+                    ctrl["rule_base"] = str(rule_base.resolve()) if rule_base else "paper"
+                run = merge(merge(variant.overrides, {"controller": ctrl}), overrides or {})
+                if variant.raw_steps:
+                    run = merge(run, {"reference": raw_steps(exp.scenario)})
+                fuzzy = run["controller"].get("kind", "ctc") in FUZZY_KINDS
+                specs.append(RunSpec(exp, variant, name, run, centres if fuzzy else ()))
+    return specs
+
+
+def _execute(specs: list[RunSpec], out: Path, trace: bool) -> list[dict[str, Any]]:
+    """Run specs as one batch of arms (:mod:`twolink.simulation.batch`) and write their folders;
+    returns their metrics rows (a worker task)."""
+    scenarios = [load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs]
+    controllers = [build_controller(s) for s in scenarios]
+    rows: list[dict[str, Any]] = [{}] * len(specs)
+    for i, traj in iter_scenarios(scenarios, controllers):  # written as each batch ends
+        spec, scenario, controller = specs[i], scenarios[i], controllers[i]
+        if isinstance(traj, Exception):  # validated before: MuJoCo refused this arm
+            raise traj
+        metrics = measure(scenario, traj, controller)
+        write_run(
+            out / spec.folder,
+            scenario,
+            traj,
+            metrics,
+            plots=False,
+            trace=trace,
+            controller=controller,
+            centres=spec.centres,
+            prefix=spec.folder,
+            name=spec.controller,
+        )
+        rows[i] = _row(spec, scenario, traj.status, metrics)
+    return rows
+
+
+def _check_run(manifest: Manifest, spec: RunSpec) -> None:
+    """Load a run's scenario; a bad key is blamed on where it was written: the experiment's
+    scenario file, the manifest's variant overrides or controller table, or ``--set``."""
+    try:
+        load_scenario(spec.experiment.scenario, spec.overrides)
+    except ConfigError as exc:
+        scenario = spec.experiment.scenario
+        load_scenario(scenario)  # the scenario file's own mistake: its own error
+        where = manifest.path
+        for key, part in (
+            (f"variants.{spec.variant.name}.overrides", spec.variant.overrides),
+            (f"controllers.{spec.controller}", {"controller": spec.overrides["controller"]}),
+        ):
+            try:
+                load_scenario(scenario, part)
+            except ConfigError:
+                raise ConfigError(f"{where}: {key}: {exc}") from None
+        raise  # --set
+
+
+# The other joint's metrics in a row (``other_<key>``): its largest deviation and final
+# error, defined whether it moves or is held (a held joint has no step metrics).
+OTHER_JOINT_KEYS = ("max_error_rad", "final_error_rad")
+
+
+def _reference_kind(scenario: Scenario, joint: int) -> str:
+    """A joint's reference kind ("step", "ramp", ...), "held" where it does not move."""
+    ref = getattr(scenario.reference, f"joint{joint}")
+    start = scenario.q0[joint - 1]
+    held = ref.final == start and getattr(ref, "initial", start) == start  # NaN: not held
+    return "held" if held else ref.kind
+
+
+def _row(spec: RunSpec, scenario: Scenario, status: str, metrics: Any) -> dict[str, Any]:
+    """The metrics row of one run: the report's and metrics.csv's. Every metric of the
+    experiment's joint, then the other joint's reference ("held" where it holds its start)
+    and its :data:`OTHER_JOINT_KEYS`, so both joints are reported."""
+    joint = spec.experiment.joint
+    other = joint_values(metrics, 3 - joint)
+    return {
+        "variant": spec.variant.name,
+        "experiment": spec.experiment.key,
+        "controller": spec.controller,
+        "joint": joint,
+        "reference": _reference_kind(scenario, joint),
+        "status": status,
+        "outcome": classify_run(scenario, metrics),
+        **joint_values(metrics, joint),
+        "other_reference": _reference_kind(scenario, 3 - joint),
+        **{f"other_{key}": other[key] for key in OTHER_JOINT_KEYS},
+    }
+
+
+def finished_row(spec: RunSpec, scenario: Scenario, out: Path, trace: bool) -> dict | None:
+    """The row of a run already in ``out`` whole and of this very scenario (its saved
+    config.toml is the one this run would write), measured again from its saved
+    trajectory; None where the run must be computed. (Changes to the package's code are
+    not detected: use a fresh --out after changing a controller or the plant.)"""
+    folder = out / spec.folder
+    needed = ("config.toml", "trajectory.npz", "metrics.json", *(["trace.rrd"] if trace else []))
+    if not folder.is_dir():
+        return None
+    if not seal_intact(folder, needed):
+        # unsealed (cut short, or an older twolink's): quietly; a broken seal: say so
+        if (folder / SEAL_NAME).exists():
+            print(
+                f"{folder}: damaged, edited or incomplete since twolink wrote it; computed again",
+                file=sys.stderr,
+            )
+        return None
+    try:
+        if (folder / "config.toml").read_text() != to_toml(portable_config(scenario, folder)):
+            return None
+        traj = Trajectory.load(folder / "trajectory.npz")
+    except Exception:  # noqa: BLE001 (sealed yet unreadable, e.g. an older format: recompute)
+        return None
+    return _row(spec, scenario, traj.status, measure(scenario, traj))
+
+
+COMBINED_TRACE_EVERY = 10  # the whole reproduction at 100 Hz: 32 runs in one file
+
+
+def run_all(
+    specs: list[RunSpec],
+    out: Path,
+    pool: Any,
+    trace: bool = True,
+    scenarios: dict[str, Scenario] | None = None,
+    busy: int = 0,
+) -> tuple[list[dict[str, Any]], dict[Any, list[int]]]:
+    """Submit every spec not already done to ``pool`` (a :mod:`twolink.interface.executors`
+    executor), in one batch of arms per worker.
+
+    With ``scenarios`` (by spec folder), a run already whole in ``out`` for the same
+    scenario is reused, not computed again (:func:`finished_row`): an interrupted
+    reproduction resumes per run. Returns the rows known now (``{}`` where pending) and
+    the pending futures with the spec indices each computes.
+    """
+    rows: list[dict[str, Any]] = [{}] * len(specs)
+    todo = []
+    for i, spec in enumerate(specs):
+        row = finished_row(spec, scenarios[spec.folder], out, trace) if scenarios else None
+        if row is None:
+            todo.append(i)
+        else:
+            rows[i] = row
+    # A batch's cost per step is mostly fixed up to ~100 arms: as few batches as keep the
+    # workers busy (one worker is left to the flexible study when it runs beside).
+    batches = max(1, min(len(todo), pool.workers - busy))
+    pending = {}
+    for b in range(batches):
+        share = todo[b::batches]
+        if share:
+            pending[pool.submit(_execute, [specs[i] for i in share], out, trace)] = share
+    return rows, pending
+
+
+def load_trajectory(out: Path, spec: RunSpec) -> Trajectory:
+    return Trajectory.load(out / spec.folder / "trajectory.npz")
+
+
+def describe_choices(
+    specs: list[RunSpec], scenarios: dict[str, Scenario], design_config: Any
+) -> dict[str, str]:
+    """What the paper leaves open, as this reproduction actually set it (from its files).
+
+    Read from the loaded scenarios (``scenarios[spec.folder]``), so the report cannot
+    drift from what was run.
+    """
+    first = next(iter(scenarios.values()))
+    a, c = first.arm, first.controller
+    wn = [math.sqrt(k) for k in c.kp]
+    zeta = [kd / (2 * w) if w else math.nan for kd, w in zip(c.kd, wn, strict=True)]
+    references = sorted(
+        {
+            f"θ{sp.experiment.joint} {type(ref).__name__.lower()} "
+            + (
+                f"{ref.initial:g}→{ref.final:g} rad"
+                + (f" in {ref.duration:g} s" if hasattr(ref, "duration") else "")
+            )
+            for sp in specs
+            for ref in [
+                (scenarios[sp.folder].reference.joint1, scenarios[sp.folder].reference.joint2)[
+                    sp.experiment.joint - 1
+                ]
+            ]
+        }
+    )
+    scales = sorted(
+        {
+            ", ".join(f"{k} ×{v:g}" for k, v in sorted(sc.plant.scale.items()))
+            for sc in scenarios.values()
+            if sc.plant.scale
+        }
+    )
+    fuzzy = next(
+        (sc.controller for sc in scenarios.values() if sc.controller.kind in FUZZY_KINDS), None
+    )
+    flex = sorted(
+        {
+            f"k = {sc.plant.flexibility.k} N·m/rad, d = {sc.plant.flexibility.d} N·m·s/rad, "
+            f"j = {sc.plant.flexibility.j} kg·m², start {sc.plant.springs!r} (the scenario "
+            "keys of [plant.flexibility])"
+            for sc in scenarios.values()
+            if sc.plant.flexibility is not None
+        }
+    )
+    choices = {
+        "arm": f"two uniform rods, m1 = {a.m1:g} kg, m2 = {a.m2:g} kg, L1 = {a.l1:g} m, "
+        f"L2 = {a.l2:g} m, g = {a.g:g} m/s² (runs/paper/base.toml)",
+        "CTC gains": f"Kp = {c.kp} s⁻², Kd = {c.kd} s⁻¹: ωn = {wn[0]:.3g} rad/s, "
+        f"ζ = {zeta[0]:.3g}, torque limit {c.torque_limit} N·m, from the gain study's rule "
+        "(section below; docs/control.md)",
+        "references": "; ".join(references) + "; the other joint holds at its start",
+        "uncertainty": "the plant's "
+        + "; ".join(scales)
+        + " against the controller's nominal model (runs/paper/*_uncertain.toml)",
+    }
+    if fuzzy is not None:
+        f = fuzzy.fuzzy
+        choices["fuzzy term"] = (
+            "normalised universes [-1, 1], 7 triangular labels, min/max Mamdani, centroid; "
+            f"ke = {f.ke:.4g} /rad, kde = {f.kde:.4g} s/rad, ku = {f.ku:.4g} rad/s², mode "
+            f"{f.mode!r}: inside the CTC bracket (docs/control.md); by the scaling rule "
+            f"(docs/fuzzy.md) span E = {f.span:.3g} rad (the PD term's unsaturated range), "
+            f"ke = 1/E, kde = ke/ωn, ku = {f.authority:g} · Kp · E"
+        )
+        choices["no rule fires"] = "zero fuzzy correction: the CTC term alone acts"
+    choices["FCM design"] = (
+        f"c = {design_config.clusters}, m = {design_config.fuzzifier:g}, "
+        f"ε = {design_config.tolerance:g}, seed {design_config.seed}, on the 7x7 "
+        f"fuzzy-CTC's {len(design_config.scenarios)} design runs (steps up and down on both "
+        "joints, coupled moves, disturbed starts); settled tail: "
+        f"{design_config.settled!r} (|e| + |ė|), odd symmetry: {design_config.symmetry!r}; "
+        f"{len(design_config.validation)} held-out moves (runs/paper/design.toml)"
+    )
+    if flex:
+        choices["flexible joints"] = "; ".join(flex)
+    choices["simulation"] = (
+        f"{first.duration:g} s, RK4 at {first.timestep * 1e3:g} ms, control every "
+        f"{first.control_dt * 1e3:g} ms with zero-order hold"
+    )
+    choices["ess"] = f"|target − θ| at the last sample (t = {first.duration:g} s)"
+    return choices
+
+
+def flexible_study(sweep_file: Path, out: Path) -> list[str]:
+    """Run the flexible-joint sweep into ``out/flexible_study`` in this process (a worker
+    task: its arms are one or two batches); its report section. A sweep over ``k`` and
+    ``wn`` is the stiffness x bandwidth map (``twolink.sweep.flexmap``), with the rigid
+    arm's Ts and Mp under CTC as its yardstick; a sweep over ``k`` alone, the stiffness
+    study."""
+    from twolink import sweep
+    from twolink.interface import plots
+
+    plan = sweep.load_sweep(sweep_file)
+    # One thread: this is one task of the reproduction's pool, beside the others.
+    outcome = sweep.run_sweep(
+        plan, out / "flexible_study", executor="inprocess", workers=1, plots=False
+    )
+    figure = out / "figures/flexible_study.png"
+    if "wn" not in plan.parameter_names:
+        plots.save_figure(sweep.flexible_study_figure(outcome.results), figure)
+        return ["", "## Beyond the paper: flexible joints from stiff to soft", "",
+                f"On Spong's flexible-joint arm, k swept from stiff to soft ({sweep_file.name}). "
+                "Medians per stiffness:", "", sweep.flexible_study_table(outcome.results), "",
+                "![flexible study](figures/flexible_study.png)"]  # fmt: skip
+    plots.save_figure(sweep.flexible_map_figure(outcome.results, plan.step), figure)
+    rigid = sweep.rigid_reference(plan, plan.controller_names[0])
+    return [
+        "",
+        "## Beyond the paper: flexible joints, stiffness x bandwidth",
+        "",
+        f"Every controller on Spong's flexible-joint arm ({sweep_file.name}: realistic rotor "
+        "inertia and a joint damping ratio of 0.02 at every stiffness; every run starts at "
+        "rest, its springs holding the arm), the joint stiffness "
+        "k from stiff to soft against the closed loop's bandwidth ωn (ζ = 1). Per bandwidth, "
+        "the softest k down to which each controller meets the spec at every stiffer joint, "
+        f"and in brackets down to which its Ts and Mp also stay within the rigid arm's "
+        f"({plan.controller_names[0]}, no springs: Ts at most 10 % + 0.05 s later, Mp at most "
+        "1 point higher); — where even the stiffest joint fails (docs/control.md, "
+        '"The stiffness x bandwidth map"):',
+        "",
+        sweep.flexible_map_table(outcome.results, rigid, plan.step),
+        "",
+        "Red ×: unstable (a torque-limited limit cycle, diverged, or linearly unstable at the "
+        "target however calm the run's end); grey: bounded but off "
+        "target; colour: Ts to the target, number: Mp [%]; a dot: a spring twisted beyond "
+        "0.2 rad, no physical joint (docs/model.md).",
+        "",
+        "![flexible study](figures/flexible_study.png)",
+        "",
+        *sweep.disagreements(sweep.map_cells(outcome.results, plan.step)),
+    ]
+
+
+class _Phases:
+    """A status line on stderr as each phase of the reproduction starts, with the time
+    since the start: "[3/6] +12.4 s figures" (where the time goes, at a glance)."""
+
+    def __init__(self, on: bool, total: int) -> None:
+        self.on, self.total, self.done = on, total, 0
+        self.start = time.perf_counter()
+
+    def __call__(self, what: str) -> None:
+        raise_if_dropped()  # a Ctrl-C stops the reproduction at the next phase at the latest
+        self.done += 1
+        if self.on:
+            elapsed = f"+{time.perf_counter() - self.start:.1f} s"
+            print(f"[{self.done}/{self.total}] {elapsed} {what}", file=sys.stderr, flush=True)
+
+
+@dataclass(frozen=True)
+class Reproduction:
+    """What a reproduction produced: where, the metric rows, and whether it re-designed."""
+
+    out: Path
+    rows: list[dict[str, Any]]
+    designed: bool
+    rule_base: Path
+
+
+def reproduce(
+    manifest_path: str | Path = DEFAULT_MANIFEST,
+    out: str | Path = "results/reproduce",
+    workers: int | None = None,
+    trace: bool = True,
+    progress: bool = True,
+    overrides: dict[str, Any] | None = None,
+) -> Reproduction:
+    """Design (or reuse) the FCM rule base, run every experiment, write everything.
+
+    ``overrides`` (the command's ``--set``) change every experiment's scenario, not the
+    design runs nor the flexible-joint study."""
+    from twolink import sweep
+    from twolink.interface.io import check_output_folder, check_ownership, owned_output
+    from twolink.studies.design import load_design_config
+
+    out = Path(out)
+    manifest = load_manifest(manifest_path)
+    config = load_design_config(manifest.design)
+    # Bad input is found before any work: every run's scenario (the paper's rule base
+    # standing in for the one not yet designed), the study's sweep file, the folder.
+    for sp in plan(manifest, None, (), overrides):
+        _check_run(manifest, sp)
+    if manifest.flexible_study is not None:
+        sweep.load_sweep(manifest.flexible_study)
+    if manifest.claims_study is not None:
+        names = sweep.load_sweep(manifest.claims_study).controller_names
+        missing = [n for n in (manifest.proposed, manifest.baseline) if n not in names]
+        if missing:
+            raise ConfigError(
+                f"{manifest.path}: claims_study: {manifest.claims_study.name} must run "
+                f"{missing} by name (it runs {list(names)})"
+            )
+    check_output_folder(out)
+    source = str(manifest.path.resolve())
+    check_ownership(out, "reproduce", source)
+    # One reproduction at a time per folder: a second one into it stops at once.
+    with owned_output(out, "reproduce", source):
+        return _reproduce(manifest, config, out, workers, trace, progress, overrides)
+
+
+def _reproduce(
+    manifest: Manifest,
+    config: Any,
+    out: Path,
+    workers: int | None,
+    trace: bool,
+    progress: bool,
+    overrides: dict[str, Any] | None,
+) -> Reproduction:
+    """:func:`reproduce` once its inputs are checked and its folder is held."""
+    from tqdm import tqdm
+
+    from twolink.interface.executors import open_executor
+    from twolink.interface.io import atomic_write_json, atomic_write_text
+    from twolink.studies import report
+    from twolink.studies.design import design_or_load
+    from twolink.studies.gains import report_section
+    from twolink.studies.report_sections import design_section, oscillation_section
+
+    phase = _Phases(progress, 4 + trace + (manifest.claims_study is not None))
+    workers = workers or os.cpu_count() or 1
+    kind = "inprocess" if workers <= 1 else "process"
+    # The pool starts first: its workers import while the design runs.
+    with open_executor(kind, workers) as pool:
+        try:
+            phase("design: the FCM rule base (reused when its inputs are unchanged)")
+            result, designed = design_or_load(config, out / "design")
+            rule_base = out / "design" / "rule_base.toml"
+            specs = plan(manifest, rule_base, result.clustering.centers, overrides)
+            scenarios = {
+                sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs
+            }
+            study = (
+                pool.submit(flexible_study, manifest.flexible_study, out)
+                if manifest.flexible_study is not None
+                else None
+            )
+            phase(
+                f"runs: {len(specs)} experiments x controllers x variants, as batches of arms"
+                + (" (and the flexible-joint study)" if study else "")
+            )
+            # Resume per run, unless the design was just made: its rule base's runs are new.
+            rows, pending = run_all(
+                specs, out, pool, trace, None if designed else scenarios, busy=study is not None
+            )
+            # A task, not drawn here: the main process then never imports matplotlib, and
+            # the runs do not wait for the validity sweep.
+            design_evidence = pool.submit(_design_figures, result, out)
+            drawing = [design_evidence]
+            claims: list[str] = []
+            claim_tables: list[Any] = []
+            if manifest.claims_study is not None:
+                phase(f"claims: {manifest.claims_study.name}, on the same pool")
+                claims, claim_tables = run_claims(manifest, out, pool, progress)
+            with tqdm(
+                total=len(specs),
+                initial=sum(bool(r) for r in rows),
+                desc="runs",
+                unit="run",
+                disable=not progress,
+            ) as bar:
+                for fut in as_completed(pending):
+                    for i, row in zip(pending[fut], fut.result(), strict=True):
+                        rows[i] = row
+                    bar.update(len(pending[fut]))
+            # The combined recording first (the longest task left), then the figures.
+            if trace:
+                phase(f"recording: reproduction.rrd ({len(specs)} runs), in a worker")
+                drawing.append(pool.submit(_combined_recording, out, specs, scenarios))
+            phase("figures: responses, phase plane, membership functions, control surfaces")
+            figures: dict[str, str] = {}
+            for variant in manifest.variants:
+                for exp in manifest.experiments:
+                    runs = {
+                        sp.controller: sp.folder
+                        for sp in specs
+                        if sp.experiment is exp and sp.variant is variant
+                    }
+                    name = f"figures/{variant.name}_{exp.key}.png"
+                    label = exp.label
+                    title = f"{label}: {exp.title}\n({variant.title})"
+                    drawing.append(
+                        pool.submit(_response_figure, out, runs, exp.joint, title, out / name)
+                    )
+                    figures[f"{variant.name}/{exp.key}"] = name
+            trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
+            sections = oscillation_section(specs, scenarios, trajectories, rows)
+            if manifest.gain_study is not None:
+                sections += report_section(manifest.gain_study, out, pool)
+            calibrated = None
+            if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
+                from twolink.studies import calibration_report
+
+                shipped = calibration_report.rerun_shipped(manifest.calibration)
+                sections += calibration_report.report_section(manifest.calibration, out, shipped)
+                calibrated = calibration_report.table_values(shipped)
+            validity = design_evidence.result()
+            sections += design_section(result, specs, scenarios, rows, validity)
+            if study is not None:
+                sections += study.result()
+            for fut in drawing:
+                fut.result()
+        except BaseException:  # Ctrl-C, or any failure: the workers' tasks are moot
+            pool.abort()  # stop now, not after the queued tasks; written files are whole
+            raise
+    phase("report: report.md, metrics.csv, metrics.json")
+    atomic_write_text(
+        out / "report.md",
+        report.render(
+            rows,
+            manifest,
+            describe_choices(specs, scenarios, config),
+            figures,
+            sections,
+            lead_sections=claims,
+            calibrated=calibrated,
+            claims_tables=claim_tables,
+        ),
+    )
+    atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
+    atomic_write_json(out / "metrics.json", rows)
+    return Reproduction(out, rows, designed, rule_base)
+
+
+def _design_figures(result: Any, out: Path) -> list[Any]:
+    """The design's evidence (a worker task): phase plane with centres, membership
+    functions, the control surfaces of the heuristic, the paper's and the designed rule
+    base, and the cluster-validity sweep, which it returns
+    (:func:`twolink.studies.validity.validity_sweep`: c = 2..10, PC, PE, XB)."""
+    from twolink.controllers import fuzzy
+    from twolink.interface import plots
+    from twolink.studies.validity import validity_figure, validity_sweep
+
+    validity = validity_sweep(result.points, result.weights)
+
+    designed_engine = result.engine.with_rules(result.rules)
+    plots.save_figure(plots.phase_plane_figure(result), out / "figures/design_phase_plane.png")
+    plots.save_figure(plots.membership_figure(result.engine), out / "figures/membership.png")
+    plots.save_figure(
+        plots.control_surface_figure(
+            {
+                "7x7 heuristic": result.engine,
+                "paper Table 1": fuzzy.paper_fuzzy_pd(),
+                "FCM-designed": designed_engine,
+            }
+        ),
+        out / "figures/control_surfaces.png",
+    )
+    plots.save_figure(
+        validity_figure(validity, result.clustering.n_clusters),
+        out / "figures/design_validity.png",
+    )
+    return validity
+
+
+def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, path: Path) -> None:
+    """One experiment's response under each controller, read from its run folders (a
+    worker task)."""
+    from twolink.interface import plots
+
+    trajs = {
+        name: Trajectory.load(out / folder / "trajectory.npz") for name, folder in runs.items()
+    }
+    plots.save_figure(plots.response_figure(trajs, joint, title), path)
+
+
+def _combined_recording(out: Path, specs: list[RunSpec], scenarios: dict[str, Scenario]) -> None:
+    """reproduction.rrd: every run, read back from its folder (a worker task). The main
+    process reads the runs too, for the report's sections; reading them again here (about
+    0.5 s for 120 runs) spares the pool's pipe ~130 MB of pickled trajectories."""
+    from twolink import tracing
+
+    trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
+
+    tracing.write_recording(
+        out / "reproduction.rrd",
+        [
+            (
+                sp.folder,
+                trajectories[sp.folder],
+                scenarios[sp.folder].plant_params,
+                # the fuzzy runs' phase planes with centres and fired rules, as in trace.rrd
+                trace_extras(
+                    build_controller(scenarios[sp.folder]), trajectories[sp.folder], sp.centres
+                ),
+            )
+            for sp in specs
+        ],
+        every=COMBINED_TRACE_EVERY,
+        groups=[sp.controller for sp in specs],
+    )
