@@ -149,3 +149,25 @@ def test_the_controllers_install_as_twolink_controllers_not_a_top_level_module(t
     setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
     assert all(p == "twolink" or p.startswith("twolink.") for p in setuptools["packages"])
     assert setuptools["package-dir"] == {"twolink.controllers": "controllers"}
+
+
+def test_the_flat_module_names_import_the_modules_of_their_layers():
+    # DESIGN.md's contract names (twolink.params, twolink.dynamics, twolink.plant,
+    # twolink.metrics) and every other flat name: the same module object, its own spec
+    import importlib
+    import pickle
+
+    import twolink
+
+    assert len(twolink._FLAT_NAMES) == 35
+    for flat, layered in twolink._FLAT_NAMES.items():
+        module = importlib.import_module(flat)
+        assert module is importlib.import_module(layered), flat
+        assert module.__name__ == module.__spec__.name == layered
+    from twolink.dynamics import mass_matrix
+    from twolink.params import ArmParams
+
+    assert mass_matrix(ArmParams(), [0.1, 0.2]).shape == (2, 2)
+    assert pickle.loads(pickle.dumps(ArmParams(m1=2.0))) == ArmParams(m1=2.0)
+    with pytest.raises(ModuleNotFoundError):
+        importlib.import_module("twolink.no_such_module")
