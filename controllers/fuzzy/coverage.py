@@ -16,13 +16,22 @@ grid points is uncovered.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from twolink.controllers.fuzzy.engine import MamdaniEngine, _partition_peaks
 
-__all__ = ["Coverage", "UncoveredRegion", "coverage", "grid_uncovered_fraction"]
+__all__ = [
+    "Coverage",
+    "Jump",
+    "UncoveredRegion",
+    "coverage",
+    "grid_uncovered_fraction",
+    "surface_jumps",
+]
 
 
 @dataclass(frozen=True)
@@ -153,3 +162,89 @@ def coverage(engine: MamdaniEngine, threshold: float = 0.0, grid: int = 201) -> 
     return Coverage(
         fraction, grid_fraction, tuple(regions), float(threshold), grid, exact, len(engine.rules)
     )
+
+
+# Changes below this are rounding (the engines agree with skfuzzy to 1e-12), never a jump.
+JUMP_FLOOR = 1e-9
+
+
+@dataclass(frozen=True)
+class Jump:
+    """The largest change of an engine's output across one grid cell inside a label cell
+    (``e`` between two neighbouring peaks, ``de`` likewise): ``size`` on the ``grid`` and
+    ``size_finer`` on a grid twice as fine. A continuous surface's change halves as the grid
+    does; a jump keeps its size (``is_jump``: it shrinks by less than a quarter)."""
+
+    e_range: tuple[float, float]
+    de_range: tuple[float, float]
+    e_labels: tuple[str, str]
+    de_labels: tuple[str, str]
+    size: float
+    size_finer: float
+
+    @property
+    def is_jump(self) -> bool:
+        return self.size_finer > JUMP_FLOOR and self.size_finer > 0.75 * self.size
+
+    def __str__(self) -> str:
+        kind = "jump" if self.is_jump else "slope"
+        return (
+            f"{kind} {self.size_finer:.3g} (grid {self.size:.3g}): "
+            f"e in [{self.e_labels[0]}, {self.e_labels[1]}], "
+            f"de in [{self.de_labels[0]}, {self.de_labels[1]}]"
+        )
+
+
+def surface_jumps(engine: Any, grid: int = 201) -> tuple[Jump, ...]:
+    """Where the output surface of ``engine`` (any engine: ``engine(e, de)``) jumps: per
+    label cell of its triangular partitions, the largest change of the output across one
+    cell of a grid of about ``grid`` x ``grid`` points over the input box (the spread of its
+    four corners' values; nodes on every peak), and the same on a grid twice as fine.
+    Largest first.
+
+    A discontinuity keeps its size as the grid refines; a slope L halves (its spread is at
+    most L h). The paper's rule bases jump wherever one weakly fired rule gives its whole
+    centroid, or the last rule stops firing (docs/fuzzy.md, "The relay")."""
+    if isinstance(grid, bool) or not isinstance(grid, int) or grid < 2:
+        raise ValueError(f"grid must be an integer >= 2, got {grid!r}")
+    pe, pd = _partition_peaks(engine.e), _partition_peaks(engine.de)
+    if pe is None or pd is None:
+        pe, pd = tuple(engine.e.universe[[0, -1]]), tuple(engine.de.universe[[0, -1]])
+        labels_e, labels_d = ("min", "max"), ("min", "max")
+    else:
+        labels_e, labels_d = engine.e.labels, engine.de.labels
+    pe, pd = np.asarray(pe), np.asarray(pd)
+
+    def largest_spread(per_cell: int) -> np.ndarray:
+        # nodes on every peak, ``per_cell`` grid cells between neighbouring peaks: no grid
+        # cell straddles two label cells, at any resolution
+        e_nodes, de_nodes = (
+            np.concatenate(
+                [np.linspace(p[a], p[a + 1], per_cell + 1)[:-1] for a in range(p.size - 1)]
+                + [p[-1:]]
+            )
+            for p in (pe, pd)
+        )
+        e, de = np.meshgrid(e_nodes, de_nodes, indexing="ij")
+        u = np.asarray(engine(e, de))
+        corners = np.stack([u[:-1, :-1], u[1:, :-1], u[:-1, 1:], u[1:, 1:]])
+        spread = (corners.max(axis=0) - corners.min(axis=0)).reshape(
+            pe.size - 1, per_cell, pd.size - 1, per_cell
+        )
+        return spread.max(axis=(1, 3))
+
+    per_cell = max(1, math.ceil((grid - 1) / max(pe.size - 1, pd.size - 1)))
+    coarse, fine = largest_spread(per_cell), largest_spread(2 * per_cell)
+    jumps = [
+        Jump(
+            (float(pe[a]), float(pe[a + 1])),
+            (float(pd[b]), float(pd[b + 1])),
+            (labels_e[a], labels_e[a + 1]),
+            (labels_d[b], labels_d[b + 1]),
+            float(coarse[a, b]),
+            float(fine[a, b]),
+        )
+        for a in range(coarse.shape[0])
+        for b in range(coarse.shape[1])
+    ]
+    return tuple(sorted(jumps, key=lambda j: -j.size_finer))

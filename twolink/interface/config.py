@@ -33,6 +33,7 @@ Schema (all keys optional except the reference)::
     [controller.fuzzy]       # u = ku f(ke e, kde de); "auto": tied to the gains (docs/fuzzy.md)
     ke = "auto"  kde = "auto"  ku = "auto"  span = "auto"  authority = 1.0  mode = "add"
     engine = "exact"        # or "table": bilinear lookup, table_points = 201 per axis
+    inference = "mamdani"   # the paper's; "continuous": our extension (docs/fuzzy.md)
     [reference.joint1]
     kind = "step"  initial = 0.0  final = 1.0
     [reference.joint2]
@@ -76,6 +77,9 @@ FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc", "fuzzy_pd")  # controllers with a fuzzy e
 RULE_BASE_KINDS = ("fcm_ctc", "fuzzy_pd")  # those whose rule base is the rule_base key
 FUZZY_MODES = ("add", "replace")
 FUZZY_ENGINES = ("exact", "table")  # [controller.fuzzy] engine: docs/fuzzy.md
+# [controller.fuzzy] inference: the paper's Mamdani (min, max, centroid), or our continuous
+# product-sum reading of the same rules (controllers/fuzzy/continuous.py, docs/fuzzy.md)
+FUZZY_INFERENCES = ("mamdani", "continuous")
 
 
 # The shipped rule bases, where twolink.controllers is installed (the repository's
@@ -133,6 +137,7 @@ class FuzzyConfig:
     authority: float = 1.0  # fuzzy full scale / PD term at full-scale error ("auto")
     engine: str = "exact"  # "exact" (the Mamdani engine) or "table" (bilinear lookup)
     table_points: int = 201  # engine = "table": grid points per axis
+    inference: str = "mamdani"  # "mamdani" (the paper's) or "continuous" (our extension)
 
 
 AUTO = "auto"
@@ -246,6 +251,8 @@ class Scenario:
         ctrl["kp"], ctrl["kd"], ctrl["ki"] = list(ctrl["kp"]), list(ctrl["kd"]), list(ctrl["ki"])
         if self.controller.fuzzy.engine == "exact":  # the default: digests stay as they were
             del ctrl["fuzzy"]["engine"], ctrl["fuzzy"]["table_points"]
+        if self.controller.fuzzy.inference == "mamdani":
+            del ctrl["fuzzy"]["inference"]
         return {
             "name": self.name,
             "duration": self.duration,
@@ -556,6 +563,7 @@ def _fuzzy(
         authority=authority,
         engine=f.string("engine", fd.engine, FUZZY_ENGINES),
         table_points=f.integer("table_points", fd.table_points),
+        inference=f.string("inference", fd.inference, FUZZY_INFERENCES),
     )
     if not 2 <= fuzzy.table_points <= MAX_TABLE_POINTS:
         f.fail("table_points", f"must be 2 to {MAX_TABLE_POINTS}, got {fuzzy.table_points}")

@@ -88,6 +88,8 @@ def build_controller(s: Scenario) -> Controller:
         stat = path.stat()
         engine = _engine(str(path), stat.st_mtime_ns, stat.st_size)
     f = c.fuzzy
+    if f.inference == "continuous":
+        engine = _continuous(engine)
     if f.engine == "table":
         engine = _table(engine, f.table_points)
     if c.kind == "fuzzy_pd":
@@ -108,6 +110,14 @@ def _engine(rule_base: str | None, *version: int):
     if rule_base is None:
         return fuzzy.default_fuzzy_pd()
     return fuzzy.default_fuzzy_pd().with_rules(read_rule_base(rule_base))
+
+
+@functools.lru_cache(maxsize=32)
+def _continuous(engine):
+    """The continuous inference of a cached engine's rules (shared like it)."""
+    from twolink.controllers.fuzzy.continuous import ContinuousEngine
+
+    return ContinuousEngine(engine)
 
 
 @functools.lru_cache(maxsize=32)
