@@ -130,3 +130,47 @@ def test_a_scenario_selects_the_continuous_inference():
     bad = dict(over["controller"], fuzzy={"inference": "sugeno"})
     with pytest.raises(ConfigError, match="inference"):
         load_scenario("runs/paper/base.toml", {"controller": bad})
+
+
+def test_coverage_lists_the_jumps():
+    from click.testing import CliRunner
+
+    from twolink.interface.cli import main
+
+    designed = CliRunner().invoke(main, ["coverage", "designed"])
+    assert "its output jumps" in designed.output and "in 8 of 36 label cells" in designed.output
+    assert "jump 0.333 (grid 0.333): e in [PS, PM], de in [NS, Z]" in designed.output
+    full = CliRunner().invoke(main, ["coverage", "default"])
+    assert full.exit_code == 0 and "in 0 of 36 label cells" in full.output
+
+
+@pytest.mark.slow
+def test_the_relay_oscillates_where_the_continuous_inference_does_not(tmp_path):
+    # The robustness sweep's 200 plants, run 20 s: the paper's FCM-CTC ends in a sustained
+    # oscillation (> 1 mrad) on 27 plants where CTC has none, up to 6.5 mrad; the
+    # continuous inference of the same rules on none (docs/fuzzy.md, "The relay").
+    from twolink import sweep
+
+    overrides = {
+        "overrides": {"duration": 20.0},
+        "controllers": {
+            "replace": True,
+            "CTC": {"kind": "ctc"},
+            "FCM-CTC": {"kind": "fcm_ctc", "rule_base": "designed"},
+            "FCM-CTC-continuous": {
+                "kind": "fcm_ctc",
+                "rule_base": "designed",
+                "fuzzy": {"inference": "continuous"},
+            },
+        },
+    }
+    plan = sweep.load_sweep("runs/sweeps/robustness.toml", overrides)
+    results = sweep.run_sweep(plan, tmp_path / "s", plots=False, progress=False).results
+    osc = results.pivot(index="sample", columns="controller", values="joint1_oscillation_rad")
+    osc = np.maximum(
+        osc, results.pivot(index="sample", columns="controller", values="joint2_oscillation_rad")
+    )
+    assert len(osc) == 200 and (osc["CTC"] < 1e-6).all()
+    relay = osc["FCM-CTC"] > 1e-3
+    assert relay.sum() == 27 and osc["FCM-CTC"].max() == pytest.approx(6.5e-3, abs=1e-4)
+    assert (osc["FCM-CTC-continuous"] < 1e-6).all()

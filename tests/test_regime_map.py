@@ -33,8 +33,10 @@ def test_a_small_regime_map_end_to_end(tmp_path):
     for name in ("regimes.csv", "regimes_summary.csv", "regimes.md", "regimes.png"):
         assert (out / name).is_file(), name
     summ = pd.read_csv(out / "regimes_summary.csv")
-    # 2 regimes x 4 cells x 2 opponents, 10 plants each
-    assert len(summ) == 16 and set(summ["plants"]) == {10}
+    # 2 regimes x 4 cells x 2 proposed (FCM-CTC, its continuous inference) x 2
+    # opponents, 10 plants each
+    assert len(summ) == 32 and set(summ["plants"]) == {10}
+    assert set(summ["proposed"]) == {"FCM-CTC", "FCM-CTC-continuous"}
     quintic = summ[(summ["regime"] == "quintic") & (summ["wn"] == 15.0)]
     # at the shipped bandwidth, no mismatch beyond the masses': the term acts little
     assert (quintic["fuzzy_active_share"] < 0.5).all()
@@ -48,7 +50,8 @@ def test_the_effect_of_a_cell_is_what_its_verdicts_say():
         return pd.DataFrame(
             {
                 "regime": "quintic", "wn": 4.0, "mass": 1.0, "payload": 0.0,
-                "opponent": "CTC", "fuzzy_active_share": 0.1, "n": 100,
+                "proposed": "FCM-CTC", "opponent": "CTC", "fuzzy_active_share": 0.1,
+                "n": 100,
                 "joint": 1, "metric": "iae_rad_s", "verdict": verdicts,
             }
         )  # fmt: skip

@@ -90,8 +90,8 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     assert report.index("## Conclusions") < report.index(head)
     assert len(conclusions.strip().splitlines()) <= 15
     results = load_results(reproduction.out / "claims_study")
-    assert len(results) == 800
-    assert set(results["controller"]) == {"CTC", "PD-G", "CTC-I", "FCM-CTC"}
+    names = {"CTC", "PD-G", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "CTC-matched"}
+    assert len(results) == 1200 and set(results["controller"]) == names
     saved = pd.read_csv(reproduction.out / "claims.csv")
     from twolink.studies.claims_studies import reference_values
     from twolink.sweep import load_sweep
@@ -105,6 +105,17 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     for r in again.itertuples():
         assert f"| θ{r.joint} | " in report and r.verdict in report
         assert f"θ{r.joint} {metric(r.metric).symbol}" in conclusions
+    # and against the fair linear opponent: CTC retuned to FCM-CTC's peak torque, which
+    # on smooth moves (peak torque set by the feedforward) is CTC itself
+    fair = pd.read_csv(reproduction.out / "claims_matched.csv")
+    again = paired_claims(results, "FCM-CTC", "CTC-matched", joints=(1, 2), reference_values=refs)
+    pd.testing.assert_frame_equal(fair, again, check_dtype=False)
+    assert "### Against a fair linear opponent (CTC-matched)" in report
+    assert "scaled by 1 (ζ kept" in report
+    assert "against CTC-matched) on 200 plants" in conclusions
+    ctc = results[results["controller"] == "CTC"].set_index("sample")
+    matched = results[results["controller"] == "CTC-matched"].set_index("sample")
+    pd.testing.assert_series_equal(ctc["joint1_iae_rad_s"], matched["joint1_iae_rad_s"])
 
 
 def test_sustained_oscillations_are_listed_with_the_rules_that_fire(reproduction):
@@ -210,7 +221,8 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     other = ["other_reference", "other_max_error_rad", "other_final_error_rad"]
     assert list(csv.columns) == [*head, *keys, *other]
     assert set(csv["other_reference"]) == {"held"}  # every paper experiment holds one joint
-    assert set(csv["controller"]) == names | {"PD-G", "CTC-I", "CTC-paper", "fuzzy-PD"}
+    others = {"PD-G", "CTC-I", "CTC-paper", "fuzzy-PD", "FCM-CTC-continuous"}
+    assert set(csv["controller"]) == names | others
     run = json.loads(
         (reproduction.out / "rigid" / "table2" / "FCM-CTC" / "metrics.json").read_text()
     )

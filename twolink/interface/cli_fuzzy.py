@@ -32,8 +32,10 @@ import click
 )
 def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     """Print the share of the normalised (e, de) input box where RULE_BASE fires no rule,
-    and the uncovered label cells. RULE_BASE is "paper" (default), "designed", "default"
-    (the 7x7) or a rule-base TOML file; the engine is the project's 7-label one.
+    the uncovered label cells, and the label cells where its output jumps (the paper's
+    Mamdani inference; docs/fuzzy.md, "The relay"). RULE_BASE is "paper" (default),
+    "designed", "default" (the 7x7) or a rule-base TOML file; the engine is the
+    project's 7-label one.
 
     \b
     Examples:
@@ -42,7 +44,7 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
       twolink coverage designed --threshold 0.1
     """
     from twolink.controllers.fuzzy import default_fuzzy_pd
-    from twolink.controllers.fuzzy.coverage import coverage
+    from twolink.controllers.fuzzy.coverage import coverage, surface_jumps
     from twolink.controllers.fuzzy.fis import read_rule_base
     from twolink.interface.config import resolve_rule_base
 
@@ -61,6 +63,14 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     )
     for region in result.regions:
         click.echo(f"  uncovered: {region}")
+    jumps = [j for j in surface_jumps(engine, grid=grid) if j.is_jump]
+    click.echo(
+        f"its output jumps (a change that keeps its size on a grid twice as fine) in "
+        f"{len(jumps)} of {(len(engine.e.labels) - 1) * (len(engine.de.labels) - 1)} label "
+        "cells" + (", largest first (normalised output):" if jumps else "")
+    )
+    for jump in jumps:
+        click.echo(f"  {jump}")
     sys.exit(0 if result.complete else 1)
 
 

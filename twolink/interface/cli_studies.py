@@ -32,8 +32,8 @@ def regimes_command(
 ) -> None:
     """Run the regime map (runs/sweeps/regimes.toml: ωn x mass mismatch x payload, 100
     plants per cell) with 2 s quintic moves and with the paper's raw steps, and judge
-    FCM-CTC against CTC and CTC-I per cell; writes regimes.csv, regimes_summary.csv,
-    regimes.md and regimes.png.
+    FCM-CTC and FCM-CTC-continuous against CTC and CTC-I per cell; writes regimes.csv,
+    regimes_summary.csv, regimes.md and regimes.png.
 
     \b
     Examples:

@@ -6,6 +6,7 @@ smooth moves (:func:`raw_steps`) and the reference's own step metrics
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -15,6 +16,7 @@ import numpy as np
 from twolink.interface.config import Scenario, read_toml
 from twolink.simulation.vocabulary import metric
 from twolink.studies.manifest import Manifest
+from twolink.studies.matching import MATCHED, Matched, match_peak_torque
 
 __all__ = ["SMOOTH_KINDS", "raw_steps", "reference_values", "run_claims"]
 
@@ -54,15 +56,16 @@ def reference_values(scenario: Scenario, joints: Any) -> dict[tuple[int, str], f
 
 def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tuple[list[str], Any]:
     """The claims study on ``pool``: as its file says, and again in each regime of a
-    ``raw_steps`` variant (the paper's own references, the variant's gains). Returns the
-    report's sections and, per study, (label, claims table, plants that met the spec,
-    plants) for its conclusions."""
+    ``raw_steps`` variant (the paper's own references, the variant's gains), each with the
+    fair linear opponent beside the baseline (:mod:`twolink.studies.matching`). Returns the
+    report's sections and, per study and opponent, (label, claims table, plants that met
+    the spec, plants, opponent) for its conclusions."""
     sections: list[str] = []
     tables = []
     for variant in (None, *(v for v in manifest.variants if v.raw_steps)):
-        more, table = _claims_study(manifest, out, pool, progress, variant)
+        more, studies = _claims_study(manifest, out, pool, progress, variant)
         sections += more
-        tables.append(table)
+        tables += studies
     return sections, tables
 
 
@@ -81,7 +84,7 @@ def _claims_study(
 
     study = manifest.claims_study
     plan = sweep.load_sweep(study)
-    suffix, regime = "", ""
+    suffix, regime, overrides = "", "", {}
     if variant is not None:  # the same study in the variant's regime
         suffix, regime = f"_{variant.name}", variant.title
         overrides = {
@@ -90,6 +93,10 @@ def _claims_study(
             "reference": raw_steps(read_toml(study).get("reference", {})),
         }
         plan = sweep.load_sweep(study, overrides)
+    # the fair linear opponent: CTC retuned to the proposed controller's peak torque
+    matched = match_peak_torque(plan, manifest.proposed, manifest.baseline)
+    retuned = matched.controller(dict(plan.controllers)[manifest.baseline])
+    plan = sweep.load_sweep(study, {**overrides, "controllers": {MATCHED: retuned}})
     try:
         outcome = sweep.run_sweep(
             plan, out / f"claims_study{suffix}", pool=pool, plots=False, progress=progress
@@ -105,6 +112,10 @@ def _claims_study(
         reference_values=refs,
     )  # fmt: skip
     atomic_write_text(out / f"claims{suffix}.csv", table.to_csv(index=False))
+    fair = paired_claims(
+        outcome.results, manifest.proposed, MATCHED, joints=plan.joints, reference_values=refs
+    )
+    atomic_write_text(out / f"claims_matched{suffix}.csv", fair.to_csv(index=False))
     source = f"{study.parent.name}/{study.name}" + (f", {regime}" if regime else "")
     met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
     # Who wins on what: every controller of the sweep against the baseline, on one table.
@@ -120,5 +131,29 @@ def _claims_study(
     sections = report.winners_section(versus, manifest.baseline, met, plan.samples, regime) + (
         report.claims_section(table, manifest, plan.samples, source, met, regime)
     )
+    against = dataclasses.replace(manifest, baseline=MATCHED)
+    sections += matched_section(matched, manifest) + report.claims_section(
+        fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {MATCHED}"
+    )
     label = regime or "the claims study's quintic moves"
-    return sections, (label, table, met, plan.samples)
+    return sections, [
+        (label, table, met, plan.samples, manifest.baseline),
+        (label, fair, met, plan.samples, MATCHED),
+    ]
+
+
+def matched_section(matched: Matched, manifest: Manifest) -> list[str]:
+    """What the fair linear opponent is, before its claims table."""
+    p, b = manifest.proposed, manifest.baseline
+    peaks = " / ".join(f"{v:.1f}" for v in matched.proposed_peak)
+    mine = " / ".join(f"{v:.1f}" for v in matched.matched_peak)
+    return [
+        "",
+        f"### Against a fair linear opponent ({MATCHED})",
+        "",
+        f"{MATCHED} is {b} with its natural frequency scaled by {matched.scale:.3g} (ζ kept:",
+        f"Kp {matched.kp[0]:.4g}, Kd {matched.kd[0]:.4g}), the largest scale at which its peak",
+        f"torque on the nominal plant stays within {p}'s on every joint ({p}: {peaks} N·m;",
+        f"{MATCHED}: {mine} N·m; `twolink/studies/matching.py`). A scale of 1 means {p} spends",
+        f"no more torque than {b}. Does {p} beat a linear loop given the same torque?",
+    ]

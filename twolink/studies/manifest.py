@@ -105,10 +105,16 @@ class Manifest:
 
 
 def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]) -> str:
-    """The controller named by ``key``; by default the one controller of ``kind``."""
+    """The controller named by ``key``; by default the one controller of ``kind`` as the
+    paper has it (our extensions, such as the continuous inference, are never the paper's)."""
     name = top.raw(key)
     if name is None:
-        of_kind = [n for n, c in controllers.items() if c.get("kind", "ctc") == kind]
+        of_kind = [
+            n
+            for n, c in controllers.items()
+            if c.get("kind", "ctc") == kind
+            and c.get("fuzzy", {}).get("inference", "mamdani") == "mamdani"
+        ]
         if len(of_kind) != 1:
             top.fail(
                 key,

@@ -4,9 +4,11 @@ helps or hurts, against CTC and CTC with integral action.
 One sweep file (``runs/sweeps/regimes.toml``: a grid of bandwidth ωn x mass mismatch x
 tip payload, 100 plants per cell) runs twice: as written (2 s quintic moves) and with the
 paper's raw steps (:func:`twolink.studies.claims_studies.raw_steps`). Per cell, the share of
-samples where FCM-CTC's fuzzy term acts (``fuzzy_active_share``, mean over plants and
-joints) and FCM-CTC's paired verdicts (:func:`twolink.studies.claims.paired_claims`: sign test,
-Holm across the cell's table, equivalence) against each opponent on Ts to the target,
+samples where the fuzzy term acts (``fuzzy_active_share``, mean over plants and joints)
+and the paired verdicts of FCM-CTC, and of the continuous inference of its rules
+(FCM-CTC-continuous, our extension: docs/fuzzy.md, "The relay")
+(:func:`twolink.studies.claims.paired_claims`: sign test, Holm across the cell's table,
+equivalence) against each opponent on Ts to the target,
 max|e| of both joints, IAE, peak torque and oscillation (docs/reproduction.md, "The
 regime map").
 """
@@ -23,7 +25,8 @@ __all__ = ["CELL", "OPPONENTS", "REGIME_METRICS", "regime_table", "run_regimes",
 
 DEFAULT_STUDY = Path(__file__).resolve().parents[2] / "runs" / "sweeps" / "regimes.toml"
 CELL = ("wn", "mass", "payload")
-PROPOSED = "FCM-CTC"
+# The paper's FCM-CTC and our continuous inference of the same rules
+PROPOSED = ("FCM-CTC", "FCM-CTC-continuous")
 OPPONENTS = ("CTC", "CTC-I")
 REGIME_METRICS = (
     "settling_time_target_s",
@@ -60,24 +63,33 @@ def run_regimes(
 
 
 def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
-    """One row per (regime, cell, opponent, joint, metric): FCM-CTC's paired statistics
-    against the opponent on the cell's plants, and the cell's ``fuzzy_active_share``."""
+    """One row per (regime, cell, proposed, opponent, joint, metric): the proposed
+    controller's paired statistics against the opponent on the cell's plants, and the
+    share of samples where its fuzzy term acts. A proposed controller the study does not
+    run is left out."""
     from twolink.studies.claims import paired_claims
 
     frames = []
     for regime, r in results.items():
         for cell, frame in r.groupby(list(CELL)):
-            fcm = frame[frame["controller"] == PROPOSED]
-            active = fcm[["joint1_fuzzy_active_share", "joint2_fuzzy_active_share"]]
-            share = float(np.nanmean(active.to_numpy(float)))
-            for opponent in OPPONENTS:
-                t = paired_claims(frame, PROPOSED, opponent, REGIME_METRICS, joints=(1, 2))
-                keys = dict(zip(CELL, cell, strict=True))
-                frames.append(
-                    t.assign(regime=regime, opponent=opponent, fuzzy_active_share=share, **keys)
-                )
+            keys = dict(zip(CELL, cell, strict=True))
+            for proposed in (p for p in PROPOSED if (frame["controller"] == p).any()):
+                fcm = frame[frame["controller"] == proposed]
+                active = fcm[["joint1_fuzzy_active_share", "joint2_fuzzy_active_share"]]
+                share = float(np.nanmean(active.to_numpy(float)))
+                for opponent in OPPONENTS:
+                    t = paired_claims(frame, proposed, opponent, REGIME_METRICS, joints=(1, 2))
+                    frames.append(
+                        t.assign(
+                            regime=regime,
+                            proposed=proposed,
+                            opponent=opponent,
+                            fuzzy_active_share=share,
+                            **keys,
+                        )
+                    )
     table = pd.concat(frames, ignore_index=True)
-    first = ["regime", *CELL, "opponent", "fuzzy_active_share", "joint", "metric"]
+    first = ["regime", *CELL, "proposed", "opponent", "fuzzy_active_share", "joint", "metric"]
     return table[first + [c for c in table.columns if c not in first]]
 
 
@@ -91,17 +103,18 @@ def _effect(verdicts: pd.Series) -> str:
 
 
 def summary(table: pd.DataFrame) -> pd.DataFrame:
-    """One row per (regime, cell, opponent): the fuzzy term's share, FCM-CTC's metrics
-    judged better and worse, and the effect: ``helps`` (better on some, worse on none),
-    ``hurts`` (the reverse), ``mixed``, or ``no difference shown``."""
+    """One row per (regime, cell, proposed, opponent): the fuzzy term's share, the
+    proposed controller's metrics judged better and worse, and the effect: ``helps``
+    (better on some, worse on none), ``hurts`` (the reverse), ``mixed``, or ``no
+    difference shown``."""
     rows = []
-    for key, t in table.groupby(["regime", *CELL, "opponent"], sort=False):
+    for key, t in table.groupby(["regime", *CELL, "proposed", "opponent"], sort=False):
         named = [(r.verdict, f"θ{r.joint} {_symbol(r.metric)}") for r in t.itertuples()]
         better = [name for verdict, name in named if verdict == "better"]
         worse = [name for verdict, name in named if verdict == "worse"]
         rows.append(
             {
-                **dict(zip(["regime", *CELL, "opponent"], key, strict=True)),
+                **dict(zip(["regime", *CELL, "proposed", "opponent"], key, strict=True)),
                 "fuzzy_active_share": float(t["fuzzy_active_share"].iloc[0]),
                 "plants": int(t["n"].max()),
                 "better": ", ".join(better),
@@ -124,13 +137,14 @@ def _symbol(key: str) -> str:
 
 
 def markdown(summ: pd.DataFrame) -> list[str]:
-    """The regime map as markdown: per regime and opponent, the cells where FCM-CTC helps
-    and hurts, then every cell's line."""
+    """The regime map as markdown: per regime, proposed controller and opponent, the
+    cells where it helps and hurts, then every cell's line."""
     out = ["# The regime map: where the FCM term acts, helps and hurts", ""]
-    for (regime, opponent), t in summ.groupby(["regime", "opponent"], sort=False):
+    groups = summ.groupby(["regime", "proposed", "opponent"], sort=False)
+    for (regime, proposed, opponent), t in groups:
         counts = t["effect"].value_counts()
         out += [
-            f"## {regime}, FCM-CTC against {opponent}",
+            f"## {regime}, {proposed} against {opponent}",
             "",
             f"Cells: {len(t)}; helps in {counts.get('helps', 0)}, hurts in "
             f"{counts.get('hurts', 0)}, mixed in {counts.get('mixed', 0)}, no difference "
@@ -151,17 +165,19 @@ def markdown(summ: pd.DataFrame) -> list[str]:
 
 
 def figure(summ: pd.DataFrame) -> Any:
-    """Heatmaps, one per regime: the fuzzy term's share of samples per cell (rows ωn,
-    columns mass x payload), each cell marked with its effect against CTC."""
+    """Heatmaps, one per regime and proposed controller: the fuzzy term's share of samples
+    per cell (rows ωn, columns mass x payload), each cell marked with its effect against
+    CTC."""
     from twolink.interface.plots import fixed_layout, plt
 
-    regimes = list(dict.fromkeys(summ["regime"]))
-    fig, axes = plt.subplots(1, len(regimes), figsize=(5.5 * len(regimes), 4.2), squeeze=False)
+    panels = list(dict.fromkeys(zip(summ["regime"], summ["proposed"], strict=True)))
+    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4.2), squeeze=False)
     fixed_layout(fig, left=0.08, right=0.9, top=0.86, bottom=0.2, wspace=0.3)
     marks = {"helps": "+", "hurts": "−", "mixed": "±", "no difference shown": ""}
     image = None
-    for ax, regime in zip(axes[0], regimes, strict=True):
-        t = summ[(summ["regime"] == regime) & (summ["opponent"] == OPPONENTS[0])]
+    for ax, (regime, proposed) in zip(axes[0], panels, strict=True):
+        mine = (summ["regime"] == regime) & (summ["proposed"] == proposed)
+        t = summ[mine & (summ["opponent"] == OPPONENTS[0])]
         wns = sorted(set(t["wn"]))
         cols = sorted(set(zip(t["mass"], t["payload"], strict=True)))
         grid = np.full((len(wns), len(cols)), np.nan)
@@ -174,7 +190,10 @@ def figure(summ: pd.DataFrame) -> Any:
         ax.set_xticks(range(len(cols)), [f"m×{m:g}\n+{p:g} kg" for m, p in cols], fontsize=7)
         ax.set_yticks(range(len(wns)), [f"{w:g}" for w in wns])
         ax.set_ylabel("ωn [rad/s]")
-        ax.set_title(f"{regime}: fuzzy term on [% of samples]\n+ helps, − hurts vs CTC", fontsize=9)
+        ax.set_title(
+            f"{regime}, {proposed}: fuzzy term on [% of samples]\n+ helps, − hurts vs CTC",
+            fontsize=9,
+        )
     if image is not None:
         fig.colorbar(image, ax=list(axes[0]), fraction=0.03)
     return fig

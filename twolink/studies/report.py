@@ -452,15 +452,15 @@ def conclusions(rows, manifest: Manifest, studies: Sequence[Any] = ()) -> list[s
     counts, the runs' outcomes)."""
     p, b = manifest.proposed, manifest.baseline
     out = ["", "## Conclusions", ""]
-    for label, table, met, plants in studies:
+    for label, table, met, plants, opponent in studies:
         by = {}
         for r in table.itertuples():
             by.setdefault(r.verdict, []).append(f"θ{r.joint} {metric(r.metric).symbol}")
         said = "; ".join(f"**{v}** on {', '.join(by[v])}" for v in VERDICT_ORDER if v in by)
         out.append(
-            f"- **The paper's claim ({p} lowers Tp, Td, Ts, Tr, Mp, ess against {b}) on "
-            f"{plants} plants, {label}:** {said}. {p} met the spec on {met.get(p, 0)}, {b} "
-            f"on {met.get(b, 0)} of {plants}."
+            f"- **The paper's claim ({p} lowers Tp, Td, Ts, Tr, Mp, ess against {opponent}) "
+            f"on {plants} plants, {label}:** {said}. {p} met the spec on {met.get(p, 0)}, "
+            f"{opponent} on {met.get(opponent, 0)} of {plants}."
         )
     for variant in manifest.variants:
         c = claims(rows, manifest, variant.name)
