@@ -563,11 +563,12 @@ def reproduce(
     click.echo(f"figures:    {out / 'figures'}")
     if not no_trace:
         from twolink.simulation.experiment import TRACE_EVERY
-        from twolink.studies.reproduce import COMBINED_TRACE_EVERY
+        from twolink.tracing.comparison import COMPARISON_EVERY
 
         click.echo(
-            f"recordings: {out / 'reproduction.rrd'} (every run, every {COMBINED_TRACE_EVERY}th "
-            f"sample) and a trace.rrd per run (every {TRACE_EVERY}th); trajectory.npz has all"
+            f"recordings: {out / 'reproduction.rrd'} (a tab per experiment, its controllers "
+            f"side by side, every {COMPARISON_EVERY}th sample) and a trace.rrd per run (every "
+            f"{TRACE_EVERY}th); trajectory.npz has all"
         )
         click.echo(
             f"view:       rerun {out / 'reproduction.rrd'}   "

@@ -28,7 +28,6 @@ from twolink.simulation.experiment import (
     iter_scenarios,
     measure,
     portable_config,
-    trace_extras,
     write_run,
 )
 from twolink.simulation.outcome import classify_run
@@ -188,9 +187,6 @@ def finished_row(spec: RunSpec, scenario: Scenario, out: Path, trace: bool) -> d
     except Exception:  # noqa: BLE001 (sealed yet unreadable, e.g. an older format: recompute)
         return None
     return _row(spec, scenario, traj.status, measure(scenario, traj))
-
-
-COMBINED_TRACE_EVERY = 10  # the whole reproduction at 100 Hz: 32 runs in one file
 
 
 def run_all(
@@ -601,27 +597,16 @@ def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, pa
 
 
 def _combined_recording(out: Path, specs: list[RunSpec], scenarios: dict[str, Scenario]) -> None:
-    """reproduction.rrd: every run, read back from its folder (a worker task). The main
-    process reads the runs too, for the report's sections; reading them again here (about
-    0.5 s for 120 runs) spares the pool's pipe ~130 MB of pickled trajectories."""
-    from twolink import tracing
+    """reproduction.rrd: one tab per experiment, its controllers side by side
+    (:func:`twolink.tracing.comparison.write_comparison`), from the runs' folders (a worker
+    task: reading them here spares the pool's pipe the pickled trajectories)."""
+    from twolink.tracing.comparison import ExperimentRuns, write_comparison
 
-    trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
-
-    tracing.write_recording(
-        out / "reproduction.rrd",
-        [
-            (
-                sp.folder,
-                trajectories[sp.folder],
-                scenarios[sp.folder].plant_params,
-                # the fuzzy runs' phase planes with centres and fired rules, as in trace.rrd
-                trace_extras(
-                    build_controller(scenarios[sp.folder]), trajectories[sp.folder], sp.centres
-                ),
-            )
-            for sp in specs
-        ],
-        every=COMBINED_TRACE_EVERY,
-        groups=[sp.controller for sp in specs],
-    )
+    experiments: dict[str, ExperimentRuns] = {}
+    for sp in specs:
+        prefix = f"{sp.variant.name}/{sp.experiment.key}"
+        if prefix not in experiments:
+            title = f"{sp.variant.name}: {sp.experiment.key}"
+            experiments[prefix] = ExperimentRuns(prefix, title, sp.experiment.joint, {})
+        experiments[prefix].runs[sp.controller] = load_trajectory(out, sp)  # type: ignore[index]
+    write_comparison(out / "reproduction.rrd", list(experiments.values()))
