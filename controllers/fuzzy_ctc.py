@@ -21,9 +21,72 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
+from twolink.arm.dynamics import gravity, mass_matrix
+from twolink.arm.params import ArmParams
+from twolink.controllers.base import pair
 from twolink.controllers.ctc import ComputedTorque
+from twolink.simulation.references import ArmReference
 
 MODES = ("add", "replace")
+DEFAULT_SPAN = 1.0  # rad: E where no joint has a torque limit (the paper's 1 rad moves)
+
+
+def linear_span(
+    arm: ArmParams, kp: Sequence[float], torque_limit: Sequence[float] = (math.inf, math.inf)
+) -> float:
+    """E, the largest error the PD term answers without saturating the actuator [rad].
+
+    Per joint j, the torque left over the largest static gravity torque, divided by the
+    PD term's torque per radian at the largest inertia, M̂jj Kp_j (both at θ = 0, the arm
+    straight and horizontal); the smaller of the two joints. A joint with Kp = 0, no
+    limit, or a limit that does not exceed gravity's torque (it cannot hold itself,
+    whatever the span) gives none; :data:`DEFAULT_SPAN` where neither gives one.
+    """
+    m = mass_matrix(arm, np.zeros(2))
+    g = np.abs(gravity(arm, np.zeros(2))).tolist()
+    spans = []
+    for j in range(2):
+        if not math.isfinite(torque_limit[j]) or not kp[j] > 0:
+            continue
+        headroom = torque_limit[j] - g[j]
+        if headroom > 0:  # else the joint cannot even hold itself: no linear range
+            spans.append(float(headroom / (m[j, j] * kp[j])))
+    return min(spans, default=DEFAULT_SPAN)
+
+
+def auto_fuzzy_scaling(
+    kp: Sequence[float],
+    span: float = DEFAULT_SPAN,
+    authority: float = 1.0,
+    ke: float | None = None,
+    kde: float | None = None,
+    ku: float | None = None,
+) -> tuple[float, float, float]:
+    """The fuzzy scaling tied to the CTC gains (docs/fuzzy.md, "Scaling"); a value given
+    (not None) is kept, and the others follow from it.
+
+    With the softer joint's stiffness (the smaller Kp = ωn²; both joints share one
+    scaling):
+
+    - ``ke = 1 / span``: an error of ``span`` (E; by default :func:`linear_span`, the
+      largest error the PD term answers unsaturated) fills the error universe;
+    - ``kde = ke / ωn``: a rate of ωn E, a full-scale error changing on the loop's own
+      time scale 1/ωn, fills the rate universe;
+    - ``ku = authority · Kp / ke``: the fuzzy term's full scale is ``authority`` times the
+      PD term's Kp · E at full-scale error E = 1/ke.
+
+    The damping (Kd) does not enter. Raises ValueError where the softer joint's Kp is 0
+    and ``kde`` or ``ku`` is derived.
+    """
+    kp_s = float(min(kp))
+    ke = 1.0 / span if ke is None else ke
+    if (kde is None or ku is None) and not kp_s > 0:
+        raise ValueError(f"needs kp > 0 on both joints, got kp = {list(kp)}")
+    kde = ke / math.sqrt(kp_s) if kde is None else kde
+    ku = authority * kp_s / ke if ku is None else ku
+    return ke, kde, ku
 
 
 @dataclass
@@ -60,6 +123,51 @@ class FuzzyComputedTorque(ComputedTorque):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
         if self.mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {self.mode!r}")
+
+    @classmethod
+    def fcm(
+        cls,
+        arm: ArmParams,
+        reference: ArmReference,
+        rule_base: str = "designed",
+        *,
+        kp: float | Sequence[float] = 225.0,
+        kd: float | Sequence[float] = 30.0,
+        torque_limit: float | Sequence[float] = (60.0, 15.0),
+        authority: float = 1.0,
+        inference: str = "mamdani",
+        **kwargs: Any,
+    ) -> FuzzyComputedTorque:
+        """FCM-CTC as the reproduction builds it: CTC with the ``rule_base`` ("designed",
+        "paper", "default" or a TOML or ``.fis`` file) in its bracket, scaled by the gains
+        (:func:`auto_fuzzy_scaling` with the span :func:`linear_span` of the torque limits;
+        docs/fuzzy.md, "Scaling"). ``inference="continuous"`` infers the same rules
+        continuously (our extension: docs/fuzzy.md, "The relay"). The defaults are the
+        shipped gains (ωn = 15 rad/s, ζ = 1) and the paper's 60 / 15 N·m limits.
+
+        >>> from twolink import ArmParams, ArmReference, FuzzyComputedTorque, Step
+        >>> arm, ref = ArmParams(), ArmReference(Step(final=1.0), Step(final=0.0))
+        >>> fcm = FuzzyComputedTorque.fcm(arm, ref)
+        >>> round(fcm.ke, 2), round(fcm.kde, 3), round(fcm.ku, 2), len(fcm.engine.rules)
+        (14.86, 0.991, 15.14, 5)
+        """
+        from twolink.controllers.fuzzy import default_fuzzy_pd
+        from twolink.controllers.fuzzy.continuous import ContinuousEngine
+        from twolink.controllers.fuzzy.fis import read_rule_base
+        from twolink.controllers.fuzzy.rulebase import resolve_rule_base
+
+        if inference not in ("mamdani", "continuous"):
+            raise ValueError(f'inference must be "mamdani" or "continuous", got {inference!r}')
+        engine = default_fuzzy_pd().with_rules(read_rule_base(resolve_rule_base(rule_base)))
+        if inference == "continuous":
+            engine = ContinuousEngine(engine)
+        kp2 = pair("kp", kp)
+        limit = pair("torque_limit", torque_limit, allow_inf=True)
+        ke, kde, ku = auto_fuzzy_scaling(kp2, linear_span(arm, kp2, limit), authority)
+        return cls(
+            arm, reference, kp=kp2, kd=kd, torque_limit=limit, engine=engine,
+            ke=ke, kde=kde, ku=ku, **kwargs,
+        )  # fmt: skip
 
     def __call__(self, t: float, q: Sequence[float], qd: Sequence[float]) -> tuple[float, float]:
         v1, v2, e1, e2, de1, de2 = self.errors(t, q, qd)

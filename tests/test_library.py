@@ -69,3 +69,71 @@ def test_a_trajectory_converts_to_a_dataframe_and_plots_itself():
     assert len(fig.axes) == 2 and fig.axes[0].get_lines()[1].get_ydata().tolist() == list(
         traj.q[:, 0]
     )
+
+
+def readme_one_call_block() -> str:
+    readme = (REPO / "README.md").read_text()
+    section = readme.split("Every command is one call too", 1)[1]
+    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+
+
+def test_the_readme_one_call_block_runs(tmp_path):
+    code = readme_one_call_block().replace(
+        '"runs/sweeps/robustness.toml"', repr(str(REPO / "runs/sweeps/robustness.toml"))
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300
+    )
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    assert "5 rules:\n  IF e is NM AND de is PS THEN u is NS" in out
+    assert "mamdani Tp — s, Td 0.202 s" in out and "continuous Tp — s, Td 0.202 s" in out
+    for name in ("CTC", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "PD-G"):
+        assert re.search(rf"^{re.escape(name)}\s+0\.0\d+$", out, re.M), name
+    assert (tmp_path / "fcm.png").stat().st_size > 10_000
+    assert (tmp_path / "sweep_out" / "results.parquet").is_file()
+
+
+def test_the_fcm_constructor_is_the_reproductions_fcm_ctc():
+    from twolink.interface.config import load_scenario
+    from twolink.simulation.experiment import build_controller
+
+    scenario = load_scenario(
+        REPO / "runs/paper/base.toml", {"controller": {"kind": "fcm_ctc", "rule_base": "designed"}}
+    )
+    shipped = build_controller(scenario)
+    ours = twolink.FuzzyComputedTorque.fcm(scenario.arm, scenario.reference, "designed")
+    for name in ("kp", "kd", "torque_limit", "ke", "kde", "ku", "mode"):
+        assert getattr(ours, name) == getattr(shipped, name), name
+    assert ours.engine.rules == shipped.engine.rules
+    rng = np.random.default_rng(3)
+    for q, qd in rng.normal(0, 0.05, (20, 2, 2)):
+        t = float(rng.uniform(0, 2))
+        assert ours(t, q, qd) == shipped(t, q, qd)
+    smooth = twolink.FuzzyComputedTorque.fcm(
+        scenario.arm, scenario.reference, inference="continuous"
+    )
+    assert type(smooth.engine).__name__ == "ContinuousEngine"
+
+
+def test_design_and_reproduce_are_one_call(tmp_path):
+    designed = twolink.design_rule_base()
+    assert designed.rules == twolink.load_rule_base("designed").rules  # the shipped design
+    from twolink.studies.reproduce import reproduce
+
+    assert twolink.reproduce is reproduce  # run end to end by tests/test_reproduce.py
+
+
+def test_metrics_print_as_tables():
+    from twolink.interface.config import load_scenario
+    from twolink.simulation.experiment import measure, run_scenario
+
+    s = load_scenario(REPO / "runs/paper/theta1_step.toml", {"duration": 2.0})
+    m = measure(s, run_scenario(s))
+    text = str(m)
+    assert text.startswith("ok") and "joint1" in text and "joint2" in text
+    assert "rise_time_s" in text and "nan" not in text  # undefined values print as "—"
+    html = m._repr_html_()
+    assert "<table" in html and "iae_rad_s" in html
+    step = m.step[0]
+    assert str(step).startswith("Tp ") and "Mp " in str(step) and " %" in str(step)

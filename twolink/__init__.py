@@ -54,7 +54,17 @@ _EXPORTS = {
     "run_scenario": "twolink.simulation.experiment",
     "measure": "twolink.simulation.experiment",
     "load_results": "twolink.sweep",
+    # every command as one call (twolink/api.py)
+    "load_rule_base": "twolink.api",
+    "design_rule_base": "twolink.api",
+    "run_sweep": "twolink.api",
+    "reproduce": "twolink.studies.reproduce",
+    # figures of finished results (matplotlib, headless)
     "run_figures": "twolink.interface.plots",
+    "response_figure": "twolink.interface.plots",
+    "control_surface_figure": "twolink.interface.plots",
+    "membership_figure": "twolink.interface.plots",
+    "sweep_figures": "twolink.sweep.figures",
 }
 
 __all__ = ["__version__", *_EXPORTS]

@@ -22,6 +22,23 @@ from twolink.interface.io import atomic_write_text, toml_key, toml_string, toml_
 __all__ = ["RULEBASE_DIR", "Rule", "RuleBase", "load_rule_base", "pd_rule_table", "save_rule_base"]
 
 RULEBASE_DIR: Path = Path(__file__).resolve().parents[1] / "rulebases"
+# The shipped rule bases by name (scenario ``rule_base`` keys, ``twolink.load_rule_base``)
+BUILTIN_RULE_BASES = {
+    "paper": "paper_table1.toml",
+    "designed": "designed.toml",
+    "default": "default_7x7.toml",
+}
+
+
+def resolve_rule_base(name: str, relative_to: str | os.PathLike[str] = ".") -> Path:
+    """Path of a rule base: "paper", "designed", "default" or a TOML or ``.fis`` path
+    (relative to the folder of the file ``relative_to``)."""
+    if name in BUILTIN_RULE_BASES:
+        return RULEBASE_DIR / BUILTIN_RULE_BASES[name]
+    path = Path(name)
+    return path if path.is_absolute() else Path(relative_to).parent / path
+
+
 """Folder of the rule-base data files shipped with the package."""
 
 
@@ -56,6 +73,11 @@ class RuleBase:
 
     def __len__(self) -> int:
         return len(self.rules)
+
+    def __str__(self) -> str:
+        """The rules, one per line: "IF e is NM AND de is PS THEN u is NS"."""
+        lines = [f"IF e is {r.e} AND de is {r.de} THEN u is {r.u}" for r in self.rules]
+        return f"{len(self.rules)} rules:\n  " + "\n  ".join(lines)
 
 
 def pd_rule_table(labels: Sequence[str] = LABELS_7) -> tuple[Rule, ...]:

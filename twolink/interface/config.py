@@ -44,7 +44,6 @@ Schema (all keys optional except the reference)::
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import tomllib
 from collections.abc import Sequence
@@ -53,6 +52,14 @@ from pathlib import Path
 from typing import Any
 
 from twolink.arm.params import ArmParams, Flexibility
+
+# The rule bases by name and the fuzzy scaling rule live with the controllers that use them.
+from twolink.controllers.fuzzy.rulebase import BUILTIN_RULE_BASES as BUILTIN_RULE_BASES
+from twolink.controllers.fuzzy.rulebase import RULEBASE_DIR as RULEBASE_DIR
+from twolink.controllers.fuzzy.rulebase import resolve_rule_base as resolve_rule_base
+from twolink.controllers.fuzzy_ctc import DEFAULT_SPAN as DEFAULT_SPAN
+from twolink.controllers.fuzzy_ctc import auto_fuzzy_scaling as auto_fuzzy_scaling
+from twolink.controllers.fuzzy_ctc import linear_span as linear_span
 from twolink.interface.overrides import (
     REPLACE as REPLACE,  # merging: re-exported, callers' old home
 )
@@ -84,22 +91,6 @@ FUZZY_INFERENCES = ("mamdani", "continuous")
 
 # The shipped rule bases, where twolink.controllers is installed (the repository's
 # controllers/ in a checkout, twolink/controllers/ in a wheel)
-RULEBASE_DIR = Path(importlib.util.find_spec("twolink.controllers").origin).parent / "rulebases"
-BUILTIN_RULE_BASES = {
-    "paper": "paper_table1.toml",
-    "designed": "designed.toml",
-    "default": "default_7x7.toml",
-}
-
-
-def resolve_rule_base(name: str, relative_to: str | Path = ".") -> Path:
-    """Path of a rule base: "paper", "designed", "default" or a TOML or ``.fis`` path."""
-    if name in BUILTIN_RULE_BASES:
-        return RULEBASE_DIR / BUILTIN_RULE_BASES[name]
-    path = Path(name)
-    return path if path.is_absolute() else Path(relative_to).parent / path
-
-
 class ConfigError(ValueError):
     """An invalid scenario: the message names the file and the key."""
 
@@ -141,67 +132,6 @@ class FuzzyConfig:
 
 
 AUTO = "auto"
-DEFAULT_SPAN = 1.0  # rad: E where no joint has a torque limit (the paper's 1 rad moves)
-
-
-def linear_span(
-    arm: ArmParams, kp: Sequence[float], torque_limit: Sequence[float] = (math.inf, math.inf)
-) -> float:
-    """E, the largest error the PD term answers without saturating the actuator [rad].
-
-    Per joint j, the torque left over the largest static gravity torque, divided by the
-    PD term's torque per radian at the largest inertia, M̂jj Kp_j (both at θ = 0, the arm
-    straight and horizontal); the smaller of the two joints. A joint with Kp = 0, no
-    limit, or a limit that does not exceed gravity's torque (it cannot hold itself,
-    whatever the span) gives none; :data:`DEFAULT_SPAN` where neither gives one.
-    """
-    import numpy as np
-
-    from twolink.arm.dynamics import gravity, mass_matrix
-
-    m = mass_matrix(arm, np.zeros(2))
-    g = np.abs(gravity(arm, np.zeros(2))).tolist()
-    spans = []
-    for j in range(2):
-        if not math.isfinite(torque_limit[j]) or not kp[j] > 0:
-            continue
-        headroom = torque_limit[j] - g[j]
-        if headroom > 0:  # else the joint cannot even hold itself: no linear range
-            spans.append(float(headroom / (m[j, j] * kp[j])))
-    return min(spans, default=DEFAULT_SPAN)
-
-
-def auto_fuzzy_scaling(
-    kp: Sequence[float],
-    span: float = DEFAULT_SPAN,
-    authority: float = 1.0,
-    ke: float | None = None,
-    kde: float | None = None,
-    ku: float | None = None,
-) -> tuple[float, float, float]:
-    """The fuzzy scaling tied to the CTC gains (docs/fuzzy.md, "Scaling"); a value given
-    (not None) is kept, and the others follow from it.
-
-    With the softer joint's stiffness (the smaller Kp = ωn²; both joints share one
-    scaling):
-
-    - ``ke = 1 / span``: an error of ``span`` (E; by default :func:`linear_span`, the
-      largest error the PD term answers unsaturated) fills the error universe;
-    - ``kde = ke / ωn``: a rate of ωn E, a full-scale error changing on the loop's own
-      time scale 1/ωn, fills the rate universe;
-    - ``ku = authority · Kp / ke``: the fuzzy term's full scale is ``authority`` times the
-      PD term's Kp · E at full-scale error E = 1/ke.
-
-    The damping (Kd) does not enter. Raises ValueError where the softer joint's Kp is 0
-    and ``kde`` or ``ku`` is derived.
-    """
-    kp_s = float(min(kp))
-    ke = 1.0 / span if ke is None else ke
-    if (kde is None or ku is None) and not kp_s > 0:
-        raise ValueError(f"needs kp > 0 on both joints, got kp = {list(kp)}")
-    kde = ke / math.sqrt(kp_s) if kde is None else kde
-    ku = authority * kp_s / ke if ku is None else ku
-    return ke, kde, ku
 
 
 @dataclass(frozen=True)

@@ -50,7 +50,7 @@ from twolink.simulation.metrics import (
 )
 from twolink.simulation.outcome import classify_run
 from twolink.simulation.sim import Trajectory, simulate
-from twolink.simulation.vocabulary import CONTROLLER_LABELS, joint_values
+from twolink.simulation.vocabulary import CONTROLLER_LABELS, format_value, joint_values
 
 
 def build_plant(s: Scenario) -> Plant:
@@ -319,6 +319,20 @@ class RunMetrics:
             for j, twist in enumerate(self.max_twist, start=1)
             if twist > TWIST_LIMIT
         ]
+
+    def table(self) -> Any:
+        """Every metric by key (rows) for both joints (columns), as a pandas DataFrame:
+        what a terminal (``print``) and a notebook (an HTML table) show."""
+        import pandas as pd
+
+        return pd.DataFrame({f"joint{j}": joint_values(self, j) for j in (1, 2)})
+
+    def __str__(self) -> str:
+        values = self.table().map(format_value)
+        return f"{self.status}{': ' + self.message if self.message else ''}\n{values}"
+
+    def _repr_html_(self) -> str:
+        return f"<p>{self.status} {self.message}</p>" + self.table().map(format_value).to_html()
 
     def to_dict(self, controller: str = "", outcome: str = "") -> dict[str, Any]:
         """``metrics.json``: status, outcome (``twolink.simulation.outcome``), and every metric of

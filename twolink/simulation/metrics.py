@@ -65,6 +65,16 @@ class StepMetrics:
     overshoot: float
     steady_state_error: float
 
+    def __str__(self) -> str:
+        """One line in the paper's symbols, "—" where a metric is undefined."""
+        from twolink.simulation.vocabulary import format_value as f
+
+        return (
+            f"Tp {f(self.peak_time)} s, Td {f(self.delay_time)} s, Ts {f(self.settling_time)} s, "
+            f"Tr {f(self.rise_time)} s, Mp {f(self.overshoot)} %, "
+            f"ess {f(self.steady_state_error)} rad"
+        )
+
 
 @dataclass(frozen=True)
 class ErrorMeasures:

@@ -442,8 +442,10 @@ def profile(study: Calibration, controller: str, best: dict[str, float]) -> dict
 
 
 def pinned(study: Calibration, controller: str, prof: dict[str, Any], best: float, slack=0.05):
-    """Per parameter, the share of its bounds where the profile stays within ``slack`` of
-    the optimum: small (<= 0.3) means the tables pin it down, large that they leave it free."""
+    """Per parameter, the share of its bounds where its one-at-a-time slice (the others
+    held at the fit) stays within ``slack`` of the optimum. Large means the tables leave
+    it free; small does not prove they pin it down (a slice cannot see two parameters
+    trading off; a profile, re-fitting the others, could)."""
     key, _ = STAGES[controller]
     out = {}
     for name, p in prof.items():

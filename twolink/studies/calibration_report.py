@@ -135,7 +135,8 @@ def fit_counts(study: Calibration, rows: dict[str, dict[str, float]]) -> tuple[i
 
 
 def profile_figure(study: Calibration, result: dict[str, Any], path: Path) -> Path:
-    """The objective along each parameter (others at the optimum), one panel each."""
+    """The objective along each parameter (others held at the optimum: one-at-a-time
+    slices, not re-fitted profiles), one panel each."""
     from twolink.interface.plots import plt, save_figure
 
     panels = [(c, n, p) for c, prof in result["profile"].items() for n, p in prof.items()]
@@ -151,7 +152,9 @@ def profile_figure(study: Calibration, result: dict[str, Any], path: Path) -> Pa
         ax.grid(alpha=0.3)
     for ax in np.ravel(axes)[len(panels) :]:
         ax.axis("off")
-    fig.suptitle("Calibration objective along each parameter (others at the optimum; red: fit)")
+    fig.suptitle(
+        "Calibration objective along one-at-a-time slices (others held at the fit; red: fit)"
+    )
     fig.tight_layout()
     save_figure(fig, path, dpi=100)  # atomic, as every output
     return path
@@ -163,7 +166,7 @@ def summary_lines(study: Calibration, result: dict[str, Any], rows) -> list[str]
     share = {}
     for ctrl in STAGES:
         share.update(pinned(study, ctrl, result["profile"][ctrl], result["objective"][ctrl]))
-    words = {n: f" ({'pinned' if v <= 0.3 else 'free'}: {v:.0%})" for n, v in share.items()}
+    words = {n: f" ({'narrow' if v <= 0.3 else 'wide'}: {v:.0%})" for n, v in share.items()}
     params = ", ".join(f"{n} = {p[n]:.3g}{words.get(n, '')}" for n in (*CTC_PARAMS, *FCM_PARAMS))
     better = [
         f"{n} = {v:.3g} gives {o:.3f} ({ctrl})"
@@ -181,7 +184,12 @@ def summary_lines(study: Calibration, result: dict[str, Any], rows) -> list[str]
         f"Objective (mean capped relative error): CTC rows {result['objective']['CTC']:.3f}, "
         f"FCM-CTC rows {result['objective']['FCM-CTC']:.3f}.{note}",
         "",
-        f"Parameters (share of the bounds within 0.05 of the optimum): {params}.",
+        "Parameters, each with the share of its bounds where the objective stays within "
+        f"0.05 of the optimum along a one-at-a-time slice (the others held at the fit): "
+        f"{params}. A slice is not a profile (the others re-fitted at each value): it "
+        "cannot see a ridge along which two parameters trade off, so a narrow slice does "
+        "not prove that the tables pin a parameter down; a wide one does show that they "
+        "leave it free.",
         "",
         *comparison_lines(study, rows),
     ]

@@ -11,6 +11,7 @@ leaves only whole files, and running it again completes it.
 
 from __future__ import annotations
 
+import functools
 import math
 import os
 import sys
@@ -363,6 +364,10 @@ def flexible_study(sweep_file: Path, out: Path) -> list[str]:
     ]
 
 
+def _advance(bar: Any, n: int, _future: Any) -> None:
+    bar.update(n)  # from the pool's thread, as a batch of runs finishes
+
+
 class _Phases:
     """A status line on stderr as each phase of the reproduction starts, with the time
     since the start: "[3/6] +12.4 s figures" (where the time goes, at a glance)."""
@@ -449,7 +454,7 @@ def _reproduce(
     from twolink.studies.gains import report_section
     from twolink.studies.report_sections import design_section, oscillation_section
 
-    phase = _Phases(progress, 4 + trace + (manifest.claims_study is not None))
+    phase = _Phases(progress, 4 + (manifest.claims_study is not None))
     workers = workers or os.cpu_count() or 1
     kind = "inprocess" if workers <= 1 else "process"
     # The pool starts first: its workers import while the design runs.
@@ -481,9 +486,8 @@ def _reproduce(
             drawing = [design_evidence]
             claims: list[str] = []
             claim_tables: list[Any] = []
-            if manifest.claims_study is not None:
-                phase(f"claims: {manifest.claims_study.name}, on the same pool")
-                claims, claim_tables = run_claims(manifest, out, pool, progress)
+            # The runs' bar advances as their batches finish, while the claims sweeps (on
+            # the same pool) show their own.
             with tqdm(
                 total=len(specs),
                 initial=sum(bool(r) for r in rows),
@@ -491,15 +495,22 @@ def _reproduce(
                 unit="run",
                 disable=not progress,
             ) as bar:
+                for fut, indices in pending.items():
+                    fut.add_done_callback(functools.partial(_advance, bar, len(indices)))
+                if manifest.claims_study is not None:
+                    phase(f"claims: {manifest.claims_study.name}, on the same pool")
+                    claims, claim_tables = run_claims(manifest, out, pool, progress)
                 for fut in as_completed(pending):
                     for i, row in zip(pending[fut], fut.result(), strict=True):
                         rows[i] = row
-                    bar.update(len(pending[fut]))
-            # The combined recording first (the longest task left), then the figures.
+            # The combined recording first (the longest task left), beside the figures.
+            phase(
+                "figures: responses, phase plane, membership functions, control surfaces"
+                + (f"; and reproduction.rrd ({len(specs)} runs) beside them" if trace else "")
+                + ", in the pool"
+            )
             if trace:
-                phase(f"recording: reproduction.rrd ({len(specs)} runs), in a worker")
                 drawing.append(pool.submit(_combined_recording, out, specs, scenarios))
-            phase("figures: responses, phase plane, membership functions, control surfaces")
             figures: dict[str, str] = {}
             for variant in manifest.variants:
                 for exp in manifest.experiments:
