@@ -1355,3 +1355,103 @@ def test_inputs_once_refused_late_or_with_a_traceback(tmp_path, case):
     out = tmp_path / "out"
     result = invoke(*make(tmp_path, out))
     assert_rejected(result, out, *says)
+
+
+# Every kind of file this project ships (and a .fis file), and every command that reads a
+# file: a file given to a command that does not take it exits 2 with one line that names
+# its kind and what does take it (issue 31).
+FILES = {
+    "scenario": "runs/paper/theta1_step.toml",
+    "sweep": "runs/sweeps/robustness.toml",
+    "manifest": "runs/paper/reproduce.toml",
+    "design": "runs/paper/design.toml",
+    "gains": "runs/paper/gains.toml",
+    "calibration": "runs/paper/calibrate.toml",
+    "calibration result": "runs/paper/calibrated.toml",
+    "rule base": "controllers/rulebases/designed.toml",
+    "fis": None,  # written by `twolink fis` for the test
+}
+READER = {
+    "scenario": "twolink run",
+    "sweep": "twolink sweep",
+    "manifest": "twolink reproduce --manifest",
+    "design": "twolink design --config",
+    "gains": "twolink gains",
+    "calibration": "twolink calibrate",
+    "calibration result": "twolink reproduce",
+    "rule base": "twolink coverage",
+    "fis": "twolink coverage",
+}
+COMMANDS = {  # command -> (argv with FILE and OUT, the kinds it takes)
+    "run": (["run", "FILE", "--out", "OUT"], {"scenario"}),
+    "sweep": (["sweep", "FILE", "--out", "OUT"], {"sweep"}),
+    "regimes": (["regimes", "FILE", "--out", "OUT"], {"sweep"}),
+    "reproduce": (["reproduce", "--manifest", "FILE", "--out", "OUT"], {"manifest"}),
+    "design": (["design", "--config", "FILE", "--out", "OUT/r.toml"], {"design"}),
+    "gains": (["gains", "FILE", "--out", "OUT"], {"gains"}),
+    "calibrate": (["calibrate", "FILE", "--out", "OUT"], {"calibration"}),
+    "coverage": (["coverage", "FILE"], {"rule base", "fis"}),
+    "fis": (["fis", "FILE", "--out", "OUT/x.fis"], {"rule base", "fis"}),
+}
+
+
+def test_every_file_kind_given_to_every_command_that_does_not_take_it(tmp_path):
+    from click.testing import CliRunner
+
+    from twolink.interface.cli import main
+
+    repo = Path(__file__).resolve().parents[1]
+    fis = tmp_path / "designed.fis"
+    assert CliRunner().invoke(main, ["fis", "designed", "--out", str(fis)]).exit_code == 0
+    files = {k: (str(repo / v) if v else str(fis)) for k, v in FILES.items()}
+    tried = 0
+    for command, (argv, takes) in COMMANDS.items():
+        for kind, path in files.items():
+            if kind in takes:
+                continue
+            out = tmp_path / f"{command}-{kind.replace(' ', '_')}"
+            args = [a.replace("FILE", path).replace("OUT", str(out)) for a in argv]
+            result = CliRunner().invoke(main, args)
+            said = result.output
+            assert result.exit_code == 2, (command, kind, said)
+            assert len(said.strip().splitlines()) == 1, (command, kind, said)
+            named = "MATLAB .fis rule base" if kind == "fis" else f"this is a {kind} file"
+            assert named in said and READER[kind] in said, (command, kind, said)
+            assert not out.exists(), (command, kind)  # refused before any work
+            tried += 1
+    assert tried == 9 * 9 - 11
+
+
+def test_each_commands_set_example_is_valid_for_it_and_reproduce_keeps_controller_keys():
+    import re
+
+    from click.testing import CliRunner
+
+    from twolink.interface.cli import main
+    from twolink.interface.config import load_scenario, parse_set
+    from twolink.studies.calibrate import load_calibration
+    from twolink.studies.gains import load_gain_study
+    from twolink.studies.manifest import load_manifest
+    from twolink.studies.reproduce import plan
+    from twolink.sweep import load_sweep
+
+    repo = Path(__file__).resolve().parents[1]
+    loaders = {
+        "run": lambda o: load_scenario(repo / "runs/paper/theta1_step.toml", o),
+        "sweep": lambda o: load_sweep(repo / "runs/sweeps/robustness.toml", o),
+        "gains": lambda o: load_gain_study(repo / "runs/paper/gains.toml", o),
+        "calibrate": lambda o: load_calibration(repo / "runs/paper/calibrate.toml", o),
+        "reproduce": lambda o: [
+            load_scenario(sp.experiment.scenario, sp.overrides)
+            for sp in plan(load_manifest(), None, (), o)
+        ],
+    }
+    for command, load in loaders.items():
+        text = " ".join(CliRunner().invoke(main, [command, "--help"]).output.split())
+        example = re.search(r"--set (\S+=\S+?)\.(?:\s|$)", text).group(1)
+        load(parse_set([example]))  # no ConfigError
+    # reproduce: --set reaches every run, but not the keys that make a controller itself
+    specs = plan(load_manifest(), None, (), parse_set(["controller.kp=25"]))
+    kp = {sp.controller: load_scenario(sp.experiment.scenario, sp.overrides).controller.kp
+          for sp in specs if sp.variant.name == "rigid"}  # fmt: skip
+    assert kp["CTC"] == (25.0, 25.0) and kp["CTC-paper"] == (4.0, 4.0)

@@ -16,7 +16,7 @@ import click
 
 from twolink.arm.params import ArmParams, Flexibility
 from twolink.interface.cli_output import fail_input as _fail_input
-from twolink.interface.cli_output import format_metrics, own_output
+from twolink.interface.cli_output import format_metrics, own_output, set_option
 from twolink.interface.executors import EXECUTORS, open_executor
 from twolink.interface.interrupts import (
     CTRL_C_RECEIVED,
@@ -175,16 +175,6 @@ def models(out: Path | None, install: bool) -> None:
         click.echo(out / name)
 
 
-# --set KEY=VALUE on run, sweep and reproduce (docs/scenarios.md)
-set_option = click.option(
-    "--set",
-    "settings",
-    multiple=True,
-    metavar="KEY=VALUE",
-    help="Override a key (dotted, TOML value; repeatable): --set controller.kp=25.",
-)
-
-
 @main.command(short_help="Run one scenario file.")
 @click.argument("scenario", type=click.Path(path_type=Path))
 @click.option(
@@ -193,7 +183,7 @@ set_option = click.option(
     default=None,
     help="Output folder [default: results/<scenario file name without .toml>].",
 )
-@set_option
+@set_option("the scenario", "controller.kp=25")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recording (trace.rrd).")
 def run(
@@ -407,7 +397,7 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
     default=None,
     help="Processes [default: all cores].",
 )
-@set_option
+@set_option("the study file", "plants=10")
 def gains(study_file: Path | None, out: Path, install: bool, workers: int | None, settings) -> None:
     """Run the gain study (ωn, ζ against error under mismatch, torque and saturation) and
     print the operating point its design rule picks (docs/control.md).
@@ -466,7 +456,7 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
     is_flag=True,
     help="Also write the shipped result (runs/paper/calibrated.toml) that the report reruns.",
 )
-@set_option
+@set_option("the study file", "maxiter=2")
 def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> None:
     """Fit the paper's unstated parameters (gains, step and ramp sizes, model mismatch,
     fuzzy scaling) to its nominal tables by differential evolution (docs/reproduction.md,
@@ -519,7 +509,9 @@ def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> No
     help="Processes [default: all cores].",
 )
 @click.option("--no-trace", is_flag=True, help="Skip the rerun recordings.")
-@set_option
+@set_option(
+    "every experiment's scenario (a controller's own keys in the manifest win)", "duration=12"
+)
 def reproduce(
     out: Path, manifest: Path | None, workers: int | None, no_trace: bool, settings: tuple[str, ...]
 ) -> None:
@@ -604,7 +596,7 @@ def reproduce(
 @click.option("--fresh", is_flag=True, help="Discard chunks already in --out.")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
 @click.option("--progress/--no-progress", default=True, show_default=True)
-@set_option
+@set_option("the sweep file", "overrides.duration=3")
 def sweep_command(
     sweep_file: Path,
     out: Path | None,

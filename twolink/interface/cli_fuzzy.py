@@ -46,10 +46,9 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     from twolink.controllers.fuzzy import default_fuzzy_pd
     from twolink.controllers.fuzzy.coverage import coverage, surface_jumps
     from twolink.controllers.fuzzy.fis import read_rule_base
-    from twolink.interface.config import resolve_rule_base
 
-    path = resolve_rule_base(rule_base)
     try:
+        path = rule_base_file(rule_base)
         engine = default_fuzzy_pd().with_rules(read_rule_base(path))
         result = coverage(engine, threshold=threshold, grid=grid)
     except (OSError, ValueError, KeyError) as exc:
@@ -72,6 +71,17 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     for jump in jumps:
         click.echo(f"  {jump}")
     sys.exit(0 if result.complete else 1)
+
+
+def rule_base_file(name: str) -> Path:
+    """The file of a rule base by name or path; another kind of this project's TOML files
+    is refused naming what reads it."""
+    from twolink.interface.config import expect_kind, read_toml, resolve_rule_base
+
+    path = resolve_rule_base(name)
+    if path.suffix.lower() != ".fis" and path.is_file():
+        expect_kind(read_toml(path), path, "rule base")
+    return path
 
 
 def validity_figure_path(figure: Path) -> Path:
@@ -121,7 +131,7 @@ def fis_command(rule_base: str, scenario: Path | None, out: Path) -> None:
     """
     from twolink.controllers.fuzzy import default_fuzzy_pd
     from twolink.controllers.fuzzy.fis import read_rule_base, write_fis, written_by_twolink
-    from twolink.interface.config import ConfigError, load_scenario, resolve_rule_base
+    from twolink.interface.config import ConfigError, load_scenario
     from twolink.interface.io import check_output_file
     from twolink.simulation.experiment import build_controller
 
@@ -130,7 +140,7 @@ def fis_command(rule_base: str, scenario: Path | None, out: Path) -> None:
         # a .fis cannot carry twolink's mark: an existing one is twolink's if it is exactly
         # what twolink writes for its content
         check_output_file(out, "--out", ours_only=not written_by_twolink(out))
-        rules = read_rule_base(resolve_rule_base(rule_base))
+        rules = read_rule_base(rule_base_file(rule_base))
         over = {} if scenario else {"controller": {"kind": "fcm_ctc", "rule_base": "designed"}}
         controller = build_controller(load_scenario(base, over))
         scaling = (controller.ke, controller.kde, controller.ku)

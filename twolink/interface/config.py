@@ -243,6 +243,7 @@ def read_toml(path: str | Path) -> dict[str, Any]:
     """Read a TOML file, following ``extends`` chains; errors name the file (and, for a
     missing or broken base, the file and key that point to it)."""
     path = Path(path)
+    refuse_fis(path)
     chain: list[tuple[Path, dict[str, Any]]] = []
     while True:
         data = _read_one(path, chain[-1][0] if chain else None)
@@ -285,28 +286,53 @@ def _read_one(path: Path, referrer: Path | None) -> dict[str, Any]:
         raise ConfigError(f"{where}{path}: cannot be read: {exc}") from None
 
 
-# Keys found in one kind of this project's files and in no other, and the command that
-# reads that kind: so a file given to the wrong command is named as such.
+# Keys found in one kind of this project's files and in no other, and what reads that
+# kind: so a file given to the wrong command is named as such (tested for every kind of
+# shipped file with every command: tests/test_bad_input_more.py).
 FILE_KINDS = {
-    "scenario": (("extends", "arm", "plant", "initial", "duration"), "twolink run FILE"),
-    "sweep": (("samples", "parameters", "chunk_size"), "twolink sweep FILE"),
-    "manifest": (("experiment", "variants"), "twolink reproduce --manifest FILE"),
-    "design": (("scenarios", "clusters", "fuzzifier"), "twolink design --config FILE"),
-    "gains": (("natural_frequencies", "damping_ratios"), "twolink gains FILE"),
-}
+    "scenario": (("extends", "arm", "plant", "initial"), "`twolink run FILE`"),
+    "sweep": (("samples", "chunk_size"), "`twolink sweep FILE` (or `twolink regimes FILE`)"),
+    "manifest": (("experiment", "variants", "claims_study"), "`twolink reproduce --manifest FILE`"),
+    "design": (("clusters", "fuzzifier", "scenarios"), "`twolink design --config FILE`"),
+    "gains": (("natural_frequencies", "damping_ratios"), "`twolink gains FILE`"),
+    "calibration": (("popsize", "maxiter", "tables", "fcm"), "`twolink calibrate FILE`"),
+    "calibration result": (
+        ("objective", "evaluations", "digest"),
+        "`twolink reproduce`, which reruns it as its manifest's `calibration` (`twolink "
+        "calibrate` writes it)",
+    ),
+    "rule base": (("rule",), "`twolink coverage FILE`, `twolink fis FILE` or a scenario's "
+                  "controller.rule_base"),
+}  # fmt: skip
+FIS_SUFFIX = ".fis"
+
+
+def refuse_fis(path: str | Path) -> None:
+    """A MATLAB ``.fis`` file (the one file kind here that is not TOML) where a TOML file
+    belongs: say what takes it."""
+    if Path(path).suffix.lower() == FIS_SUFFIX:
+        raise ConfigError(
+            f"{path}: this is a MATLAB .fis rule base, not a TOML file; it is for "
+            f"`twolink coverage {path}` or a scenario's controller.rule_base"
+        )
+
+
+def file_kind(data: dict[str, Any]) -> str | None:
+    """The kind of this project's files ``data`` (a TOML file's tables) is: the kind with
+    the most of its own keys in it, None where none has any."""
+    counts = {k: sum(key in data for key in keys) for k, (keys, _) in FILE_KINDS.items()}
+    best = max(counts, key=counts.__getitem__)
+    return best if counts[best] else None
 
 
 def expect_kind(data: dict[str, Any], file: str | Path, kind: str) -> None:
-    """Raise a :class:`ConfigError` that names the right command when ``data`` (a file
-    read for ``kind``) has another kind's keys and none of its own."""
-    if any(key in data for key in FILE_KINDS[kind][0]):
+    """Raise a :class:`ConfigError` that names what reads ``file`` when ``data`` (the file,
+    read for ``kind``) is another kind of this project's files."""
+    found = file_kind(data)
+    if found is None or found == kind:
         return
-    for other, (keys, command) in FILE_KINDS.items():
-        if other != kind and any(key in data for key in keys):
-            raise ConfigError(
-                f"{file}: this is a {other} file, not a {kind} file; did you mean "
-                f"`{command.replace('FILE', str(file))}`?"
-            )
+    reader = FILE_KINDS[found][1].replace("FILE", str(file))
+    raise ConfigError(f"{file}: this is a {found} file, not a {kind} file; it is for {reader}")
 
 
 class TomlTable:

@@ -31,7 +31,13 @@ from typing import Any
 
 import numpy as np
 
-from twolink.interface.config import TomlTable, merge, read_toml, scenario_from_dict
+from twolink.interface.config import (
+    TomlTable,
+    expect_kind,
+    merge,
+    read_toml,
+    scenario_from_dict,
+)
 from twolink.simulation.metrics import step_metrics
 from twolink.simulation.vocabulary import STEP_KEYS, metric
 
@@ -114,7 +120,9 @@ def load_calibration(path: str | Path = DEFAULT_STUDY, overrides: dict | None = 
     from twolink.studies.manifest import load_manifest
 
     path = Path(path)
-    data = merge(read_toml(path), overrides or {})
+    data = read_toml(path)
+    expect_kind(data, path, "calibration")
+    data = merge(data, overrides or {})
     t = TomlTable(data, "", str(path))
     manifest = load_manifest(path.parent / t.string("manifest", "reproduce.toml"))
     base = read_toml(path.parent / t.string("base", "base.toml"))

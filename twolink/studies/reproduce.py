@@ -66,8 +66,9 @@ def plan(
     overrides: dict[str, Any] | None = None,
 ) -> list[RunSpec]:
     """Every run of the reproduction, in report order; ``overrides`` (``--set``) are merged
-    over every run's scenario last. ``rule_base`` is the designed rule base (None before
-    the design: the paper's stands in, to validate the scenarios)."""
+    over every run's scenario and variant, under the controller's own keys. ``rule_base``
+    is the designed rule base (None before the design: the paper's stands in, to
+    validate the scenarios)."""
     centres = tuple(tuple(map(float, c)) for c in centres)
     specs = []
     for variant in manifest.variants:
@@ -76,7 +77,9 @@ def plan(
                 ctrl = dict(ctrl)
                 if ctrl.get("rule_base") == "designed":  # before the design: the paper's
                     ctrl["rule_base"] = str(rule_base.resolve()) if rule_base else "paper"
-                run = merge(merge(variant.overrides, {"controller": ctrl}), overrides or {})
+                # --set over the variant, and each controller's own keys over both: they
+                # are what make it that controller (CTC-paper's gains, FCM-CTC's rules)
+                run = merge(merge(variant.overrides, overrides or {}), {"controller": ctrl})
                 if variant.raw_steps:
                     run = merge(run, {"reference": raw_steps(exp.scenario)})
                 fuzzy = run["controller"].get("kind", "ctc") in FUZZY_KINDS

@@ -73,6 +73,7 @@ from twolink.interface.config import (
     expect_kind,
     merge,
     read_toml,
+    refuse_fis,
     resolve_rule_base,
     scenario_from_dict,
     strip_replace,
@@ -473,6 +474,7 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     """
     path = Path(path)
     file = str(path)
+    refuse_fis(path)
     if not path.is_file():
         raise ConfigError(f"{file}: no such file")
     raw = path.read_bytes()
