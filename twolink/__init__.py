@@ -16,9 +16,12 @@ import importlib
 import importlib.abc
 import importlib.util
 import sys
+import time
 from importlib.metadata import PackageNotFoundError, version
 from types import ModuleType
 from typing import Any
+
+IMPORTED_AT = time.perf_counter()  # a command's clock where the OS does not give its start
 
 try:
     __version__ = version("twolink")

@@ -15,8 +15,8 @@ from pathlib import Path
 import click
 
 from twolink.arm.params import ArmParams, Flexibility
+from twolink.interface.cli_output import done_line, format_metrics, own_output, set_option
 from twolink.interface.cli_output import fail_input as _fail_input
-from twolink.interface.cli_output import format_metrics, own_output, set_option
 from twolink.interface.executors import EXECUTORS, open_executor
 from twolink.interface.interrupts import (
     CTRL_C_RECEIVED,
@@ -522,13 +522,10 @@ def reproduce(
       twolink reproduce                          # into results/reproduce
       twolink reproduce --out /tmp/r --no-trace  # elsewhere, without recordings
     """
-    import time
-
     from twolink.interface.config import ConfigError, parse_set
     from twolink.studies.reproduce import DEFAULT_MANIFEST
     from twolink.studies.reproduce import reproduce as run_reproduction
 
-    start = time.perf_counter()
     try:
         result = run_reproduction(
             manifest or DEFAULT_MANIFEST,
@@ -568,7 +565,7 @@ def reproduce(
         )
     if failed:
         click.echo(f"{len(failed)} run(s) diverged: see the report", err=True)
-    click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")
+    click.echo(done_line())
 
 
 @main.command("sweep", short_help="Run a Monte Carlo sweep file.")
@@ -620,7 +617,6 @@ def sweep_command(
     Exit 0 when the table is written (diverged samples are results, not failures),
     1 when the executor fails, 2 on bad input, 130/143 when stopped by SIGINT/SIGTERM.
     """
-    import time
     from concurrent import futures
 
     from twolink.interface.config import ConfigError, merge, parse_set
@@ -634,8 +630,6 @@ def sweep_command(
         load_sweep,
         run_sweep,
     )
-
-    start = time.perf_counter()
 
     try:
         overrides = merge(parse_set(settings), {"samples": samples} if samples else {})
@@ -677,7 +671,7 @@ def sweep_command(
         f"{len(outcome.computed)} chunks computed, {len(outcome.reused)} reused; "
         f"results in {outcome.table}"
     )
-    click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")
+    click.echo(done_line())
 
 
 from twolink.interface.cli_fuzzy import coverage_command, fis_command  # noqa: E402

@@ -66,3 +66,26 @@ def set_option(what: str, example: str) -> Callable:
         metavar="KEY=VALUE",
         help=f"Override a key of {what} (dotted, TOML value; repeatable): --set {example}.",
     )
+
+
+def done_line() -> str:
+    """ "done in X s": the whole command's wall time, from the process's start (Python's
+    start-up and imports included; Linux's /proc, elsewhere from twolink's import)."""
+    return f"done in {process_seconds():.1f} s (wall time of the whole command, start-up included)"
+
+
+def process_seconds() -> float:
+    """Seconds since this process started."""
+    import os
+    import time
+
+    try:
+        with open("/proc/self/stat") as fh:  # field 22, starttime, in clock ticks after boot
+            ticks = int(fh.read().rsplit(")", 1)[1].split()[19])
+        with open("/proc/uptime") as fh:
+            uptime = float(fh.read().split()[0])
+        return max(0.0, uptime - ticks / os.sysconf("SC_CLK_TCK"))
+    except (OSError, ValueError, IndexError):
+        import twolink
+
+        return time.perf_counter() - twolink.IMPORTED_AT

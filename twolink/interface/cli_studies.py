@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 
 import click
 
-from twolink.interface.cli_output import fail_input, own_output
+from twolink.interface.cli_output import done_line, fail_input, own_output
 
 
 @click.command("regimes", short_help="Where the FCM term acts, helps and hurts.")
@@ -47,7 +46,6 @@ def regimes_command(
     from twolink.studies import regimes
     from twolink.sweep import load_sweep
 
-    start = time.perf_counter()
     study = study_file or regimes.DEFAULT_STUDY
     try:
         load_sweep(study, {"samples": samples} if samples else None)
@@ -64,4 +62,4 @@ def regimes_command(
     save_figure(regimes.figure(summ), out / "regimes.png")
     click.echo("\n".join(regimes.markdown(summ)[:14]))
     click.echo(f"-> {out}: regimes.md, regimes.csv, regimes_summary.csv, regimes.png")
-    click.echo(f"done in {time.perf_counter() - start:.1f} s (wall time of the whole command)")
+    click.echo(done_line())

@@ -457,7 +457,7 @@ def _reproduce(
     from twolink.studies.gains import report_section
     from twolink.studies.report_sections import design_section, oscillation_section
 
-    phase = _Phases(progress, 4 + (manifest.claims_study is not None))
+    phase = _Phases(progress, 4)
     workers = workers or os.cpu_count() or 1
     kind = "inprocess" if workers <= 1 else "process"
     # The pool starts first: its workers import while the design runs.
@@ -478,6 +478,11 @@ def _reproduce(
             phase(
                 f"runs: {len(specs)} experiments x controllers x variants, as batches of arms"
                 + (" (and the flexible-joint study)" if study else "")
+                + (
+                    f"; beside them the claims study ({manifest.claims_study.name})"
+                    if manifest.claims_study is not None
+                    else ""
+                )
             )
             # Resume per run, unless the design was just made: its rule base's runs are new.
             rows, pending = run_all(
@@ -501,7 +506,6 @@ def _reproduce(
                 for fut, indices in pending.items():
                     fut.add_done_callback(functools.partial(_advance, bar, len(indices)))
                 if manifest.claims_study is not None:
-                    phase(f"claims: {manifest.claims_study.name}, on the same pool")
                     claims, claim_tables = run_claims(manifest, out, pool, progress)
                 for fut in as_completed(pending):
                     for i, row in zip(pending[fut], fut.result(), strict=True):
