@@ -60,10 +60,10 @@ def test_a_trajectory_converts_to_a_dataframe_and_plots_itself():
         twolink.Plant.build(arm), twolink.ComputedTorque(arm, ref, kp=25.0, kd=10.0), 0.5
     )
     df = traj.to_dataframe()
-    assert df.index.name == "t_s" and np.array_equal(df.index.to_numpy(), traj.t)
-    assert np.array_equal(df["theta1_rad"].to_numpy(), traj.q[:, 0])
-    assert np.array_equal(df["e2_rad"].to_numpy(), traj.e[:, 1])
-    assert np.array_equal(df["tau1_Nm"].to_numpy(), traj.tau[:, 0])
+    assert df.index.name == "time_s" and np.array_equal(df.index.to_numpy(), traj.t)
+    assert np.array_equal(df["joint1_angle_rad"].to_numpy(), traj.q[:, 0])
+    assert np.array_equal(df["joint2_error_rad"].to_numpy(), traj.e[:, 1])
+    assert np.array_equal(df["joint1_torque_Nm"].to_numpy(), traj.tau[:, 0])
     assert all("_" in c for c in df.columns)  # every column carries its unit
     fig = traj.plot("θ1 step")
     assert len(fig.axes) == 2 and fig.axes[0].get_lines()[1].get_ydata().tolist() == list(

@@ -554,5 +554,14 @@ def test_read_recording_returns_every_series_at_the_kept_samples(tmp_path, run):
     df = tracing.read_recording(out)
     idx = tracing.sample_indices(len(traj.t), 3)
     np.testing.assert_allclose(df.index.to_numpy(), traj.t[idx], rtol=0, atol=1e-12)
-    np.testing.assert_array_equal(df["ctc/joint2/torque"].to_numpy(), traj.tau[idx, 1])
-    np.testing.assert_array_equal(df["ctc/joint1/error"].to_numpy(), traj.e[idx, 0])
+    np.testing.assert_array_equal(df["ctc/joint2_torque_Nm"].to_numpy(), traj.tau[idx, 1])
+    np.testing.assert_array_equal(df["ctc/joint1_error_rad"].to_numpy(), traj.e[idx, 0])
+    # one naming: a one-run recording's columns are the trajectory's DataFrame columns
+    tracing.write_recording(tmp_path / "one.rrd", [("", traj, s.arm, {})], every=3)
+    one = tracing.read_recording(tmp_path / "one.rrd")
+    frame = traj.to_dataframe().iloc[idx]
+    shared = [c for c in frame.columns if c in one.columns]
+    assert {"joint1_angle_rad", "joint1_reference_rad", "joint2_torque_Nm"} <= set(shared)
+    assert one.index.name == frame.index.name == "time_s"
+    for column in shared:
+        np.testing.assert_allclose(one[column].to_numpy(), frame[column].to_numpy(), atol=1e-12)

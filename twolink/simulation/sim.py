@@ -100,29 +100,38 @@ class Trajectory:
         return cls(**kwargs)
 
     def to_dataframe(self) -> pd.DataFrame:
-        """Every signal as a column, indexed by time ``t_s``: ``theta1_rad``,
-        ``theta1_ref_rad``, ``e1_rad``, ``tau1_Nm``, ... (units in the names, as in every
-        output's vocabulary); the flexible arm's rotor angles as ``motor1_rad``, ...
+        """Every signal as a column, indexed by time ``time_s``: ``joint1_angle_rad``,
+        ``joint1_reference_rad``, ``joint1_error_rad``, ``joint1_torque_Nm``, ... (the
+        names of :func:`twolink.tracing.read_recording`'s columns and of the recordings'
+        entities ``joint1/angle``, ...: docs/tracing.md, "One naming"); the flexible arm's
+        rotor angles as ``joint1_motor_angle_rad``, ...
 
         Examples
         --------
-        >>> df = trajectory.to_dataframe()                        # doctest: +SKIP
-        >>> df[["theta1_rad", "theta1_ref_rad"]].plot()           # doctest: +SKIP
+        >>> df = trajectory.to_dataframe()                                # doctest: +SKIP
+        >>> df[["joint1_angle_rad", "joint1_reference_rad"]].plot()       # doctest: +SKIP
         """
         import pandas as pd
 
-        columns = {}
-        for j in (1, 2):
-            k = j - 1
-            columns[f"theta{j}_rad"] = self.q[:, k]
-            columns[f"theta{j}_ref_rad"] = self.q_ref[:, k]
-            columns[f"dtheta{j}_rad_s"] = self.qd[:, k]
-            columns[f"dtheta{j}_ref_rad_s"] = self.qd_ref[:, k]
-            columns[f"e{j}_rad"] = self.e[:, k]
-            columns[f"tau{j}_Nm"] = self.tau[:, k]
-            if len(self.motor_q):
-                columns[f"motor{j}_rad"] = self.motor_q[:, k]
-        return pd.DataFrame(columns, index=pd.Index(self.t, name="t_s"))
+        from twolink.simulation.vocabulary import TIME_COLUMN, signal_column
+
+        signals = {
+            "angle": self.q,
+            "reference": self.q_ref,
+            "rate": self.qd,
+            "reference_rate": self.qd_ref,
+            "error": self.e,
+            "error_rate": self.de,
+            "torque": self.tau,
+        }
+        if len(self.motor_q):
+            signals["motor_angle"] = self.motor_q
+        columns = {
+            signal_column(j, leaf): values[:, j - 1]
+            for j in (1, 2)
+            for leaf, values in signals.items()
+        }
+        return pd.DataFrame(columns, index=pd.Index(self.t, name=TIME_COLUMN))
 
     def plot(self, title: str = "") -> Figure:
         """The joint angles against their references (matplotlib, headless); errors and

@@ -21,6 +21,9 @@ from typing import Any
 
 __all__ = [
     "CONTROLLER_LABELS",
+    "SIGNAL_UNITS",
+    "TIME_COLUMN",
+    "signal_column",
     "METRICS",
     "STEP_KEYS",
     "Metric",
@@ -28,6 +31,28 @@ __all__ = [
     "joint_values",
     "metric",
 ]
+
+# One naming of signals (docs/tracing.md, "One naming"): a recording's entity
+# ``joint{j}/{leaf}`` is the column ``joint{j}_{leaf}_{unit}`` of ``read_recording`` and of
+# ``Trajectory.to_dataframe``, indexed by ``time_s``; the metric keys of tables share the
+# ``joint{j}_`` prefix.
+TIME_COLUMN = "time_s"
+SIGNAL_UNITS = {
+    "angle": "rad",  # θ
+    "reference": "rad",  # θd
+    "rate": "rad_s",  # θ̇
+    "reference_rate": "rad_s",  # θ̇d
+    "error": "rad",  # e = θd − θ
+    "error_rate": "rad_s",  # ė
+    "torque": "Nm",  # τ
+    "motor_angle": "rad",  # φ, the rotor of a flexible joint
+}
+
+
+def signal_column(joint: int, leaf: str) -> str:
+    """The column of joint ``joint``'s signal ``leaf`` (a key of :data:`SIGNAL_UNITS`)."""
+    return f"joint{joint}_{leaf}_{SIGNAL_UNITS[leaf]}"
+
 
 # Scenario ``kind`` -> the controller's name in outputs.
 CONTROLLER_LABELS = {

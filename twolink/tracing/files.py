@@ -17,6 +17,7 @@ from rerun.error_utils import catch_and_log_exceptions
 from twolink.arm.params import ArmParams
 from twolink.interface.io import atomic_path
 from twolink.simulation.sim import Trajectory
+from twolink.simulation.vocabulary import SIGNAL_UNITS, TIME_COLUMN, signal_column
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -149,11 +150,15 @@ def write_recording(
 def read_recording(path: str | os.PathLike) -> pd.DataFrame:
     """Every scalar time series of a recording, one column per entity, indexed by time.
 
-    A reader for analysis without a viewer: columns are entity paths without the leading
-    slash (``"run/joint1/angle"``, ``"rigid/table2/CTC/joint1/torque"``), the index is
-    ``time_s``; a series missing at some time is NaN there. A recording keeps the samples
-    its writer kept (``every``; see the file's writer); ``trajectory.npz`` beside a run's
-    recording has every sample (:meth:`twolink.simulation.sim.Trajectory.load`).
+    A reader for analysis without a viewer. A run's signals are named as everywhere
+    (docs/tracing.md, "One naming"): the entity ``P/joint1/angle`` is the column
+    ``P/joint1_angle_rad`` (``P`` the run's prefix, e.g. ``rigid/table2/CTC``; a
+    recording of one run has none: ``joint1_angle_rad``, as
+    :meth:`~twolink.simulation.sim.Trajectory.to_dataframe`); other series keep their
+    entity path. The index is ``time_s``; a series missing at some time is NaN there. A
+    recording keeps the samples its writer kept (``every``; see the file's writer);
+    ``trajectory.npz`` beside a run's recording has every sample
+    (:meth:`twolink.simulation.sim.Trajectory.load`).
 
     Parameters
     ----------
@@ -179,10 +184,22 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
         pieces.setdefault(chunk.entity_path.lstrip("/"), []).append(
             pd.Series(col.to_numpy(zero_copy_only=False), index=t)
         )
-    columns = {name: pd.concat(parts).sort_index() for name, parts in sorted(pieces.items())}
+    columns = {
+        _column(name): pd.concat(parts).sort_index() for name, parts in sorted(pieces.items())
+    }
     frame = pd.DataFrame(columns)
-    frame.index.name = "time_s"
+    frame.index.name = TIME_COLUMN
     return frame
+
+
+def _column(entity: str) -> str:
+    # ".../joint1/angle" -> ".../joint1_angle_rad"; anything else as it is
+    head, _, leaf = entity.rpartition("/")
+    prefix, _, joint = head.rpartition("/")
+    if leaf in SIGNAL_UNITS and joint in ("joint1", "joint2"):
+        column = signal_column(int(joint[-1]), leaf)
+        return f"{prefix}/{column}" if prefix else column
+    return entity
 
 
 def _check_prefixes(prefixes: list[str]) -> None:
