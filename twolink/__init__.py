@@ -91,10 +91,12 @@ _LAYERS = {
         "cli_fuzzy", "cli_output", "cli_studies",
     ),
 }  # fmt: skip
+# A public name wins over a flat module name (twolink.reproduce is the function).
 _FLAT_NAMES = {
     f"twolink.{name}": f"twolink.{layer}.{name}"
     for layer, names in _LAYERS.items()
     for name in names
+    if name not in _EXPORTS
 }
 
 
