@@ -685,3 +685,20 @@ def test_corrupt_chunks_are_computed_again_and_a_corrupt_manifest_costs_nothing(
     other = sw.load_sweep(write(tmp_path, SMALL.replace("seed = 7", "seed = 8"), "other.toml"))
     with pytest.raises(sw.SweepOutputError, match="holds results of a different sweep"):
         sw.run_sweep(other, out, executor="inprocess", plots=False)
+
+
+def test_a_study_replaces_its_own_sweep_folder_when_its_sweep_file_changed(tmp_path):
+    # The reproduction's claims_study/ (and the regime map's folders) are the study's own:
+    # after the sweep file changes, a rerun replaces them instead of a traceback.
+    from twolink import sweep
+
+    over = {"samples": 2, "chunk_size": 2, "overrides": {"duration": 0.5}}
+    first = sweep.load_sweep("runs/sweeps/robustness.toml", over)
+    sweep.run_sweep(first, tmp_path / "s", executor="inprocess", plots=False)
+    changed = sweep.load_sweep("runs/sweeps/robustness.toml", {**over, "seed": 1})
+    with pytest.raises(sweep.SweepOutputError):
+        sweep.run_sweep(changed, tmp_path / "s", executor="inprocess", plots=False)
+    again = sweep.run_sweep(
+        changed, tmp_path / "s", executor="inprocess", plots=False, replace_other=True
+    )
+    assert len(again.results) == 2 * len(changed.controller_names)

@@ -99,8 +99,14 @@ def _claims_study(
         retuned = matched.controller(dict(plan.controllers)[manifest.baseline])
         plan = sweep.load_sweep(study, {**overrides, "controllers": {MATCHED: retuned}})
     try:
+        # the reproduction's own folder: a changed sweep file's results are replaced
         outcome = sweep.run_sweep(
-            plan, out / f"claims_study{suffix}", pool=pool, plots=False, progress=progress
+            plan,
+            out / f"claims_study{suffix}",
+            pool=pool,
+            plots=False,
+            progress=progress,
+            replace_other=True,
         )
     except sweep.SweepInterrupted as exc:
         from twolink.interface.interrupts import CTRL_C_RECEIVED

@@ -57,7 +57,9 @@ def run_regimes(
             overrides = {**overrides, "samples": samples}
         plan = sweep.load_sweep(study, overrides)
         folder = out / regime.replace(" ", "_")
-        outcome = sweep.run_sweep(plan, folder, pool=pool, plots=False, progress=progress)
+        outcome = sweep.run_sweep(
+            plan, folder, pool=pool, plots=False, progress=progress, replace_other=True
+        )
         results[regime] = outcome.results
     return results
 

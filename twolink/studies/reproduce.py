@@ -329,7 +329,12 @@ def flexible_study(sweep_file: Path, out: Path) -> list[str]:
     plan = sweep.load_sweep(sweep_file)
     # One thread: this is one task of the reproduction's pool, beside the others.
     outcome = sweep.run_sweep(
-        plan, out / "flexible_study", executor="inprocess", workers=1, plots=False
+        plan,
+        out / "flexible_study",
+        executor="inprocess",
+        workers=1,
+        plots=False,
+        replace_other=True,  # the reproduction's own folder: a changed study is rerun
     )
     figure = out / "figures/flexible_study.png"
     if "wn" not in plan.parameter_names:

@@ -296,7 +296,7 @@ class SweepOutcome:
     workers: int
 
 
-def _prepare_out(plan: SweepPlan, out: Path, fresh: bool) -> None:
+def _prepare_out(plan: SweepPlan, out: Path, fresh: bool, replace_other: bool = False) -> None:
     manifest_path = out / "manifest.json"
     chunk_dir = out / "chunks"
     for path in (manifest_path, chunk_dir, out / "computed.log"):
@@ -313,7 +313,7 @@ def _prepare_out(plan: SweepPlan, out: Path, fresh: bool) -> None:
         sealed = {_seal_digest(path) for path in chunks} - {None}
         digest = next(iter(sealed - {plan.digest}), plan.digest if sealed else None)
     foreign = digest is not None and digest != plan.digest
-    if foreign and not fresh:
+    if foreign and not (fresh or replace_other):
         older = (
             f", written in results format {old_format} (this version writes {FORMAT_VERSION}: "
             "other columns)"
@@ -392,6 +392,7 @@ def run_sweep(
     plots: bool = True,
     fresh: bool = False,
     pool: SweepExecutor | None = None,
+    replace_other: bool = False,
 ) -> SweepOutcome:
     """Compute the missing chunks of a sweep, then write its table, summary and plots.
 
@@ -413,6 +414,9 @@ def run_sweep(
         Write the PNG plots.
     fresh : bool
         Discard chunks already in ``out`` (also those of a different sweep).
+    replace_other : bool
+        Discard a different sweep's chunks (keep this sweep's): for a study's sweep
+        folder inside the study's own output folder, whose sweep file changed.
 
     Returns
     -------
@@ -437,7 +441,17 @@ def run_sweep(
     # One sweep at a time per folder: a second one into it stops at once (OutputBusy).
     with owned_output(out, "sweep", plan.file):
         return _run_sweep(
-            plan, out, executor, workers, scheduler, progress, plots, fresh, start, pool
+            plan,
+            out,
+            executor,
+            workers,
+            scheduler,
+            progress,
+            plots,
+            fresh,
+            start,
+            pool,
+            replace_other,
         )
 
 
@@ -452,11 +466,12 @@ def _run_sweep(
     fresh: bool,
     start: float,
     pool: SweepExecutor | None,
+    replace_other: bool = False,
 ) -> SweepOutcome:
     """:func:`run_sweep` once its options are checked and its folder is held."""
     from tqdm import tqdm
 
-    _prepare_out(plan, out, fresh)
+    _prepare_out(plan, out, fresh, replace_other)
 
     frames: dict[int, pd.DataFrame] = {}
     for c in range(plan.n_chunks):
