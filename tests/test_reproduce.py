@@ -371,3 +371,23 @@ def test_the_readme_says_what_the_current_reproduction_concludes(reproduction):
     assert block.removeprefix("<!-- conclusions: start -->").strip() == conclusions
     # and the README claims nothing the report contradicts (the claims of old)
     assert "removes most of CTC's overshoot" not in readme
+
+
+def test_on_the_papers_raw_steps_fcm_ctc_rises_more_than_10_percent_sooner(reproduction):
+    """Issue 29: the regime where the fuzzy term acts is in the reproduction, and its
+    report shows it: in some raw-step experiment FCM-CTC's Tr differs from CTC's by more
+    than 10 % (Table 2: 0.985 against 1.12 s)."""
+    import pandas as pd
+
+    m = pd.read_csv(reproduction.out / "metrics.csv")
+    raw = m[m["variant"] == "raw"].pivot_table(
+        index="experiment", columns="controller", values="rise_time_s"
+    )
+    change = (raw["FCM-CTC"] - raw["CTC"]) / raw["CTC"]
+    assert (change.abs() > 0.10).any(), change
+    report = (reproduction.out / "report.md").read_text()
+    raw_section = report[report.index("## Rigid arm, the paper's raw steps at ωn = 3 rad/s") :]
+    row = next(line for line in raw_section.splitlines() if line.startswith("| FCM-CTC |"))
+    ctc = next(line for line in raw_section.splitlines() if line.startswith("| CTC |"))
+    tr = [float(r.split("|")[5].split("/")[0]) for r in (row, ctc)]
+    assert tr[0] < 0.9 * tr[1], (row, ctc)  # the first raw table: Table 2
