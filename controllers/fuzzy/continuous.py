@@ -46,6 +46,7 @@ import numpy as np
 import skfuzzy
 
 from twolink.controllers.fuzzy.engine import MamdaniEngine, _partition_peaks
+from twolink.controllers.fuzzy.table import bilinear
 
 __all__ = ["ContinuousEngine", "lipschitz_bound"]
 
@@ -137,11 +138,7 @@ class ContinuousEngine:
                 raise ValueError("fuzzy engine inputs contain NaN")
             i, s = _cell(pe, e)
             j, t = _cell(pd, d)
-            k = i * n_de + j
-            v00, v01, v10, v11 = flat[k], flat[k + 1], flat[k + n_de], flat[k + n_de + 1]
-            lo = v00 + t * (v01 - v00)
-            hi = v10 + t * (v11 - v10)
-            out.append(lo + s * (hi - lo))
+            out.append(bilinear(flat, n_de, i, j, s, t))
         return out
 
 

@@ -124,13 +124,18 @@ class FuzzyTable:
             fd = (min(max(d, self.d_lo), self.d_hi) - self.d_lo) * self.d_scale
             i = min(int(fe), n - 2)
             j = min(int(fd), n - 2)
-            s, t = fe - i, fd - j
-            k = i * n + j
-            v00, v01, v10, v11 = flat[k], flat[k + 1], flat[k + n], flat[k + n + 1]
-            lo = v00 + t * (v01 - v00)
-            hi = v10 + t * (v11 - v10)
-            out.append(lo + s * (hi - lo))
+            out.append(bilinear(flat, n, i, j, fe - i, fd - j))
         return out
+
+
+def bilinear(flat: list[float], n_de: int, i: int, j: int, s: float, t: float) -> float:
+    """A table's value at fractions ``s``, ``t`` across its cell ``(i, j)`` (``flat`` its
+    values row by row, ``n_de`` per row): the plain-float form of the loop's lookups."""
+    k = i * n_de + j
+    v00, v01, v10, v11 = flat[k], flat[k + 1], flat[k + n_de], flat[k + n_de + 1]
+    lo = v00 + t * (v01 - v00)
+    hi = v10 + t * (v11 - v10)
+    return lo + s * (hi - lo)
 
 
 # Margin for floating-point rounding: the proof is in exact arithmetic, the engine and the

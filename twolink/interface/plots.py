@@ -17,6 +17,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.layout_engine import PlaceHolderLayoutEngine  # noqa: E402
 
 from twolink.interface.io import atomic_path  # noqa: E402
+from twolink.simulation.vocabulary import split_by_scale  # noqa: E402
 
 if TYPE_CHECKING:
     from twolink.simulation.sim import Trajectory
@@ -124,17 +125,8 @@ def response_figure(
     j = joint - 1
     first = next(iter(trajs.values()))
     t_ref, ref = first.t, first.q_ref[:, j]
-    close = [n for n in trajs if n in pair or n.startswith("FCM")]
-    values = [ref] + [trajs[n].q[:, j] for n in close]
-    lo = min(float(np.nanmin(v)) for v in values)
-    hi = max(float(np.nanmax(v)) for v in values)
-    pad = 0.1 * max(hi - lo, 0.1)
-    lo, hi = lo - pad, hi + pad
-    far = [
-        n
-        for n, tr in trajs.items()
-        if n not in close and not (np.nanmin(tr.q[:, j]) >= lo and np.nanmax(tr.q[:, j]) <= hi)
-    ]
+    angles = {n: tr.q[:, j] for n, tr in trajs.items()}
+    close, _, far, (lo, hi) = split_by_scale(angles, ref, pair)
     fig = plt.figure(figsize=(10.5 if far else 8.0, 6.5))
     grid = fig.add_gridspec(3, 2 if far else 1, height_ratios=(2, 1, 1),
                             width_ratios=(2, 1) if far else None)  # fmt: skip

@@ -24,6 +24,7 @@ __all__ = [
     "SIGNAL_UNITS",
     "TIME_COLUMN",
     "signal_column",
+    "split_by_scale",
     "METRICS",
     "STEP_KEYS",
     "Metric",
@@ -174,3 +175,27 @@ def format_value(value: Any, digits: int = 3) -> str:
     if isinstance(value, float):
         return f"{value:.{digits}g}" if abs(value) >= 1e-3 or value == 0 else f"{value:.1e}"
     return str(value)
+
+
+def split_by_scale(
+    angles: dict[str, Any], reference: Any, pair: tuple[str, ...] | list[str]
+) -> tuple[list[str], list[str], list[str], tuple[float, float]]:
+    """How figures and recordings show a comparison: ``(pair_like, near, far, (lo, hi))``.
+    ``angles`` maps a controller to its angle samples; the pair and every FCM variant
+    are ``pair_like`` and set the scale (with the reference, padded by 10 %); a baseline
+    within it is ``near``, one that leaves it (a failing baseline's swings would flatten
+    every other curve) ``far``."""
+    import numpy as np
+
+    pair_like = [n for n in angles if n in pair or n.startswith("FCM")]
+    values = [np.asarray(reference)] + [np.asarray(angles[n]) for n in pair_like]
+    lo = min(float(np.nanmin(v)) for v in values)
+    hi = max(float(np.nanmax(v)) for v in values)
+    pad = 0.1 * max(hi - lo, 0.1)
+    lo, hi = lo - pad, hi + pad
+    near, far = [], []
+    for n, q in angles.items():
+        if n not in pair_like:
+            inside = np.nanmin(q) >= lo and np.nanmax(q) <= hi
+            (near if inside else far).append(n)
+    return pair_like, near, far, (lo, hi)

@@ -15,7 +15,7 @@ controller:
 - ``P/baselines/<controller>`` (and its reference): the baselines that leave the pair's
   scale (fuzzy-PD's swings would flatten every other curve), in a view of their own.
 
-The same split as the response figures (:func:`twolink.interface.plots.response_figure`).
+The same split as the response figures (:func:`twolink.simulation.vocabulary.split_by_scale`).
 """
 
 from __future__ import annotations
@@ -31,11 +31,12 @@ import rerun.blueprint as rrb
 
 from twolink.interface.io import atomic_path
 from twolink.simulation.sim import Trajectory
+from twolink.simulation.vocabulary import split_by_scale
 from twolink.tracing.files import recording_id
 from twolink.tracing.layout import time_panel
 from twolink.tracing.runs import REFERENCE_COLOR, _time_column, sample_indices
 
-__all__ = ["COMPARISON_EVERY", "ExperimentRuns", "split_pair", "write_comparison"]
+__all__ = ["COMPARISON_EVERY", "ExperimentRuns", "write_comparison"]
 
 COMPARISON_EVERY = 20  # 50 Hz of the 1 kHz loop: smooth at any zoom a screen shows
 # Controller colours, as in the report's figures: the pair first (green, red, teal), then
@@ -62,27 +63,6 @@ class ExperimentRuns:
     title: str
     joint: int
     runs: Mapping[str, Trajectory]
-
-
-def split_pair(
-    trajs: Mapping[str, np.ndarray], reference: np.ndarray, pair: Sequence[str]
-) -> tuple[list[str], list[str], tuple[float, float]]:
-    """Which controllers share the pair's scale: ``(close, far, (low, high))``. ``trajs``
-    maps a controller to its angle; the pair and every FCM variant are close; a baseline
-    is close if it stays within the range of the reference and the pair, padded by 10 %."""
-    close = [n for n in trajs if n in pair or n.startswith("FCM")]
-    values = [reference] + [trajs[n] for n in close]
-    lo = min(float(np.nanmin(v)) for v in values)
-    hi = max(float(np.nanmax(v)) for v in values)
-    pad = 0.1 * max(hi - lo, 0.1)
-    lo, hi = lo - pad, hi + pad
-    far = [
-        n
-        for n, q in trajs.items()
-        if n not in close and not (np.nanmin(q) >= lo and np.nanmax(q) <= hi)
-    ]
-    close += [n for n in trajs if n not in close and n not in far]
-    return close, far, (lo, hi)
 
 
 def _view(name: str, origin: str, y: tuple[float, float]) -> rrb.TimeSeriesView:
@@ -126,8 +106,8 @@ def write_comparison(
         j = e.joint - 1
         first = next(iter(e.runs.values()))
         angles = {n: tr.q[:, j] for n, tr in e.runs.items()}
-        close, far, scale = split_pair(angles, first.q_ref[:, j], pair)
-        pair_like = [n for n in close if n in pair or n.startswith("FCM")]
+        pair_like, near, far, scale = split_by_scale(angles, first.q_ref[:, j], pair)
+        close = pair_like + near
         series = [(f"{e.prefix}/angle/reference", first.t, first.q_ref[:, j], "reference")]
         for n in close:
             series.append((f"{e.prefix}/angle/{n}", e.runs[n].t, angles[n], n))
