@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MATCHED", "SCALES", "Matched", "match_peak_torque"]
+__all__ = ["MATCHED", "SCALES", "Matched", "choose_scale", "match_peak_torque"]
 
 MATCHED = "CTC-matched"  # the retuned CTC's name in sweeps, tables and the report
 # ωn scales tried: from half the baseline's bandwidth to three times it (one batch run;
@@ -80,34 +80,40 @@ def match_peak_torque(plan: Any, proposed: str, baseline: str) -> Matched:
         for s in SCALES
     ]
     peaks = _peaks([prop, base, *tried])
-    target = peaks[0]
-    # a joint where the proposed controller is at its torque limit bounds nothing: any CTC
-    # is within it there
-    free = target < np.asarray(prop.controller.torque_limit) * (1 - 1e-9)
-    if not free.any():
-        free[:] = True
-    ratio = np.max(peaks[2:, free] / target[free], axis=1)  # > 1: spends more on a joint
-    within = np.flatnonzero(ratio <= 1.0)
-    if np.max(peaks[1, free] / target[free]) >= 1.0 - SAME_TORQUE:
-        scale = 1.0
-    elif not within.size:  # even half the bandwidth spends more: the smallest scale
-        scale = float(SCALES[0])
-    else:
-        k = int(within[-1])
-        scale = float(SCALES[k])
-        if k + 1 < SCALES.size and np.isfinite(ratio[k + 1]) and ratio[k + 1] > ratio[k]:
-            # linear between the last grid point within and the first beyond
-            scale += (1.0 - ratio[k]) / (ratio[k + 1] - ratio[k]) * (SCALES[k + 1] - SCALES[k])
-    # the match's peaks, interpolated as its scale was (one batch run serves the search)
-    at = np.clip(np.interp(scale, SCALES, np.arange(SCALES.size)), 0, SCALES.size - 1)
-    lo, frac = int(at), at - int(at)
-    hi = min(lo + 1, SCALES.size - 1)
-    matched_peak = peaks[1] if scale == 1.0 else (1 - frac) * peaks[2 + lo] + frac * peaks[2 + hi]
+    limit = np.asarray(prop.controller.torque_limit, dtype=float)
+    scale, matched_peak = choose_scale(peaks[0], peaks[1], peaks[2:], limit)
     return Matched(
         scale=float(scale),
         kp=tuple(float(v) for v in kp * scale**2),
         kd=tuple(float(v) for v in kd * scale),
         ki=tuple(float(v) for v in ki * scale**3),
-        proposed_peak=tuple(float(v) for v in target),
+        proposed_peak=tuple(float(v) for v in peaks[0]),
         matched_peak=tuple(float(v) for v in matched_peak),
     )
+
+
+def choose_scale(
+    target: np.ndarray, base: np.ndarray, grid: np.ndarray, limit: np.ndarray
+) -> tuple[float, np.ndarray]:
+    """The ωn scale of the match and its peak torques (interpolated as the scale is):
+    ``target`` the proposed controller's peak |τ| per joint, ``base`` the baseline's at
+    scale 1, ``grid`` the baseline's at each of :data:`SCALES` (rows), ``limit`` the torque
+    limits. Joints where the proposed controller is at its limit bound nothing."""
+    if not np.isfinite(target).all():
+        raise ValueError("the proposed controller's nominal run failed: no torque to match")
+    free = target < limit * (1 - 1e-9)
+    if not free.any():
+        free[:] = True
+    if np.max(base[free] / target[free]) >= 1.0 - SAME_TORQUE:
+        return 1.0, base
+    ratio = np.max(grid[:, free] / target[free], axis=1)  # > 1: spends more on a joint
+    within = np.flatnonzero(ratio <= 1.0)
+    if not within.size:  # even the smallest scale spends more
+        return float(SCALES[0]), grid[0]
+    k = int(within[-1])
+    if k + 1 == SCALES.size or not ratio[k + 1] > ratio[k]:
+        return float(SCALES[k]), grid[k]
+    # linear between the last grid point within and the first beyond
+    frac = (1.0 - ratio[k]) / (ratio[k + 1] - ratio[k])
+    scale = SCALES[k] + frac * (SCALES[k + 1] - SCALES[k])
+    return float(scale), (1 - frac) * grid[k] + frac * grid[k + 1]
