@@ -172,12 +172,15 @@ def figure(summ: pd.DataFrame) -> Any:
     CTC."""
     from twolink.interface.plots import fixed_layout, plt
 
-    panels = list(dict.fromkeys(zip(summ["regime"], summ["proposed"], strict=True)))
-    fig, axes = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4.2), squeeze=False)
-    fixed_layout(fig, left=0.08, right=0.9, top=0.86, bottom=0.2, wspace=0.3)
+    regimes = list(dict.fromkeys(summ["regime"]))
+    proposed_names = list(dict.fromkeys(summ["proposed"]))
+    rows, cols = len(regimes), len(proposed_names)  # a row per regime, a column per variant
+    fig, axes = plt.subplots(rows, cols, figsize=(5.5 * cols, 4.0 * rows), squeeze=False)
+    fixed_layout(fig, left=0.08, right=0.88, top=0.92, bottom=0.1, wspace=0.3, hspace=0.5)
+    panels = [(r, p) for r in regimes for p in proposed_names]
     marks = {"helps": "+", "hurts": "−", "mixed": "±", "no difference shown": ""}
     image = None
-    for ax, (regime, proposed) in zip(axes[0], panels, strict=True):
+    for ax, (regime, proposed) in zip(axes.ravel(), panels, strict=True):
         mine = (summ["regime"] == regime) & (summ["proposed"] == proposed)
         t = summ[mine & (summ["opponent"] == OPPONENTS[0])]
         wns = sorted(set(t["wn"]))
@@ -197,5 +200,5 @@ def figure(summ: pd.DataFrame) -> Any:
             fontsize=9,
         )
     if image is not None:
-        fig.colorbar(image, ax=list(axes[0]), fraction=0.03)
+        fig.colorbar(image, ax=list(axes.ravel()), fraction=0.03)
     return fig
