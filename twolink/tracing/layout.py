@@ -33,7 +33,7 @@ def _run_layout(prefix: str, title: str) -> rrb.Container:
         rrb.Spatial2DView(name="phase plane (e, ė)", origin=_path(prefix, "phase")),
         rrb.Spatial3DView(name="arm", origin=_path(prefix, "arm")),
         rrb.TextLogView(name="status and fired rules", contents=log),
-        row_shares=[4, 4, 1],
+        row_shares=[3, 3, 2],  # room for the log of fired-rule changes
     )
     return rrb.Horizontal(plots, spaces, column_shares=[3, 2], name=title)
 

@@ -16,7 +16,7 @@ Entity paths of one run, under its prefix ``P`` (``j`` is 1 or 2)::
     P/status                 TextLog    static: "ok" or "diverged: <why>"
     P/phase/joint{j}/path    LineStrips2D  static: the whole (e, de) trajectory
     P/phase/joint{j}/state   Points2D   (e_j, de_j) per sample, labelled with the fired rule
-    P/phase/joint{j}/fired_rule  TextLog  the fired rule per sample (if given)
+    P/phase/joint{j}/fired_rule  TextLog  the fired rule, at each change (if given)
     P/phase/centres          Points2D   static: FCM cluster centres (if given; per-joint
                                         centres go to P/phase/joint{j}/centres)
     P/arm/base               Points3D   static: the shoulder
@@ -297,10 +297,13 @@ def log_run(
             else:
                 labels = [rules[j][i] for i in idx]
                 cols = rr.Points2D.columns(positions=plane, labels=labels)
+                # the log lists the rule changes (a readable sequence over time), not a row
+                # per sample; the phase-plane points carry every sample's label
+                changes = [k for k in range(len(idx)) if k == 0 or labels[k] != labels[k - 1]]
                 rec.send_columns(
                     _path(prefix, "phase", joint, "fired_rule"),
-                    indexes=times,
-                    columns=rr.TextLog.columns(text=labels),
+                    indexes=[_time_column(traj.t[idx[changes]])],
+                    columns=rr.TextLog.columns(text=[f"θ{sub}: {labels[k]}" for k in changes]),
                     strict=True,
                 )
             rec.send_columns(state, indexes=times, columns=cols, strict=True)
