@@ -96,6 +96,16 @@ def _grid(engine: MamdaniEngine, n: int) -> tuple[np.ndarray, np.ndarray]:
     return np.meshgrid(np.linspace(eu[0], eu[-1], n), np.linspace(du[0], du[-1], n), indexing="ij")
 
 
+def _label_cells(engine: Any) -> tuple[np.ndarray, np.ndarray, tuple, tuple, bool]:
+    """The cell edges along e and de with their labels: the peaks of triangular partitions
+    (and True), else the universes' ends, one cell (and False)."""
+    pe, pd = _partition_peaks(engine.e), _partition_peaks(engine.de)
+    if pe is None or pd is None:
+        ends = (engine.e.universe[[0, -1]], engine.de.universe[[0, -1]])
+        return np.asarray(ends[0]), np.asarray(ends[1]), ("min", "max"), ("min", "max"), False
+    return np.asarray(pe), np.asarray(pd), engine.e.labels, engine.de.labels, True
+
+
 def coverage(engine: MamdaniEngine, threshold: float = 0.0, grid: int = 201) -> Coverage:
     """The part of the (e, de) input box where no rule fires (total firing <= threshold).
 
@@ -116,17 +126,11 @@ def coverage(engine: MamdaniEngine, threshold: float = 0.0, grid: int = 201) -> 
         raise ValueError(f"threshold must be finite and >= 0, got {threshold!r}")
     if isinstance(grid, bool) or not isinstance(grid, int) or grid < 2:
         raise ValueError(f"grid must be an integer >= 2, got {grid!r}")
-    pe, pd = _partition_peaks(engine.e), _partition_peaks(engine.de)
     e, de = _grid(engine, grid)
     uncovered_pts = engine.firing(e, de).sum(axis=-1) <= threshold
     grid_fraction = float(uncovered_pts.mean())
-    exact = pe is not None and pd is not None and threshold == 0.0
-    if pe is None or pd is None:  # cells of the sample grid instead of label cells
-        pe, pd = tuple(engine.e.universe[[0, -1]]), tuple(engine.de.universe[[0, -1]])
-        labels_e, labels_d = ("min", "max"), ("min", "max")
-    else:
-        labels_e, labels_d = engine.e.labels, engine.de.labels
-    pe, pd = np.asarray(pe), np.asarray(pd)
+    pe, pd, labels_e, labels_d, partition = _label_cells(engine)
+    exact = partition and threshold == 0.0
     cells = np.zeros((pe.size - 1, pd.size - 1), dtype=bool)
     if exact:
         present = np.zeros((pe.size, pd.size), dtype=bool)
@@ -207,13 +211,7 @@ def surface_jumps(engine: Any, grid: int = 201) -> tuple[Jump, ...]:
     centroid, or the last rule stops firing (docs/fuzzy.md, "The relay")."""
     if isinstance(grid, bool) or not isinstance(grid, int) or grid < 2:
         raise ValueError(f"grid must be an integer >= 2, got {grid!r}")
-    pe, pd = _partition_peaks(engine.e), _partition_peaks(engine.de)
-    if pe is None or pd is None:
-        pe, pd = tuple(engine.e.universe[[0, -1]]), tuple(engine.de.universe[[0, -1]])
-        labels_e, labels_d = ("min", "max"), ("min", "max")
-    else:
-        labels_e, labels_d = engine.e.labels, engine.de.labels
-    pe, pd = np.asarray(pe), np.asarray(pd)
+    pe, pd, labels_e, labels_d, _ = _label_cells(engine)
 
     def largest_spread(per_cell: int) -> np.ndarray:
         # nodes on every peak, ``per_cell`` grid cells between neighbouring peaks: no grid

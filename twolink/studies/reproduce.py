@@ -522,7 +522,7 @@ def _reproduce(
                 + ", in the pool"
             )
             if trace:
-                drawing.append(pool.submit(_combined_recording, out, specs, scenarios))
+                drawing.append(pool.submit(_combined_recording, out, specs))
             figures: dict[str, str] = {}
             for variant in manifest.variants:
                 for exp in manifest.experiments:
@@ -619,7 +619,7 @@ def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, pa
     plots.save_figure(plots.response_figure(trajs, joint, title), path)
 
 
-def _combined_recording(out: Path, specs: list[RunSpec], scenarios: dict[str, Scenario]) -> None:
+def _combined_recording(out: Path, specs: list[RunSpec]) -> None:
     """reproduction.rrd: one tab per experiment, its controllers side by side
     (:func:`twolink.tracing.comparison.write_comparison`), from the runs' folders (a worker
     task: reading them here spares the pool's pipe the pickled trajectories)."""
