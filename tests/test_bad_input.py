@@ -37,7 +37,8 @@ SCENARIOS = {
     "inf mass": ("[arm]\nm1 = inf", "arm.m1: must be finite"),
     "nan gain": ("[controller]\nkp = nan", "controller.kp: must be finite"),
     "nan reference": ("[reference.joint1]\nfinal = nan", "reference.joint1"),
-    "inf noise": ("[plant]\nnoise_std = inf", "plant.noise_std: must be finite"),
+    "inf noise": ("[sensor]\nnoise_std_rad = inf", "sensor.noise_std_rad: must be finite"),
+    "noise in its old place": ("[plant]\nnoise_std = 0.1", "plant.noise_std: moved"),
     # zero and negative
     "zero duration": ("duration = 0.0", "duration: must be > 0"),
     "negative duration": ("duration = -1.0", "duration: must be > 0"),
@@ -50,7 +51,22 @@ SCENARIOS = {
         "controller.torque_limit: must be > 0",
     ),
     "negative payload": ("[plant]\npayload = -0.1", "plant.payload: must be >= 0"),
-    "negative noise": ("[plant]\nnoise_std = -1.0", "plant.noise_std: must be >= 0"),
+    "negative noise": ("[sensor]\nnoise_std_rad = -1.0", "sensor.noise_std_rad: must be >= 0"),
+    "negative quantum": ("[sensor]\nresolution_rad = -1e-5", "sensor.resolution_rad: must be >= 0"),
+    "unknown velocity": ('[sensor]\nvelocity = "tacho"', "sensor.velocity: must be one of"),
+    "fractional delay": (
+        "[sensor]\ndelay_samples = 1.5",
+        "sensor.delay_samples: must be an integer",
+    ),
+    "cut-off past Nyquist": (
+        '[sensor]\nvelocity = "filtered"\ncutoff_hz = 500.0',
+        "sensor.cutoff_hz: cutoff_hz 500 must be below the Nyquist frequency",
+    ),
+    "unknown sensor key": ("[sensor]\nbits = 17", "sensor.bits: unknown key"),
+    "joint scale on a rigid arm": (
+        "[plant.scale]\nk = 0.8",
+        "plant.scale.k: scales the flexible joints",
+    ),
     "zero scale": ("[plant.scale]\nm1 = 0.0", "plant.scale.m1: must be > 0"),
     "unknown scale": ("[plant.scale]\nm3 = 1.0", "plant.scale.m3: unknown key"),
     "zero stiffness": ("[plant.flexibility]\nk = 0.0", "plant.flexibility.k: must be > 0"),

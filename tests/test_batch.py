@@ -127,7 +127,12 @@ def test_flexible_and_rigid_arms_share_a_batch():
 def test_every_controller_kind(controller):
     scenarios = [
         scenario(controller=controller),
-        scenario(controller=controller, plant={"scale": {"m2": 1.3}, "noise_std": 0.002}, seed=3),
+        scenario(
+            controller=controller,
+            plant={"scale": {"m2": 1.3}},
+            sensor={"noise_std_rad": 0.002},
+            seed=3,
+        ),
         scenario(
             controller=controller,
             reference={"joint1": {"kind": "ramp", "final": 0.8, "duration": 0.6}},
@@ -142,9 +147,11 @@ def test_mixed_controllers_durations_noise_and_starts_in_one_batch():
     scenarios = [
         scenario(duration=0.7),
         scenario(controller={"kind": "fcm_ctc", "rule_base": "paper"}, duration=1.2),
-        scenario(plant={"noise_std": 0.01}, seed=7, initial={"q": [0.3, -0.2], "qd": [0.5, 0.0]}),
+        scenario(
+            sensor={"noise_std_rad": 0.01}, seed=7, initial={"q": [0.3, -0.2], "qd": [0.5, 0.0]}
+        ),
         scenario(controller={"kind": "ctc_integral", "ki": 12.5, "torque_limit": 20.0}),
-        scenario(controller={"kind": "fuzzy_ctc"}, plant={"noise_std": 0.005}, seed=8),
+        scenario(controller={"kind": "fuzzy_ctc"}, sensor={"noise_std_rad": 0.005}, seed=8),
         scenario(controller={"kind": "pd_gravity", "kp": 25.0, "kd": 10.0}, duration=1.0),
         scenario(controller={"kind": "ctc_integral"}, plant={"scale": {"m2": 1.2}}),
     ]

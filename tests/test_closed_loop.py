@@ -79,7 +79,7 @@ def test_ramp_is_tracked_with_feedforward_and_zero_final_error():
 def test_same_config_and_seed_give_bit_identical_trajectories(tmp_path):
     path = tmp_path / "noisy.toml"
     path.write_text(
-        f'extends = "{RUNS / "theta1_step.toml"}"\nduration = 2.0\n[plant]\nnoise_std = 1e-3\n'
+        f'extends = "{RUNS / "theta1_step.toml"}"\nduration = 2.0\n[sensor]\nnoise_std_rad = 1e-3\n'
     )
     s = load_scenario(path)
     a, b = run_scenario(s), run_scenario(load_scenario(path))

@@ -659,7 +659,10 @@ def test_batch_form_equals_the_single_arm_path(kind):
     ctrl = {"controller": {"kind": kind}}
     scenarios = [
         scenario(**ctrl),
-        scenario(**merge(ctrl, {"plant": {"scale": {"m2": 1.2}, "noise_std": 0.002}}), seed=3),
+        scenario(
+            **merge(ctrl, {"plant": {"scale": {"m2": 1.2}}, "sensor": {"noise_std_rad": 0.002}}),
+            seed=3,
+        ),
         scenario(**merge(ctrl, {"controller": {"torque_limit": [20.0, 4.0]}})),
         scenario(plant={"flexibility": {"k": 2e3}}, controller={"kind": kind, "kp": 25.0}),
         scenario(),  # a rigid-model CTC on a flexible arm in the same batch

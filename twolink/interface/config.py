@@ -14,13 +14,19 @@ Schema (all keys optional except the reference)::
     control_dt = 0.001       # s, controller period (zero-order hold)
     timestep = 0.001         # s, physics step (RK4)
     seed = 0                 # measurement noise draws
+    [sensor]                 # what the controller sees (docs/sensors.md); default: the truth
+    resolution_rad = 0.0     # encoder quantum (2*pi / 2**17 for a 17-bit encoder)
+    noise_std_rad = 0.0      # Gaussian noise on the measured angles
+    delay_samples = 0        # transport delay, control periods
+    velocity = "exact"       # or "difference", "filtered" (2nd-order Butterworth)
+    cutoff_hz = 50.0         # velocity = "filtered": the low-pass's cut-off
     [arm]                    # the nominal arm = the controller's model
     m1 = 1.0  m2 = 1.0  l1 = 1.0  l2 = 1.0  g = 9.81
     [plant]                  # the simulated arm: the nominal one, maybe perturbed
-    scale = { m1 = 1.2, g = 1.1 }   # uncertainty as factors on [arm]
+    scale = { m1 = 1.2, g = 1.1 }   # uncertainty as factors on [arm]; k, j: on the
+                             # joints' stiffness and rotor inertia (flexible plants)
     payload = 0.0            # kg point mass at the tip
-    noise_std = 0.0          # rad, Gaussian noise on measured angles
-    [plant.flexibility]      # present = Spong flexible joints
+    [plant.flexibility]      # present = Spong flexible joints, as the controllers model them
     k = [500, 500]  d = [1, 1]  j = [0.05, 0.05]
     start = "holding"        # springs holding the arm at rest at q0, or "relaxed"
     [controller]
@@ -67,6 +73,7 @@ from twolink.interface.overrides import merge as merge
 from twolink.interface.overrides import set_nested
 from twolink.interface.overrides import strip_replace as strip_replace
 from twolink.simulation.references import ArmReference, make_reference, reference_params
+from twolink.simulation.sensor import VELOCITY_ESTIMATES, Sensor
 
 # Controllers of flexible joints (controllers/flexible.py): they read the motor states and
 # model the joints with [plant.flexibility], so they need a flexible plant.
@@ -96,6 +103,8 @@ class ConfigError(ValueError):
 
 
 SPRING_STARTS = ("holding", "relaxed")
+ARM_SCALE_KEYS = ("g", "l1", "l2", "m1", "m2")  # [plant.scale] factors on [arm]
+JOINT_SCALE_KEYS = ("j", "k")  # [plant.scale] factors on [plant.flexibility]: model error
 
 
 @dataclass(frozen=True)
@@ -104,8 +113,7 @@ class PlantConfig:
 
     scale: dict[str, float] = field(default_factory=dict)
     payload: float = 0.0
-    noise_std: float = 0.0
-    flexibility: Flexibility | None = None
+    flexibility: Flexibility | None = None  # the joints as the controllers model them
     # A flexible arm's springs at t = 0: "holding" (twisted to hold the arm at rest at its
     # start pose) or "relaxed" (rotors at the links: the arm starts to fall).
     springs: str = "holding"
@@ -161,18 +169,32 @@ class Scenario:
     q0: tuple[float, float] = (0.0, 0.0)
     qd0: tuple[float, float] = (0.0, 0.0)
     source: str = ""
+    sensor: Sensor = Sensor()
 
     @property
     def plant_params(self) -> ArmParams:
         """The simulated arm's parameters: the nominal arm with the uncertainty factors."""
-        return self.arm.scaled(**self.plant.scale)
+        scale = self.plant.scale
+        return self.arm.scaled(**{k: v for k, v in scale.items() if k in ARM_SCALE_KEYS})
+
+    @property
+    def plant_joints(self) -> Flexibility | None:
+        """The simulated arm's joints: ``[plant.flexibility]`` (the controllers' model)
+        with the stiffness and rotor inertia scaled by ``[plant.scale]`` ``k`` and ``j``
+        (the damping d as given); None for a rigid arm."""
+        f = self.plant.flexibility
+        if f is None:
+            return None
+        sk, sj = self.plant.scale.get("k", 1.0), self.plant.scale.get("j", 1.0)
+        if sk == sj == 1.0:
+            return f
+        return Flexibility(k=tuple(k * sk for k in f.k), d=f.d, j=tuple(j * sj for j in f.j))
 
     def to_dict(self) -> dict[str, Any]:
         """The resolved config as plain data (what a run writes as ``config.toml``)."""
         plant: dict[str, Any] = {
             "scale": dict(self.plant.scale),
             "payload": self.plant.payload,
-            "noise_std": self.plant.noise_std,
         }
         if self.plant.flexibility is not None:
             plant["flexibility"] = {k: list(v) for k, v in asdict(self.plant.flexibility).items()}
@@ -197,6 +219,7 @@ class Scenario:
                 "joint2": reference_params(self.reference.joint2),
             },
             "initial": {"q": list(self.q0), "qd": list(self.qd0)},
+            **({} if self.sensor.ideal else {"sensor": asdict(self.sensor)}),
         }
 
 
@@ -236,6 +259,7 @@ MAX_TOML_BYTES = 1 << 20  # 1 MiB: a scenario or study file is a few kB
 # ones only overflow later, far from the key that caused it.
 MAX_MAGNITUDE = 1e12
 MAX_TABLE_POINTS = 2001  # per axis: 4e6 cells, ~100 MB of lookup table
+MAX_DELAY_SAMPLES = 10_000  # [sensor] delay_samples: 10 s at 1 kHz, past any real loop
 MIN_TIME_STEP = 1e-6  # s: timestep and control_dt; finer is not a control loop
 
 
@@ -290,7 +314,7 @@ def _read_one(path: Path, referrer: Path | None) -> dict[str, Any]:
 # kind: so a file given to the wrong command is named as such (tested for every kind of
 # shipped file with every command: tests/test_bad_input_more.py).
 FILE_KINDS = {
-    "scenario": (("extends", "arm", "plant", "initial"), "`twolink run FILE`"),
+    "scenario": (("extends", "arm", "plant", "initial", "sensor"), "`twolink run FILE`"),
     "sweep": (("samples", "chunk_size"), "`twolink sweep FILE` (or `twolink regimes FILE`)"),
     "manifest": (("experiment", "variants", "claims_study"), "`twolink reproduce --manifest FILE`"),
     "design": (("clusters", "fuzzifier", "scenarios"), "`twolink design --config FILE`"),
@@ -437,10 +461,13 @@ def _arm(t: TomlTable) -> ArmParams:
 def _plant(t: TomlTable) -> PlantConfig:
     scale_t = t.table("scale")
     scale = {}
+    known = sorted(ARM_SCALE_KEYS + JOINT_SCALE_KEYS)
     for key in list(scale_t.data):
-        if key not in ("m1", "m2", "l1", "l2", "g"):
-            scale_t.fail(key, "unknown key (known here: ['g', 'l1', 'l2', 'm1', 'm2'])")
+        if key not in known:
+            scale_t.fail(key, f"unknown key (known here: {known})")
         scale[key] = scale_t.number(key, 1.0, positive=key != "g")
+    if "noise_std" in t.data:
+        t.fail("noise_std", "moved: measurement noise is [sensor] noise_std_rad (docs/sensors.md)")
     flexibility, springs = None, PlantConfig.springs
     if "flexibility" in t.data:
         f = t.table("flexibility")
@@ -455,12 +482,28 @@ def _plant(t: TomlTable) -> PlantConfig:
     plant = PlantConfig(
         scale=scale,
         payload=t.number("payload", 0.0, minimum=0.0),
-        noise_std=t.number("noise_std", 0.0, minimum=0.0),
         flexibility=flexibility,
         springs=springs,
     )
     t.done()
+    if flexibility is None and (scaled := [k for k in JOINT_SCALE_KEYS if k in scale]):
+        scale_t.fail(scaled[0], "scales the flexible joints, and this plant has none")
     return plant
+
+
+def _sensor(t: TomlTable) -> Sensor:
+    d = Sensor()
+    sensor = Sensor(
+        resolution_rad=t.number("resolution_rad", d.resolution_rad, minimum=0.0),
+        noise_std_rad=t.number("noise_std_rad", d.noise_std_rad, minimum=0.0),
+        delay_samples=t.integer("delay_samples", d.delay_samples),
+        velocity=t.string("velocity", d.velocity, VELOCITY_ESTIMATES),
+        cutoff_hz=t.number("cutoff_hz", d.cutoff_hz, positive=True),
+    )
+    if sensor.delay_samples > MAX_DELAY_SAMPLES:
+        t.fail("delay_samples", f"must be at most {MAX_DELAY_SAMPLES}, got {sensor.delay_samples}")
+    t.done()
+    return sensor
 
 
 def controller_from_table(t: TomlTable, arm: ArmParams | None = None) -> ControllerConfig:
@@ -574,9 +617,15 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         q0=initial.pair("q", (0.0, 0.0)),
         qd0=initial.pair("qd", (0.0, 0.0)),
         source=source,
+        sensor=_sensor(top.table("sensor")),
     )
     initial.done()
     top.done()
+    if scenario.sensor.velocity == "filtered":
+        try:
+            scenario.sensor.velocity_filter(scenario.control_dt)
+        except ValueError as exc:
+            top.fail("sensor.cutoff_hz", str(exc))
     steps = scenario.control_dt / scenario.timestep
     if abs(steps - round(steps)) > 1e-9 * steps or round(steps) < 1:
         top.fail("control_dt", f"must be a whole multiple of timestep {scenario.timestep}")

@@ -31,6 +31,7 @@ import numpy as np
 from twolink.arm.params import ArmParams, Flexibility
 from twolink.arm.plant import add_arm, holding_motor_q, mujoco, new_spec
 from twolink.controllers.base import Controller
+from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import (
     STATUS_DIVERGED,
     STATUS_OK,
@@ -205,6 +206,7 @@ def simulate_batch(
     bounds: Bounds | None = None,
     noise: Sequence[np.ndarray | None] | None = None,
     holding: np.ndarray | None = None,
+    sensor: Sensor | None = None,
 ) -> BatchResult:
     """Run arm i of ``plant`` under ``controllers[i]`` for ``durations[i]`` seconds.
 
@@ -212,7 +214,9 @@ def simulate_batch(
     that reads the motors, ``needs_motor``, gets each arm's rotor states): ``q0`` and
     ``qd0`` of shape (N, 2) (default zeros), ``noise[i]`` of shape (steps_i + 1, 2) or
     None; ``holding`` (N,) bool: flexible arms that start with their springs holding them at
-    rest (:meth:`BatchPlant.reset`). Every arm shares the plant's timestep and ``control_dt``.
+    rest (:meth:`BatchPlant.reset`); ``sensor``: what every arm's controller sees (one
+    sensor for the batch; :mod:`twolink.simulation.sensor`). Every arm shares the plant's
+    timestep and ``control_dt``.
     """
     from twolink.controllers.batch import batch_laws
 
@@ -239,6 +243,11 @@ def simulate_batch(
             f"arm {rigid[0]}'s controller ({type(controllers[rigid[0]]).__name__}) reads the "
             "motor states of flexible joints; that arm is rigid"
         )
+    reader = motor_reader = None
+    if sensor is not None and not sensor.ideal:
+        reader = sensor.reader(control_dt, noise_all, batch=True)
+        motor_reader = sensor.reader(control_dt, batch=True) if any(motor_laws) else None
+        noise_all = None
     plant.reset(q0, qd0, None if holding is None else np.asarray(holding, bool))
     model, data = plant.model, plant.data
     qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
@@ -274,15 +283,21 @@ def simulate_batch(
             length[escaped] = k if k else 1  # at once: keep the one state, with no torque
             active &= ~escaped
             q[escaped] = qd[escaped] = 0.0  # the laws see finite numbers
-        seen = q if noise_all is None else q + noise_all[k]
+        seen, rates = q, qd
+        if reader is not None:
+            seen, rates = reader(k, q, qd)
+        elif noise_all is not None:
+            seen = q + noise_all[k]
         if any(motor_laws):  # the rotors, for the laws of flexible joints
             mq, mqd = qpos[plant.motor_index], qvel[plant.motor_v_index]
             mq[~active] = mqd[~active] = 0.0
+            if motor_reader is not None:
+                mq, mqd = motor_reader(k, mq, mqd)
         for (idx, law), motor in zip(laws, motor_laws, strict=True):
             if motor:
-                tau[idx] = law(k, seen[idx], qd[idx], mq[idx], mqd[idx])
+                tau[idx] = law(k, seen[idx], rates[idx], mq[idx], mqd[idx])
             else:
-                tau[idx] = law(k, seen[idx], qd[idx])
+                tau[idx] = law(k, seen[idx], rates[idx])
         stopped = not active.all()
         if stopped:
             tau[~active] = np.nan if k == 0 else 0.0

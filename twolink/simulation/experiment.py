@@ -49,13 +49,14 @@ from twolink.simulation.metrics import (
     torque_measures,
 )
 from twolink.simulation.outcome import classify_run
+from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import Trajectory, simulate
 from twolink.simulation.vocabulary import CONTROLLER_LABELS, format_value, joint_values
 
 
 def build_plant(s: Scenario) -> Plant:
     """The simulated arm: the nominal arm with the scenario's uncertainty."""
-    return Plant.build(s.plant_params, s.plant.flexibility, s.plant.payload, s.timestep)
+    return Plant.build(s.plant_params, s.plant_joints, s.plant.payload, s.timestep)
 
 
 def build_controller(s: Scenario) -> Controller:
@@ -130,10 +131,10 @@ def _table(engine, points: int):
 
 def measurement_noise(s: Scenario) -> np.ndarray | None:
     """Seeded Gaussian noise on the measured angles, or None when the scenario has none."""
-    if s.plant.noise_std == 0:
+    if s.sensor.noise_std_rad == 0:
         return None
     n = round(s.duration / s.control_dt)
-    return np.random.default_rng(s.seed).normal(0.0, s.plant.noise_std, size=(n + 1, 2))
+    return np.random.default_rng(s.seed).normal(0.0, s.sensor.noise_std_rad, size=(n + 1, 2))
 
 
 def run_scenario(
@@ -152,6 +153,7 @@ def run_scenario(
         qd0=s.qd0,
         noise=measurement_noise(s),
         motor_q0=start_motor_q(s),
+        sensor=s.sensor,
     )
 
 
@@ -167,7 +169,7 @@ def start_motor_q(s: Scenario) -> tuple[float, float] | None:
     start (:func:`twolink.arm.plant.holding_motor_q`), else None (at the links, or rigid)."""
     if not holding_start(s):
         return None
-    phi = holding_motor_q(s.plant_params, s.plant.flexibility, s.q0, s.plant.payload)
+    phi = holding_motor_q(s.plant_params, s.plant_joints, s.q0, s.plant.payload)
     return (float(phi[0]), float(phi[1]))
 
 
@@ -191,7 +193,7 @@ def iter_scenarios(
     """Simulate many scenarios on the batch engine (:mod:`twolink.simulation.batch`), yielding
     ``(i, trajectory)`` as each batch ends: arm i is ``scenarios[i]`` under
     ``controllers[i]`` (default: each scenario's own), and its trajectory equals
-    :func:`run_scenario`'s. Arms sharing a timestep and control period run in batches
+    :func:`run_scenario`'s. Arms sharing a timestep, control period and sensor run in batches
     whose records stay under :data:`BATCH_RECORD_BYTES`, and a trajectory is made only
     when yielded, so memory stays bounded whatever the number of scenarios. An arm that
     cannot be built (MuJoCo refuses it) yields its exception; the others still run.
@@ -199,16 +201,16 @@ def iter_scenarios(
     from twolink.simulation.batch import record_bytes
 
     controllers = controllers or [build_controller(s) for s in scenarios]
-    groups: dict[tuple[float, float], list[int]] = {}
+    groups: dict[tuple[float, float, Sensor], list[int]] = {}
     for i, s in enumerate(scenarios):
-        groups.setdefault((s.timestep, s.control_dt), []).append(i)
-    for (timestep, control_dt), members in groups.items():
+        groups.setdefault((s.timestep, s.control_dt, s.sensor), []).append(i)
+    for (timestep, control_dt, sensor), members in groups.items():
         cost = max(_arm_bytes(scenarios[i], control_dt, record_bytes) for i in members)
         size = max(1, BATCH_RECORD_BYTES // cost)
         for start in range(0, len(members), size):
             batch = members[start : start + size]
             yield from _trajectories(
-                *_simulate_batch(scenarios, controllers, batch, timestep, control_dt)
+                *_simulate_batch(scenarios, controllers, batch, timestep, control_dt, sensor)
             )
 
 
@@ -218,6 +220,7 @@ def _simulate_batch(
     members: list[int],
     timestep: float,
     control_dt: float,
+    sensor: Sensor,
 ) -> tuple[list[tuple[int, Exception]], list[int], Any]:
     """One batch of :func:`iter_scenarios`: the arms MuJoCo refuses with their errors, and
     the arms simulated with their records (a :class:`twolink.simulation.batch.BatchResult`)."""
@@ -252,6 +255,7 @@ def _simulate_batch(
         qd0=np.array([scenarios[i].qd0 for i in batch]),
         noise=[measurement_noise(scenarios[i]) for i in batch],
         holding=np.array([holding_start(scenarios[i]) for i in batch]),
+        sensor=sensor,
     )
     return errors, batch, run
 
@@ -268,14 +272,14 @@ def _trajectories(
 def _arm_bytes(s: Scenario, control_dt: float, record_bytes) -> int:
     """Memory one arm of ``s`` takes in a batch: its records, and its noise if any."""
     steps = round(s.duration / control_dt)
-    noise = (steps + 1) * 2 * 8 * 2 if s.plant.noise_std else 0  # drawn, then stacked
+    noise = (steps + 1) * 2 * 8 * 2 if s.sensor.noise_std_rad else 0  # drawn, then stacked
     return record_bytes(steps, bool(s.plant.flexibility)) + noise
 
 
 def _arm(s: Scenario):
     from twolink.simulation.batch import Arm
 
-    return Arm(s.plant_params, s.plant.flexibility, s.plant.payload)
+    return Arm(s.plant_params, s.plant_joints, s.plant.payload)
 
 
 @dataclass(frozen=True)

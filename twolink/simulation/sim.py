@@ -18,6 +18,7 @@ import numpy as np
 from twolink.arm.plant import Plant
 from twolink.controllers.base import Controller
 from twolink.interface.io import atomic_path
+from twolink.simulation.sensor import Sensor
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -177,6 +178,7 @@ def simulate(
     bounds: Bounds = Bounds(),
     noise: np.ndarray | None = None,
     motor_q0: tuple[float, float] | None = None,
+    sensor: Sensor | None = None,
 ) -> Trajectory:
     """Run ``controller`` against ``plant`` for ``duration`` seconds.
 
@@ -202,6 +204,11 @@ def simulate(
         Initial rotor angles of a flexible plant (default: at the links, springs relaxed);
         :func:`twolink.arm.plant.holding_motor_q` (``q0 + K⁻¹ G(q0)``) starts the arm at rest
         holding itself up, as a scenario's ``start = "holding"`` does.
+    sensor : Sensor, optional
+        What the controller sees (:mod:`twolink.simulation.sensor`): quantised, delayed
+        angles and estimated rates, with ``noise`` added to the angles; the rotor angles of
+        a flexible plant go through the same sensor without the noise. Default: the true
+        state (plus ``noise``). The records hold the true state either way.
 
     Returns
     -------
@@ -220,6 +227,12 @@ def simulate(
         )
     if noise is not None and np.shape(noise) != (n + 1, 2):
         raise ValueError(f"noise must have shape {(n + 1, 2)}, got {np.shape(noise)}")
+    reader = motor_reader = None
+    if sensor is not None and not sensor.ideal:
+        reader = sensor.reader(control_dt, noise)
+        if needs_motor:
+            motor_reader = sensor.reader(control_dt)
+        noise = None
     noise_rows = None if noise is None else noise.tolist()
     plant.reset(q0, qd0, motor_q=motor_q0)
     controller.reset()
@@ -241,15 +254,20 @@ def simulate(
                 if plant.flexible:
                     motor.append((float(qpos[2]), float(qpos[3])))
             break
-        seen = (q1, q2)
-        if noise_rows is not None:
+        seen, rates = (q1, q2), (w1, w2)
+        if reader is not None:
+            seen, rates = reader(k, seen, rates)
+        elif noise_rows is not None:
             n1, n2 = noise_rows[k]
             seen = (q1 + n1, q2 + n2)
         if needs_motor:
             motor_q = (float(qpos[2]), float(qpos[3]))
-            tau1, tau2 = controller(t, seen, (w1, w2), motor_q, (float(qvel[2]), float(qvel[3])))
+            motor_qd = (float(qvel[2]), float(qvel[3]))
+            if motor_reader is not None:
+                motor_q, motor_qd = motor_reader(k, motor_q, motor_qd)
+            tau1, tau2 = controller(t, seen, rates, motor_q, motor_qd)
         else:
-            tau1, tau2 = controller(t, seen, (w1, w2))
+            tau1, tau2 = controller(t, seen, rates)
         rows.append((t, q1, q2, w1, w2, tau1, tau2))
         if plant.flexible:
             motor.append((float(qpos[2]), float(qpos[3])))

@@ -9,7 +9,9 @@ the target instead: the map Φ from the state at one control instant to the next
 controller's torque held over the period, MuJoCo stepping the plant) is differentiated by
 central differences at the target state (at rest; a flexible arm's rotors where their
 springs hold it there), and its spectral radius ρ gives the growth rate
-``σ = ln ρ / control_dt``: σ > 0 is unstable (:func:`closed_loop_growth`).
+``σ = ln ρ / control_dt``: σ > 0 is unstable (:func:`closed_loop_growth`). The map is
+that of the true state, so a loop behind a sensor with dynamics of its own (a velocity
+estimate, a delay, an encoder's quantum) has none here: NaN.
 """
 
 from __future__ import annotations
@@ -40,7 +42,7 @@ def closed_loop_growth(scenario, plant, controller, eps: float = EPSILON) -> flo
     from twolink.arm.plant import holding_motor_q
     from twolink.simulation.outcome import reference_end
 
-    if type(controller).__name__ not in _LINEARISABLE:
+    if type(controller).__name__ not in _LINEARISABLE or not scenario.sensor.ideal:
         return math.nan
     t_hold = reference_end(scenario.reference)
     if not math.isfinite(t_hold):
@@ -55,7 +57,7 @@ def closed_loop_growth(scenario, plant, controller, eps: float = EPSILON) -> flo
     x0[:2] = target
     if flexible:
         x0[2:4] = holding_motor_q(
-            scenario.plant_params, scenario.plant.flexibility, target, scenario.plant.payload
+            scenario.plant_params, scenario.plant_joints, target, scenario.plant.payload
         )
 
     def advance(x: np.ndarray) -> np.ndarray:

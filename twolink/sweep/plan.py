@@ -41,14 +41,17 @@ Parameters: ``m1 m2 l1 l2 g`` are factors on the nominal arm (they replace the b
 ``plant.scale`` entry); ``payload`` is a tip mass [kg]; ``k d j`` set the flexible joints'
 stiffness [N m/rad], damping [N m s/rad] and rotor inertia [kg m^2] of both joints, ``k1 k2
 d1 d2 j1 j2`` one joint's. Sweeping any of them makes the plant flexible (the controllers
-keep the rigid model). ``zeta_joint`` sets both joints' damping from a damping ratio,
-d = 2 ζ sqrt(k j) with each joint's k and j (drawn or the base's): realistic light damping at
-every stiffness. ``wn`` is the closed loop's bandwidth [rad/s] at ζ = 1: every controller of
-the sample gets kp = wn², kd = 2 wn, ki = wn³ / 4 (the gain study's rule; over the
-controllers' own gains). Distributions: ``uniform`` (low, high), ``loguniform`` (low, high),
-``normal`` (mean, std, optional low/high truncation by rejection), ``choice`` (values,
-optional weights), ``grid`` (values: sample i takes the (i mod size)-th point of the full
-grid over all grid parameters, the first parameter by name varying fastest).
+keep the rigid model; the flexible-joint laws model the drawn joints). ``k_scale`` and
+``j_scale`` are the joints' model error: factors on the plant's stiffness and rotor inertia
+against the joints the flexible-joint laws model (``[plant.scale] k, j``). ``zeta_joint``
+sets both joints' damping from a damping ratio, d = 2 ζ sqrt(k j) with each joint's k and j
+(drawn or the base's): realistic light damping at every stiffness. ``wn`` is the closed
+loop's bandwidth [rad/s] at ζ = 1: every controller of the sample gets kp = wn², kd = 2 wn,
+ki = wn³ / 4 (the gain study's rule; over the controllers' own gains). Distributions:
+``uniform`` (low, high), ``loguniform`` (low, high), ``normal`` (mean, std, optional
+low/high truncation by rejection), ``choice`` (values, optional weights), ``grid`` (values:
+sample i takes the (i mod size)-th point of the full grid over all grid parameters, the
+first parameter by name varying fastest).
 """
 
 from __future__ import annotations
@@ -107,6 +110,8 @@ PARAMETERS: Mapping[str, str] = {
     **{f"{p}{j}": dom for p, dom in zip("kdj", ("positive", "nonnegative", "positive"), strict=True)
        for j in ("", "1", "2")},
     "zeta_joint": "nonnegative",  # the joints' damping ratio: d = 2 zeta sqrt(k j)
+    "k_scale": "positive",  # plant.scale.k: the plant's stiffness / the controllers' model
+    "j_scale": "positive",  # plant.scale.j: the same for the rotor inertia
     "wn": "positive",  # the controllers' bandwidth [rad/s], zeta = 1
 }  # fmt: skip
 FLEX_NAMES = frozenset(
@@ -285,6 +290,9 @@ class SweepPlan:
         """The scenario data of a sample: the base with the drawn plant."""
         plant: dict[str, Any] = {}
         scale = {n: v for n, v in values.items() if n in SCALE_PARAMETERS}
+        for joint_scale in ("k", "j"):  # model error of the joints
+            if f"{joint_scale}_scale" in values:
+                scale[joint_scale] = values[f"{joint_scale}_scale"]
         if "mass" in values:  # the model mismatch of both links at once
             for m in ("m1", "m2"):
                 scale[m] = scale.get(m, 1.0) * values["mass"]
