@@ -148,11 +148,12 @@ def test_coverage_lists_the_jumps():
 def test_the_relay_oscillates_where_the_continuous_inference_does_not(tmp_path):
     # The robustness sweep's 200 plants, run 20 s: the paper's FCM-CTC ends in a sustained
     # oscillation (> 1 mrad) on 27 plants where CTC has none, up to 6.5 mrad; the
-    # continuous inference of the same rules on none (docs/fuzzy.md, "The relay").
+    # continuous inference of the same rules on none (docs/fuzzy.md, "The relay"). With the
+    # true state, so that no encoder count blurs "none".
     from twolink import sweep
 
     overrides = {
-        "overrides": {"duration": 20.0},
+        "overrides": {"duration": 20.0, "sensor": {"replace": True}},
         "controllers": {
             "replace": True,
             "CTC": {"kind": "ctc"},

@@ -69,12 +69,18 @@ def test_error_under_mismatch_falls_with_stiffness(small):
     ctc = table[(table.controller == "CTC") & (table.reference == "quintic")].set_index("wn")
     assert ctc.error_median[15.0] < ctc.error_median[2.0] / 20
     ctc_i = table[(table.controller == "CTC-I") & (table.reference == "quintic")].set_index("wn")
-    assert ctc_i.error_q[15.0] < 1e-6  # integral action removes the constant mismatch
+    # Integral action removes the constant mismatch, down to what the study's sensor can
+    # see: one count of its 17-bit encoder (4.8e-5 rad; with the true state it is < 1e-6).
+    assert ctc_i.error_q[15.0] < study.sensor["resolution_rad"]
+    assert ctc_i.error_q[15.0] < ctc.error_q[15.0] / 1000
 
 
 def _table(rows):
     keys = ("controller", "zeta", "wn", "reference", "error_q", "demand1", "demand2")
-    return pd.DataFrame([dict(zip(keys, r, strict=True)) for r in rows])
+    table = pd.DataFrame([dict(zip(keys, r[:7], strict=True)) for r in rows])
+    table["step1"] = [r[7] if len(r) > 7 else 0.01 for r in rows]  # N m per period
+    table["step2"] = 0.001
+    return table
 
 
 def test_rule_picks_the_smallest_qualifying_wn():
@@ -83,7 +89,8 @@ def test_rule_picks_the_smallest_qualifying_wn():
         [
             ("CTC", 1.0, 5.0, "quintic", 0.2, 20.0, 5.0),  # error too large
             ("CTC", 1.0, 8.0, "quintic", 0.04, 80.0, 5.0),  # demand over the limit
-            ("CTC", 1.0, 10.0, "quintic", 0.04, 20.0, 5.0),  # the one
+            ("CTC", 1.0, 9.0, "quintic", 0.04, 20.0, 5.0, 0.61),  # torque steps > 1 % of 60
+            ("CTC", 1.0, 10.0, "quintic", 0.04, 20.0, 5.0, 0.59),  # the one
             ("CTC", 1.0, 12.0, "quintic", 0.01, 20.0, 5.0),
             ("CTC", 1.0, 6.0, "step", 0.01, 20.0, 5.0),  # steps do not count
             ("CTC", 0.7, 6.0, "quintic", 0.01, 20.0, 5.0),  # nor ζ ≠ 1
@@ -94,6 +101,23 @@ def test_rule_picks_the_smallest_qualifying_wn():
     assert choice.ki == pytest.approx(study.integral_ratio * 1000.0)
     with pytest.raises(ValueError, match="no ωn"):
         gains.choose(table[table.wn < 9], study)
+
+
+def test_the_rule_states_its_sensor_and_its_joints_and_warns_on_realistic_ones():
+    # The shipped choice (ωn 15) is unstable on realistic joints: the choice says so, with
+    # the largest ωn of the grid that is stable there, and points to the flexible laws.
+    study = gains.load_gain_study()
+    assert gains.sensor_text(study).startswith("17-bit encoder (4.79e-05 rad), filtered")
+    _, choice = gains.load_study(study)
+    assert choice.realistic_growth > 0
+    assert (
+        "unstable" in choice.stiffness_note() and "flexible-joint laws" in choice.stiffness_note()
+    )
+    growth = gains.realistic_growth(study, (choice.realistic_stable_up_to, 5.0))
+    assert growth[choice.realistic_stable_up_to] < 0 < growth[5.0]
+    stable = gains.Choice(1.0, 1.0, 0.25, "", realistic_growth=-0.5)
+    assert "stable (σ = -0.5" in stable.stiffness_note()
+    assert "unstable" not in stable.stiffness_note()
 
 
 def test_shipped_table_is_current_and_the_base_uses_its_choice():

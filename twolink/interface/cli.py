@@ -438,6 +438,8 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
         sys.exit(1)
     click.echo("\n".join(study_module.summary_lines(table, choice)))
     click.echo(f"\n{choice.reason}")
+    if choice.stiffness_note():
+        click.echo(choice.stiffness_note().replace("**", ""))
     click.echo(f"kp = {choice.wn**2:g}, kd = {2 * choice.zeta * choice.wn:g}, ki = {choice.ki:g}")
     click.echo(f"-> {out}" + (f" and {study_module.table_path(study)}" if install else ""))
 

@@ -73,6 +73,12 @@ def build_controller(s: Scenario) -> Controller:
             return flexible.MotorPD(**common, joints=joints)
         if c.kind == "composite":
             return flexible.CompositeControl(**common, joints=joints)
+        if c.kind == "flexible_fl_integral":
+            from twolink.controllers.flexible_robust import IntegralFlexibleFeedbackLinearisation
+
+            return IntegralFlexibleFeedbackLinearisation(
+                **common, joints=joints, control_dt=s.control_dt
+            )
         return flexible.FlexibleFeedbackLinearisation(
             **common, joints=joints, control_dt=s.control_dt
         )

@@ -66,6 +66,7 @@ CONTROLLER_LABELS = {
     "motor_pd": "motor-PD",
     "composite": "composite",
     "flexible_fl": "flexible-FL",
+    "flexible_fl_integral": "flexible-FL-I",
 }
 
 

@@ -16,13 +16,14 @@ import hashlib
 import json
 import math
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from twolink.arm.params import Flexibility
 from twolink.interface.config import (
     ConfigError,
     TomlTable,
@@ -76,6 +77,11 @@ class GainStudy:
         The design rule's bound on the final error of each joint [rad].
     quantile : float
         The share of plants that must meet it (0.95: the 95th percentile).
+    sensor : dict
+        The ``[sensor]`` table every run sees (docs/sensors.md); empty: the true state.
+    torque_step_share : float
+        The rule's bound on torque activity: the nominal arm's mean torque change per
+        control period, Σ|Δτ| / periods, at most this share of each joint's limit.
     """
 
     source: str
@@ -89,6 +95,8 @@ class GainStudy:
     duration: float
     error_bound: float
     quantile: float
+    sensor: dict = field(default_factory=dict)
+    torque_step_share: float = math.inf
 
     def digest(self) -> str:
         """What decides the study's results: every run's scenario data and the rule's
@@ -133,10 +141,16 @@ def load_gain_study(path: str | Path = DEFAULT_STUDY, overrides: dict | None = N
         duration=t.number("duration", 8.0, positive=True),
         error_bound=t.number("error_bound", 0.05, positive=True),
         quantile=quantile,
+        sensor=dict(t.table("sensor").data),
+        torque_step_share=t.number("torque_step_share", math.inf, positive=True, allow_inf=True),
     )
     t.done()
+    # The sensor table is a scenario's: validated as one (errors name this file).
+    scenario_from_dict({"sensor": study.sensor, "reference": _STILL}, str(path))
     return study
 
+
+_STILL = {j: {"kind": "step", "final": 0.0} for j in ("joint1", "joint2")}
 
 # Controllers of the study: name -> (kind, uses integral action).
 CONTROLLERS = {"CTC": "ctc", "CTC-I": "ctc_integral"}
@@ -188,6 +202,8 @@ def _plans(study: GainStudy):
                             # The study's controller and move replace the base's whole.
                             controller = {**gains, "torque_limit": limit}
                             run = {"controller": controller, "reference": ref}
+                            if study.sensor:
+                                run["sensor"] = study.sensor
                             yield labels, {**data, **run, "duration": study.duration}
 
 
@@ -198,6 +214,9 @@ def _row(labels: dict[str, Any], s: Any, traj: Any, limit: tuple[float, float]) 
         n = j + 1
         row[f"final_error{n}"] = float(e_final[j]) if traj.status == "ok" else math.nan
         row[f"torque_peak{n}"] = float(np.max(np.abs(traj.tau[:, j]))) if len(traj.t) else math.nan
+        variation = float(np.abs(np.diff(traj.tau[:, j])).sum())
+        row[f"torque_variation{n}"] = variation
+        row[f"torque_step{n}"] = variation / max(1, len(traj.t) - 1)
         at_limit = np.abs(traj.tau[:, j]) >= limit[j] * (1 - 1e-9)
         row[f"saturated{n}"] = float(np.mean(at_limit)) if labels["limited"] else 0.0
         target, start = s.reference.final[j], s.q0[j]
@@ -230,7 +249,9 @@ def run_gain_study(study: GainStudy, pool: Any = None, progress: bool = False) -
 
     Returns one row per run (columns: the labels, ``status``, and per joint n
     ``final_error{n}`` [rad], ``overshoot{n}`` [%], ``settling{n}`` (to the target) [s],
-    ``torque_peak{n}`` [N m], ``saturated{n}`` (fraction of samples at the limit)).
+    ``torque_peak{n}`` [N m], ``torque_variation{n}`` (Σ|Δτ|) [N m] and ``torque_step{n}``
+    (that over the control periods) [N m], ``saturated{n}`` (fraction of samples at the
+    limit)).
     """
     from tqdm import tqdm
 
@@ -270,7 +291,9 @@ def gain_table(results: pd.DataFrame, quantile: float) -> pd.DataFrame:
 
     ``error_q``: the ``quantile`` over the drawn plants of the larger joint's final error
     [rad] (a diverged run counts as an infinite error); ``error_median`` likewise;
-    ``demand1/2``: the nominal arm's peak torque without a limit [N m]; ``saturated``: the
+    ``demand1/2``: the nominal arm's peak torque without a limit [N m]; ``step1/2``: the
+    nominal arm's mean torque change per control period under the limit, Σ|Δτ| / periods
+    [N m], what the sensor's noise does to the actuator; ``saturated``: the
     median over the plants of the larger joint's time at the limit [fraction];
     ``overshoot``: the nominal arm's larger overshoot [%] under the limit; ``settling``: the
     nominal arm's later settling time to the target [s].
@@ -290,6 +313,8 @@ def gain_table(results: pd.DataFrame, quantile: float) -> pd.DataFrame:
                 error_median=float(np.median(err)),
                 demand1=float(demand.torque_peak1),
                 demand2=float(demand.torque_peak2),
+                step1=float(nominal.torque_step1),
+                step2=float(nominal.torque_step2),
                 saturated=float(np.median(sat)),
                 overshoot=_larger(nominal.overshoot1, nominal.overshoot2),
                 settling=_larger(nominal.settling1, nominal.settling2),
@@ -307,6 +332,37 @@ class Choice:
     zeta: float
     ki: float
     reason: str
+    # CTC's linear growth rate at the chosen gains on realistic joints [1/s] (the rule
+    # assumes rigid ones), and the largest ωn of the grid at which it is stable there.
+    realistic_growth: float = math.nan
+    realistic_stable_up_to: float = math.nan
+
+    def stiffness_note(self) -> str:
+        """What the choice assumes about the joints, and what that means on real ones."""
+        if math.isnan(self.realistic_growth):
+            return ""
+        joints = Flexibility.realistic()
+        where = (
+            f"realistic joints (k = {joints.k[0]:g} / {joints.k[1]:g} N·m/rad, rotor inertia "
+            f"{joints.j[0]:g} / {joints.j[1]:g} kg·m², damping ratio "
+            f"{joints.damping_ratio[0]:.2g}; docs/model.md)"
+        )
+        if self.realistic_growth < 0:
+            return (
+                f"The rule assumes rigid joints (CTC's model); on {where} CTC at these gains "
+                f"is linearly stable (σ = {self.realistic_growth:.3g} s⁻¹)."
+            )
+        up_to = (
+            f"it is stable there only up to ωn = {self.realistic_stable_up_to:g} rad/s of the grid"
+            if not math.isnan(self.realistic_stable_up_to)
+            else "no ωn of the grid is stable there"
+        )
+        return (
+            f"The rule assumes rigid joints (CTC's model). **On {where} CTC at these gains is "
+            f"unstable** (linear growth σ = +{self.realistic_growth:.3g} s⁻¹ at the target); "
+            f"{up_to}. On such joints use the flexible-joint laws (docs/control.md, "
+            '"Flexible-joint controllers"; the reproduction\'s flexible-joint map).'
+        )
 
 
 def choose(table: pd.DataFrame, study: GainStudy) -> Choice:
@@ -317,23 +373,74 @@ def choose(table: pd.DataFrame, study: GainStudy) -> Choice:
     amplifies measurement noise least. Raises ValueError if no ωn of the grid qualifies."""
     rows = table[(table.controller == "CTC") & (table.zeta == 1.0) & (table.reference == "quintic")]
     lim1, lim2 = study.torque_limit
+    share = study.torque_step_share
+    quiet = (rows.step1 <= share * lim1) & (rows.step2 <= share * lim2)
     ok = rows[
-        (rows.error_q <= study.error_bound) & (rows.demand1 <= lim1) & (rows.demand2 <= lim2)
+        (rows.error_q <= study.error_bound)
+        & (rows.demand1 <= lim1)
+        & (rows.demand2 <= lim2)
+        & (quiet if math.isfinite(share) else True)
     ].sort_values("wn")
     if ok.empty:
         raise ValueError(
             f"{study.source}: no ωn of the grid meets the design rule (error "
-            f"<= {study.error_bound} rad on {study.quantile:.0%} of plants within the torque limit)"
+            f"<= {study.error_bound} rad on {study.quantile:.0%} of plants within the torque limit"
+            + (f", torque steps within {share:.0%} of it" if math.isfinite(share) else "")
+            + ")"
         )
     best = ok.iloc[0]
     wn = float(best.wn)
+    activity = ""
+    if math.isfinite(share):
+        activity = (
+            f" and a mean torque step per control period of ({best.step1:.3g}, "
+            f"{best.step2:.3g}) N m within {share:.0%} of it"
+        )
     reason = (
         f"ζ = 1, ωn = {wn:g} rad/s: the smallest ωn of the grid whose quintic move keeps the "
         f"{study.quantile:.0%} quantile of the final error over {study.plants} drawn plants at "
         f"{best.error_q:.3g} rad (bound {study.error_bound:g}) with a nominal torque demand of "
         f"({best.demand1:.3g}, {best.demand2:.3g}) N m within the limit ({lim1:g}, {lim2:g})"
+        f"{activity}"
     )
-    return Choice(wn=wn, zeta=1.0, ki=study.integral_ratio * wn**3, reason=reason)
+    growth = realistic_growth(study, study.natural_frequencies)
+    stable = [w for w, g in growth.items() if g < 0]
+    return Choice(
+        wn=wn,
+        zeta=1.0,
+        ki=study.integral_ratio * wn**3,
+        reason=reason,
+        realistic_growth=growth[wn],
+        realistic_stable_up_to=max(stable) if stable else math.nan,
+    )
+
+
+def realistic_growth(study: GainStudy, wns: Sequence[float]) -> dict[float, float]:
+    """CTC's (ζ = 1) linear growth rate σ [1/s] at each ωn of ``wns`` on the nominal arm with
+    realistic joints (:meth:`Flexibility.realistic`), at the target of the study's quintic
+    move (:func:`twolink.simulation.stability.closed_loop_growth`; measured with the true
+    state: a sensor's lag only takes phase away)."""
+    from twolink.simulation.experiment import build_controller, build_plant
+    from twolink.simulation.stability import closed_loop_growth
+    from twolink.sweep import load_sweep
+
+    base = load_sweep(study.sweep, {"samples": 1}).base
+    joints = Flexibility.realistic()
+    flexibility = {"k": list(joints.k), "d": list(joints.d), "j": list(joints.j)}
+    out = {}
+    for wn in wns:
+        data = merge(
+            base,
+            {
+                "plant": {"flexibility": flexibility},
+                "controller": {**_gains(wn, 1.0, "ctc", study.integral_ratio)},
+            },
+        )
+        data.pop("sensor", None)
+        data["reference"] = _references(base, study.move_time)["quintic"]
+        s = scenario_from_dict(data, study.source)
+        out[wn] = closed_loop_growth(s, build_plant(s), build_controller(s))
+    return out
 
 
 def tradeoff_figure(table: pd.DataFrame, study: GainStudy, choice: Choice | None, path: Path):
@@ -384,8 +491,8 @@ def summary_lines(table: pd.DataFrame, choice: Choice, wns: Sequence[float] = ()
     rows = table[(table.controller == "CTC") & (table.zeta == 1.0)]
     lines = [
         "| ωn [rad/s] | reference | error, quantile [rad] | demand θ1 / θ2 [N m] "
-        "| time at limit [%] | overshoot [%] | Ts to target [s] |",
-        "|---|---|---|---|---|---|---|",
+        "| torque step θ1 / θ2 [N m] | time at limit [%] | overshoot [%] | Ts to target [s] |",
+        "|---|---|---|---|---|---|---|---|",
     ]
     for _, r in rows.sort_values(["wn", "reference"]).iterrows():
         if wns and r.wn not in wns:
@@ -393,9 +500,18 @@ def summary_lines(table: pd.DataFrame, choice: Choice, wns: Sequence[float] = ()
         mark = " **(chosen)**" if r.wn == choice.wn and r.reference == "quintic" else ""
         lines.append(
             f"| {r.wn:g}{mark} | {r.reference} | {r.error_q:.3g} | {r.demand1:.3g} / "
-            f"{r.demand2:.3g} | {100 * r.saturated:.3g} | {r.overshoot:.3g} | {r.settling:.3g} |"
+            f"{r.demand2:.3g} | {r.get('step1', math.nan):.3g} / {r.get('step2', math.nan):.3g} "
+            f"| {100 * r.saturated:.3g} | {r.overshoot:.3g} | {r.settling:.3g} |"
         )
     return lines
+
+
+def sensor_text(study: GainStudy) -> str:
+    """The study's sensor in words."""
+    from twolink.simulation.sensor import Sensor
+
+    known = {k: v for k, v in study.sensor.items()}
+    return Sensor(**known).describe()
 
 
 def table_path(study: GainStudy) -> Path:
@@ -454,7 +570,14 @@ def report_section(path: Path, out: Path, pool: Any) -> list[str]:
         f"actuator limit is {study.torque_limit[0]:g} / {study.torque_limit[1]:g} N·m. "
         f"**Rule**: ζ = 1 and the smallest ωn whose smooth (quintic) move keeps the final "
         f"error of both joints within {study.error_bound:g} rad on {study.quantile:.0%} of "
-        f"{study.plants} drawn plants with the nominal torque demand within the limit.",
+        f"{study.plants} drawn plants with the nominal torque demand within the limit"
+        + (
+            f" and its mean torque step per control period within {study.torque_step_share:.0%}"
+            " of the limit"
+            if math.isfinite(study.torque_step_share)
+            else ""
+        )
+        + f". **Sensor**: {sensor_text(study)} (docs/sensors.md).",
         "",
         f"**Choice**: {choice.reason}. Kp = {kp:g}, Kd = {kd:g}, Ki = {choice.ki:g} (integral "
         "CTC). "
@@ -464,6 +587,7 @@ def report_section(path: Path, out: Path, pool: Any) -> list[str]:
             else "**The base scenario's gains differ from this choice**: "
             f"kp = {used.get('kp')}, kd = {used.get('kd')}, ki = {used.get('ki')}."
         ),
+        *([f"**Joints**: {choice.stiffness_note()}", ""] if choice.stiffness_note() else []),
         "",
         "![gain study](figures/gain_tradeoff.png)",
         "",

@@ -102,6 +102,9 @@ class Manifest:
     claims_study: Path | None = None
     gain_study: Path | None = None
     calibration: Path | None = None  # twolink.studies.calibrate's study file, rerun by the report
+    # The flexible-joint map's third axis: the plant's [plant.scale] factors against every
+    # controller's model (masses, g, and the joints' k and j); empty: the exact model only.
+    flexible_model_error: dict[str, float] = field(default_factory=dict)
 
 
 def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]) -> str:
@@ -267,6 +270,9 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     calibration = (
         _referenced_file(top, "calibration", cal, path.parent, "calibration file") if cal else None
     )
+    model_error = _model_error(top.table("flexible_model_error"))
+    if model_error and flexible_study is None:
+        top.fail("flexible_model_error", "needs a flexible_study to run with it")
     top.done()
     return Manifest(
         path,
@@ -280,4 +286,18 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         claims_study,
         gain_study,
         calibration,
+        model_error,
     )
+
+
+def _model_error(t: TomlTable) -> dict[str, float]:
+    """``flexible_model_error``: [plant.scale] factors, checked as a scenario checks them."""
+    from twolink.interface.config import ARM_SCALE_KEYS, JOINT_SCALE_KEYS
+
+    known = sorted(ARM_SCALE_KEYS + JOINT_SCALE_KEYS)
+    out = {}
+    for key in list(t.data):
+        if key not in known:
+            t.fail(key, f"unknown key (known here: {known})")
+        out[key] = t.number(key, 1.0, positive=True)
+    return out

@@ -317,26 +317,31 @@ def describe_choices(
     return choices
 
 
-def flexible_study(sweep_file: Path, out: Path) -> list[str]:
+def flexible_study(
+    sweep_file: Path, out: Path, model_error: dict[str, float] | None = None
+) -> list[str]:
     """Run the flexible-joint sweep into ``out/flexible_study`` in this process (a worker
     task: its arms are one or two batches); its report section. A sweep over ``k`` and
     ``wn`` is the stiffness x bandwidth map (``twolink.sweep.flexmap``), with the rigid
     arm's Ts and Mp under CTC as its yardstick; a sweep over ``k`` alone, the stiffness
-    study."""
+    study. With ``model_error`` ([plant.scale] factors) the same sweep on plants that
+    differ from every controller's model, into ``out/flexible_study_error``."""
     from twolink import sweep
     from twolink.interface import plots
 
-    plan = sweep.load_sweep(sweep_file)
+    name = "flexible_study_error" if model_error else "flexible_study"
+    overrides = {"overrides": {"plant": {"scale": dict(model_error)}}} if model_error else None
+    plan = sweep.load_sweep(sweep_file, overrides)
     # One thread: this is one task of the reproduction's pool, beside the others.
     outcome = sweep.run_sweep(
         plan,
-        out / "flexible_study",
+        out / name,
         executor="inprocess",
         workers=1,
         plots=False,
         replace_other=True,  # the reproduction's own folder: a changed study is rerun
     )
-    figure = out / "figures/flexible_study.png"
+    figure = out / f"figures/{name}.png"
     if "wn" not in plan.parameter_names:
         plots.save_figure(sweep.flexible_study_figure(outcome.results), figure)
         return ["", "## Beyond the paper: flexible joints from stiff to soft", "",
@@ -345,6 +350,25 @@ def flexible_study(sweep_file: Path, out: Path) -> list[str]:
                 "![flexible study](figures/flexible_study.png)"]  # fmt: skip
     plots.save_figure(sweep.flexible_map_figure(outcome.results, plan.step), figure)
     rigid = sweep.rigid_reference(plan, plan.controller_names[0])
+    if model_error:
+        error = ", ".join(f"{k} ×{v:.3g}" for k, v in sorted(model_error.items()))
+        return [
+            "",
+            "## Beyond the paper: flexible joints with model error",
+            "",
+            f"The same map on plants that differ from every controller's model ({error}: "
+            "the masses and gravity as the robustness sweep's worst, the joints softer than "
+            "identified; the flexible-joint laws model the nominal joints). Per bandwidth, the "
+            "softest k down to which each controller meets the spec at every stiffer joint "
+            "(in brackets: with the rigid arm's Ts and Mp, as above); each cell's outcome "
+            "comes with its linear stability at the target (red ×):",
+            "",
+            sweep.flexible_map_table(outcome.results, rigid, plan.step),
+            "",
+            f"![flexible study with model error](figures/{name}.png)",
+            "",
+            *sweep.disagreements(sweep.map_cells(outcome.results, plan.step)),
+        ]
     return [
         "",
         "## Beyond the paper: flexible joints, stiffness x bandwidth",
@@ -480,6 +504,13 @@ def _reproduce(
                 if manifest.flexible_study is not None
                 else None
             )
+            mismatched = (
+                pool.submit(
+                    flexible_study, manifest.flexible_study, out, manifest.flexible_model_error
+                )
+                if manifest.flexible_model_error
+                else None
+            )
             phase(
                 f"runs: {len(specs)} experiments x controllers x variants, as batches of arms"
                 + (" (and the flexible-joint study)" if study else "")
@@ -553,6 +584,8 @@ def _reproduce(
             sections += design_section(result, specs, scenarios, rows, validity)
             if study is not None:
                 sections += study.result()
+            if mismatched is not None:
+                sections += mismatched.result()
             for fut in drawing:
                 fut.result()
         except BaseException:  # Ctrl-C, or any failure: the workers' tasks are moot
