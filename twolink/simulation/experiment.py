@@ -371,7 +371,8 @@ def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None)
     if s.plant.flexibility is not None and traj.ok:
         from twolink.simulation.stability import closed_loop_growth
 
-        growth = closed_loop_growth(s, build_plant(s), controller)
+        end = (traj.q[-1], traj.motor_q[-1] if len(traj.motor_q) else ())
+        growth = closed_loop_growth(s, build_plant(s), controller, near=end)
     steps = []
     to_target = []
     for j, target in enumerate(s.reference.final):

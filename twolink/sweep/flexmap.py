@@ -138,7 +138,11 @@ def rigid_reference(plan: SweepPlan, controller: str = "CTC") -> dict[float, tup
     scenarios = []
     for wn in wn_grid:
         data = plan.controller_data(controller, {"wn": wn})
-        data["plant"] = {k: v for k, v in data.get("plant", {}).items() if k != "flexibility"}
+        # The rigid arm: no springs, and so no error in them (the masses' and g's stay).
+        plant = {k: v for k, v in data.get("plant", {}).items() if k != "flexibility"}
+        if "scale" in plant:
+            plant["scale"] = {k: v for k, v in plant["scale"].items() if k not in ("k", "j")}
+        data["plant"] = plant
         scenarios.append(scenario_from_dict(data, plan.file))
     out = {}
     for i, traj in iter_scenarios(scenarios):  # one batch: each arm as run_scenario's
