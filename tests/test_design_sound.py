@@ -165,13 +165,34 @@ def test_the_designed_rule_base_is_odd_symmetric(result):
 # ----------------------------------------------------------------------------- held out
 
 
-def test_held_out_runs_are_not_design_runs_and_have_both_controllers(config, result):
+def test_held_out_runs_are_not_design_runs_and_have_all_three_controllers(config, result):
     design_files = {Path(s.source).resolve() for s in config.scenarios}
     held = [Path(s.source).resolve() for s in config.validation]
     assert len(held) >= 3 and not design_files & set(held)
     assert [(r.file, r.controller) for r in result.validation] == [
-        (Path(s.source).stem, c) for s in config.validation for c in ("CTC", "FCM-CTC")
+        (Path(s.source).stem, c)
+        for s in config.validation
+        for c in ("CTC", "FCM-CTC", "CTC-matched")
     ]
+
+
+def test_held_out_ctc_matched_spends_fcm_ctcs_peak_torque(config, result):
+    # Per move, CTC-matched is CTC at ωn × s, s the match of FCM-CTC's peak torque: within
+    # it where s > 1 (the grid's interpolation: within 2 %), CTC itself where FCM-CTC
+    # spends no more than CTC (s = 1, equal rows).
+    rows = {(r.file, r.controller): r for r in result.validation}
+    scaled = 0
+    for s in config.validation:
+        file = Path(s.source).stem
+        ctc, fcm, matched = (rows[file, c] for c in ("CTC", "FCM-CTC", "CTC-matched"))
+        assert ctc.wn_scale == fcm.wn_scale == 1.0
+        if fcm.peak_torque_Nm <= ctc.peak_torque_Nm * (1 + 1e-3):
+            assert matched.wn_scale == 1.0 and matched.iae == ctc.iae
+        else:
+            scaled += 1
+            assert matched.wn_scale > 1.0
+            assert matched.peak_torque_Nm == pytest.approx(fcm.peak_torque_Nm, rel=0.02)
+    assert scaled >= 1  # the comparison is not vacuous
 
 
 def test_held_out_metrics_match_a_single_arm_run(config, result):

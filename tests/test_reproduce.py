@@ -242,7 +242,8 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     assert run["controller"] == "FCM-CTC"
     assert list(run["joint1"]) == list(run["joint2"]) == keys
     sweep = pd.read_parquet(reproduction.out / "flexible_study" / "results.parquet")
-    assert set(sweep["controller"]) == names | {"motor-PD", "composite", "flexible-FL"}
+    flexible = {"motor-PD", "composite", "flexible-FL", "flexible-FL-I"}
+    assert set(sweep["controller"]) == names | flexible
     metric_columns = [c for c in sweep.columns if c.startswith("joint")]
     assert metric_columns == [f"joint{j}_{k}" for j in (1, 2) for k in keys]
     report = (reproduction.out / "report.md").read_text()

@@ -350,7 +350,8 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
     )
     for row in result.validation:
         click.echo(
-            f"held out: {row.file:22s} {row.controller:8s} Mp {row.overshoot_pct:6.3g} %  "
+            f"held out: {row.file:22s} {row.controller:11s} ωn ×{row.wn_scale:<5.3g} "
+            f"Mp {row.overshoot_pct:6.3g} %  "
             f"Ts {row.settling_s:6.3g} s  IAE {row.iae:8.3g} rad s  peak tau "
             f"{row.peak_torque_Nm:6.3g} N m"
         )

@@ -126,6 +126,7 @@ def _claims_study(
         )
     atomic_write_text(out / f"claims_matched{suffix}.csv", fair.to_csv(index=False))
     source = f"{study.parent.name}/{study.name}" + (f", {regime}" if regime else "")
+    sensor = plan.nominal_scenario().sensor.describe()
     met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
     met.setdefault(MATCHED, met[manifest.baseline])  # the baseline as its own match
     # Who wins on what: every controller of the sweep against the baseline, on one table.
@@ -139,11 +140,11 @@ def _claims_study(
     every = pd.concat([t.assign(controller=n) for n, t in versus.items()], ignore_index=True)
     atomic_write_text(out / f"claims_all{suffix}.csv", every.to_csv(index=False))
     sections = report.winners_section(versus, manifest.baseline, met, plan.samples, regime) + (
-        report.claims_section(table, manifest, plan.samples, source, met, regime)
+        report.claims_section(table, manifest, plan.samples, source, met, regime, sensor)
     )
     against = dataclasses.replace(manifest, baseline=MATCHED)
     sections += matched_section(matched, manifest) + report.claims_section(
-        fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {MATCHED}"
+        fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {MATCHED}", sensor
     )
     label = regime or "the claims study's quintic moves"
     return sections, [

@@ -652,16 +652,19 @@ def design_markdown(rules: Sequence[Rule], evidence: Mapping[str, Any]) -> list[
     if rows:
         lines += [
             "",
-            "Held out (moves that are not design runs; nominal arm, same gains and scaling):",
+            "Held out (moves that are not design runs; nominal arm, same gains and scaling; "
+            "CTC-matched: CTC with ωn scaled to spend FCM-CTC's peak torque on the move, "
+            'docs/reproduction.md "A fair linear opponent"):',
             "",
-            "| run | controller | Mp [%] | Ts to target [s] | IAE [rad·s] | ess [rad] "
+            "| run | controller | ωn × | Mp [%] | Ts to target [s] | IAE [rad·s] | ess [rad] "
             "| peak τ [N·m] |",
-            "|---|---|---|---|---|---|---|",
+            "|---|---|---|---|---|---|---|---|",
         ]
         for r in rows:
             lines.append(
-                f"| {r.run} | {r.controller} | {_cell(r.overshoot_pct)} | {_cell(r.settling_s)} "
-                f"| {_cell(r.iae)} | {_cell(r.ess_rad, 2)} | {_cell(r.peak_torque_Nm)} |"
+                f"| {r.run} | {r.controller} | {r.wn_scale:.3g} | {_cell(r.overshoot_pct)} "
+                f"| {_cell(r.settling_s)} | {_cell(r.iae)} | {_cell(r.ess_rad, 2)} "
+                f"| {_cell(r.peak_torque_Nm)} |"
             )
     return lines
 

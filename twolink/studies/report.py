@@ -414,6 +414,7 @@ def claims_section(
     source: str,
     met: dict[str, int],
     regime: str = "",
+    sensor: str = "",
 ) -> list[str]:
     """The paper's claims judged on many plants (:func:`twolink.studies.claims.paired_claims`'s
     table): per joint and metric the counts, the estimate with its interval, the adjusted
@@ -425,7 +426,10 @@ def claims_section(
         "",
         f"Does {p} lower each metric against {b}? Both ran on the same {plants} plants drawn",
         f"by `{source}` (masses, lengths, gravity and a tip payload off the controllers'",
-        "model). " + STATISTICS.replace("controller − baseline", f"{p} − {b}"),
+        "model)"
+        + (f", seen through the sensor: {sensor} (docs/sensors.md)" if sensor else "")
+        + ". "
+        + STATISTICS.replace("controller − baseline", f"{p} − {b}"),
         "n: plants where both have the metric (a response that never settles has none).",
         "",
         f"First, whether either reached its targets: {p} met the spec on {met.get(p, 0)} of",

@@ -314,6 +314,12 @@ def describe_choices(
         f"{first.control_dt * 1e3:g} ms with zero-order hold"
     )
     choices["ess"] = f"|target − θ| at the last sample (t = {first.duration:g} s)"
+    sensors = sorted({sc.sensor.describe() for sc in scenarios.values()})
+    choices["sensor"] = (
+        "; ".join(sensors)
+        + " in the paper's experiments, as the paper's simulation; the gain study and the "
+        "claims studies state their own (their sections; docs/sensors.md)"
+    )
     return choices
 
 
