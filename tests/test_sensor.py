@@ -245,3 +245,29 @@ def test_with_a_model_error_the_loop_is_linearised_where_it_rests_not_at_the_tar
     assert -5 < growth < 0
     # With no hint, Newton from the target does not reach that rest state: no claim.
     assert math.isnan(closed_loop_growth(s, build_plant(s), build_controller(s)))
+
+
+def test_sweep_parameters_k_scale_and_j_scale_are_the_joints_model_error(tmp_path):
+    from twolink.interface.config import scenario_from_dict
+    from twolink.sweep import load_sweep
+
+    plan = load_sweep(
+        "runs/sweeps/flexible_map.toml",
+        {
+            "samples": 2,
+            "parameters": {
+                "replace": True,
+                "k": {"dist": "grid", "values": [1e4]},
+                "k_scale": {"dist": "grid", "values": [0.5, 1 / 1.2]},
+                "j_scale": {"dist": "grid", "values": [1.1]},
+            },
+        },
+    )
+    scales = []
+    for i in range(2):
+        values, seed = plan.draw(i)
+        s = scenario_from_dict(plan.sample_data(values, seed), plan.file)
+        assert s.plant.flexibility.k == (1e4, 1e4)  # the model: the drawn joints
+        scales.append(s.plant_joints.k[0] / 1e4)
+        assert s.plant_joints.j == pytest.approx((0.44, 0.088))
+    assert scales == pytest.approx([0.5, 1 / 1.2])
