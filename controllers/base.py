@@ -58,3 +58,11 @@ def pair(
 def saturate(tau: float, limit: float) -> float:
     """Clip ``tau`` to [-limit, limit]; ``limit`` may be inf."""
     return -limit if tau < -limit else limit if tau > limit else tau
+
+
+def integrate_unless_winding_up(z: float, e: float, raw: float, tau: float, dt: float) -> float:
+    """One forward-Euler step of an integrator ``z`` of the error ``e``, held while the
+    torque is at its limit and the error would push it further (conditional integration,
+    the anti-windup of the laws with integral action): ``raw`` the torque asked for,
+    ``tau`` the one applied."""
+    return z + e * dt if tau == raw or (e > 0) != (raw > 0) else z

@@ -22,7 +22,7 @@ from typing import Any
 
 from twolink.arm.dynamics import terms
 from twolink.arm.params import ArmParams
-from twolink.controllers.base import pair, saturate
+from twolink.controllers.base import integrate_unless_winding_up, pair, saturate
 from twolink.controllers.ctc import ComputedTorque
 
 # Integral gain [1/s^3]: s^3 + Kd s^2 + Kp s + Ki is Hurwitz for Ki < Kd Kp (9.6 with the
@@ -104,11 +104,10 @@ class IntegralComputedTorque(ComputedTorque):
         lim1, lim2 = self.torque_limit
         tau1, tau2 = saturate(raw1, lim1), saturate(raw2, lim2)
         dt = self.control_dt
-        if tau1 == raw1 or (e1 > 0) != (raw1 > 0):
-            z1 += e1 * dt
-        if tau2 == raw2 or (e2 > 0) != (raw2 > 0):
-            z2 += e2 * dt
-        self.z = (z1, z2)
+        self.z = (
+            integrate_unless_winding_up(z1, e1, raw1, tau1, dt),
+            integrate_unless_winding_up(z2, e2, raw2, tau2, dt),
+        )
         return tau1, tau2
 
 

@@ -527,21 +527,29 @@ class FlexibleFeedbackLinearisation(_FlexibleJointController):
         r2, v2, a2, j2, s2 = self.reference.joint2.derivatives(ahead, 4)
         if self.held is None:
             self.held = _spring_torques(self._jt, q, qd, motor_q, motor_qd)
-        tau = self._saturated(
-            *_feedback_linearisation(
-                self.model,
-                self._jt,
-                self._gains,
-                self.control_dt,
-                (r1, r2, v1, v2, a1, a2, j1, j2, s1, s2),
-                (q[0], q[1], qd[0], qd[1], motor_q[0], motor_q[1], motor_qd[0], motor_qd[1]),
-                self.held,
-                math.cos,
-                math.sin,
-            )
+        o1, o2 = self._snap_offset()
+        raw = _feedback_linearisation(
+            self.model,
+            self._jt,
+            self._gains,
+            self.control_dt,
+            (r1, r2, v1, v2, a1, a2, j1, j2, s1 + o1, s2 + o2),
+            (q[0], q[1], qd[0], qd[1], motor_q[0], motor_q[1], motor_qd[0], motor_qd[1]),
+            self.held,
+            math.cos,
+            math.sin,
         )
+        tau = self._saturated(*raw)
         self.held = tau
+        self._after(t, q, raw, tau)
         return tau
+
+    def _snap_offset(self) -> tuple[float, float]:
+        """What a subclass adds to the commanded snap (integral action: ``ci z``)."""
+        return 0.0, 0.0
+
+    def _after(self, t: float, q, raw: tuple[float, float], tau: tuple[float, float]) -> None:
+        """A subclass's update after each call (its integrators)."""
 
 
 # ----------------------------------------------------------------------------- batch forms

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twolink.controllers.base import integrate_unless_winding_up
 from twolink.controllers.batch import ReferenceTable
 from twolink.controllers.flexible import (
     BatchFlexibleFeedbackLinearisation,
@@ -155,38 +156,20 @@ class IntegralFlexibleFeedbackLinearisation(FlexibleFeedbackLinearisation):
         super().reset()
         self.z = (0.0, 0.0)
 
-    def __call__(self, t, q, qd, motor_q, motor_qd) -> tuple[float, float]:
-        ahead = t + self.control_dt / 2  # where the law is evaluated (see the kernel)
-        r1, v1, a1, j1, s1 = self.reference.joint1.derivatives(ahead, 4)
-        r2, v2, a2, j2, s2 = self.reference.joint2.derivatives(ahead, 4)
-        if self.held is None:
-            self.held = _spring_torques(self._jt, q, qd, motor_q, motor_qd)
-        z1, z2 = self.z
-        ki1, ki2 = self.ki
+    def _snap_offset(self) -> tuple[float, float]:
         # ci z enters v as the snap does: added to the reference's snap
-        raw1, raw2 = _feedback_linearisation(
-            self.model,
-            self._jt,
-            self._gains,
-            self.control_dt,
-            (r1, r2, v1, v2, a1, a2, j1, j2, s1 + ki1 * z1, s2 + ki2 * z2),
-            (q[0], q[1], qd[0], qd[1], motor_q[0], motor_q[1], motor_qd[0], motor_qd[1]),
-            self.held,
-            math.cos,
-            math.sin,
-        )
-        tau1, tau2 = self._saturated(raw1, raw2)
-        self.held = (tau1, tau2)
+        (z1, z2), (ki1, ki2) = self.z, self.ki
+        return ki1 * z1, ki2 * z2
+
+    def _after(self, t, q, raw, tau) -> None:
         # the error now, integrated by forward Euler; conditional integration (anti-windup)
         e1 = self.reference.joint1(t)[0] - q[0]
         e2 = self.reference.joint2(t)[0] - q[1]
-        dt = self.control_dt
-        if tau1 == raw1 or (e1 > 0) != (raw1 > 0):
-            z1 += e1 * dt
-        if tau2 == raw2 or (e2 > 0) != (raw2 > 0):
-            z2 += e2 * dt
-        self.z = (z1, z2)
-        return tau1, tau2
+        (z1, z2), dt = self.z, self.control_dt
+        self.z = (
+            integrate_unless_winding_up(z1, e1, raw[0], tau[0], dt),
+            integrate_unless_winding_up(z2, e2, raw[1], tau[1], dt),
+        )
 
 
 class BatchIntegralFlexibleFeedbackLinearisation(BatchFlexibleFeedbackLinearisation):
