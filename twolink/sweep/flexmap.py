@@ -185,7 +185,8 @@ def flexible_map_table(
     stiffness [N m/rad] down to which the controller meets the spec at every stiffer
     joint, and in brackets the softest down to which its Ts and Mp also stay within the
     rigid arm's (``rigid``: {wn: (Ts, Mp)}, e.g. :func:`rigid_reference`; Ts at most 10 %
-    + 0.05 s later, Mp at most 1 point higher). "—": not even at the stiffest joint."""
+    + 0.05 s later, Mp at most 1 point higher). "—": not even at the stiffest joint;
+    "never": the rigid arm's Ts, where it never settles to the target."""
     r = _frame(results)
     cells = map_cells(r, move)
     controllers = sweep_meta(r).controllers
@@ -199,7 +200,8 @@ def flexible_map_table(
         row = [f"{wn:g}"]
         if rigid is not None:
             rts, rmp = rigid[float(wn)]
-            row.append(f"{rts:.3g}, {rmp:.2g}")
+            # NaN Ts: the rigid arm never enters the band (a model error it cannot hold)
+            row.append(f"{'never' if math.isnan(rts) else f'{rts:.3g}'}, {rmp:.2g}")
         for c in controllers:
             sub = cells[(cells["controller"] == c) & (cells["wn"] == wn)]
             met = (sub["kind"] == "settled").to_numpy()
