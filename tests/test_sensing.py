@@ -35,3 +35,15 @@ def test_torque_activity_exact_differenced_filtered(table):
     assert v["encoder, differenced"] > 40 * v["encoder, filtered 50 Hz"] > 40 * 5 * v["exact"]
     # ... and every rate ends on target within a few encoder counts.
     assert (t["final_error_rad"] < 3e-4).all() and (t["status"] == "ok").all()
+
+
+def test_the_reports_sensor_line_says_the_papers_only_for_the_true_state():
+    from twolink.simulation.sensor import Sensor
+    from twolink.studies.reproduce import sensor_choice
+
+    ideal = sensor_choice({Sensor()})
+    assert ideal.startswith("ideal (true angles and rates) in the paper's experiments, as the")
+    encoder = sensor_choice({Sensor.encoder()})
+    assert encoder.startswith("17-bit encoder") and "as the paper's simulation" not in encoder
+    mixed = sensor_choice({Sensor(), Sensor.encoder()})
+    assert "as the paper's simulation" not in mixed

@@ -13,9 +13,8 @@ gives the growth rate ``σ = ln ρ / control_dt``: σ > 0 is unstable
 a flexible arm's rotors where their springs hold it there); with a model error the loop
 rests off it (CTC's steady-state error), so the fixed point of Φ is found first by Newton's
 method from the target, and where it is not found the answer is NaN (no linearisation
-claimed). The map is
-that of the true state, so a loop behind a sensor with dynamics of its own (a velocity
-estimate, a delay, an encoder's quantum) has none here: NaN.
+claimed). The map is that of the true state, so a loop behind a sensor with dynamics of
+its own (a velocity estimate, a delay, an encoder's quantum) has none here: NaN.
 """
 
 from __future__ import annotations

@@ -32,7 +32,7 @@ from twolink.interface.config import (
     read_toml,
     scenario_from_dict,
 )
-from twolink.simulation.metrics import step_metrics
+from twolink.simulation.metrics import step_metrics, torque_measures
 
 __all__ = [
     "GainStudy",
@@ -214,7 +214,7 @@ def _row(labels: dict[str, Any], s: Any, traj: Any, limit: tuple[float, float]) 
         n = j + 1
         row[f"final_error{n}"] = float(e_final[j]) if traj.status == "ok" else math.nan
         row[f"torque_peak{n}"] = float(np.max(np.abs(traj.tau[:, j]))) if len(traj.t) else math.nan
-        variation = float(np.abs(np.diff(traj.tau[:, j])).sum())
+        variation = float(torque_measures(traj.tau[:, j]).variation) if len(traj.t) else math.nan
         row[f"torque_variation{n}"] = variation
         row[f"torque_step{n}"] = variation / max(1, len(traj.t) - 1)
         at_limit = np.abs(traj.tau[:, j]) >= limit[j] * (1 - 1e-9)
@@ -433,7 +433,7 @@ def realistic_growth(study: GainStudy, wns: Sequence[float]) -> dict[float, floa
             base,
             {
                 "plant": {"flexibility": flexibility},
-                "controller": {**_gains(wn, 1.0, "ctc", study.integral_ratio)},
+                "controller": _gains(wn, 1.0, "ctc", study.integral_ratio),
             },
         )
         data.pop("sensor", None)
@@ -510,8 +510,7 @@ def sensor_text(study: GainStudy) -> str:
     """The study's sensor in words."""
     from twolink.simulation.sensor import Sensor
 
-    known = {k: v for k, v in study.sensor.items()}
-    return Sensor(**known).describe()
+    return Sensor(**study.sensor).describe()
 
 
 def table_path(study: GainStudy) -> Path:
@@ -587,7 +586,7 @@ def report_section(path: Path, out: Path, pool: Any) -> list[str]:
             else "**The base scenario's gains differ from this choice**: "
             f"kp = {used.get('kp')}, kd = {used.get('kd')}, ki = {used.get('ki')}."
         ),
-        *([f"**Joints**: {choice.stiffness_note()}", ""] if choice.stiffness_note() else []),
+        *([f"**Joints**: {note}", ""] if (note := choice.stiffness_note()) else []),
         "",
         "![gain study](figures/gain_tradeoff.png)",
         "",

@@ -314,13 +314,20 @@ def describe_choices(
         f"{first.control_dt * 1e3:g} ms with zero-order hold"
     )
     choices["ess"] = f"|target − θ| at the last sample (t = {first.duration:g} s)"
-    sensors = sorted({sc.sensor.describe() for sc in scenarios.values()})
-    choices["sensor"] = (
-        "; ".join(sensors)
-        + " in the paper's experiments, as the paper's simulation; the gain study and the "
-        "claims studies state their own (their sections; docs/sensors.md)"
-    )
+    choices["sensor"] = sensor_choice({sc.sensor for sc in scenarios.values()})
     return choices
+
+
+def sensor_choice(sensors: Any) -> str:
+    """The "sensor" line of the choices: the experiments' sensors, "as the paper's
+    simulation" only where all see the true state (the paper's simulation measures it)."""
+    return (
+        "; ".join(sorted(s.describe() for s in sensors))
+        + " in the paper's experiments"
+        + (", as the paper's simulation" if all(s.ideal for s in sensors) else "")
+        + "; the gain study and the claims studies state their own (their sections; "
+        "docs/sensors.md)"
+    )
 
 
 def flexible_study(

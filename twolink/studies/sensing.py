@@ -54,6 +54,7 @@ def velocity_table(
     variation per joint [N·m], max|e| of the larger joint [rad] and final error [rad]."""
     from twolink.interface.config import scenario_from_dict
     from twolink.simulation.experiment import run_scenarios
+    from twolink.simulation.metrics import torque_measures
     from twolink.sweep import load_sweep
 
     plan = load_sweep(SWEEP)
@@ -65,7 +66,7 @@ def velocity_table(
             labels.append((wn, name, sensor.get("cutoff_hz", np.nan)))
     rows = []
     for (wn, name, fc), traj in zip(labels, run_scenarios(scenarios), strict=True):
-        variation = np.abs(np.diff(traj.tau, axis=0)).sum(axis=0)
+        variation = torque_measures(traj.tau).variation
         rows.append(
             {
                 "wn": wn,
