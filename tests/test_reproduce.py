@@ -195,6 +195,16 @@ def _files(folder: Path) -> dict[str, int]:
     return {str(p.relative_to(folder)): p.stat().st_size for p in folder.rglob("*") if p.is_file()}
 
 
+def _written_runs(out: Path) -> int:
+    """Runs written so far into ``out`` while a reproduction is writing it: a scratch folder
+    renamed away during the walk is a run being finished, so the walk is taken again."""
+    while True:
+        try:
+            return len(list(out.rglob("trajectory.npz")))
+        except FileNotFoundError:
+            continue
+
+
 @pytest.mark.slow
 def test_interrupted_reproduction_leaves_whole_files_and_reruns_to_completion(
     tmp_path, reproduction
@@ -205,7 +215,7 @@ def test_interrupted_reproduction_leaves_whole_files_and_reruns_to_completion(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
     )
     deadline = time.monotonic() + 120
-    while len(list(out.rglob("trajectory.npz"))) < 6 and time.monotonic() < deadline:
+    while _written_runs(out) < 6 and time.monotonic() < deadline:
         time.sleep(0.05)
     os.killpg(proc.pid, signal.SIGINT)  # Ctrl-C reaches the whole process group
     proc.communicate(timeout=120)
