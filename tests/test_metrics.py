@@ -380,12 +380,22 @@ def test_oscillation_is_the_amplitude_of_a_limit_cycle_and_not_of_drift_or_offse
     from twolink.simulation.metrics import oscillation_amplitude
 
     t = np.linspace(0.0, 10.0, 10001)
-    cycle = 0.175 * np.sin(2 * np.pi * t / 3.0)  # Table 4's FCM-CTC: ~3 s, 0.35 rad p2p
+    cycle = 0.175 * np.sin(2 * np.pi * t / 2.0)  # the 3 s window holds 1.5 periods
+    one_period = 0.175 * np.sin(2 * np.pi * (t - 7.0) / 3.0)  # the window opens rising at 0
     settled = 0.3 * np.exp(-2 * t) * np.cos(5 * t)
     offset = np.full_like(t, 0.4)  # settled off target: not oscillation
-    drift = 0.02 * t  # still sagging: half its change over the last 3 s
-    got = oscillation_amplitude(t, np.stack([cycle + offset, settled, offset, drift], axis=1))
-    assert abs(got[0] - 0.175) < 1e-6  # the window holds a whole period
+    drift = 0.02 * t  # still drifting one way: no oscillation
+    sag = 0.9 * (1 - np.exp(-0.3 * t))  # still sagging toward its rest state (a 3 s map run)
+    wobble = sag + 0.004 * np.sin(2 * np.pi * t / 0.5)  # a small cycle on that sag
+    columns = [cycle + offset, settled, offset, drift, sag, wobble, -sag, one_period]
+    got = oscillation_amplitude(t, np.stack(columns, axis=1))
+    assert abs(got[0] - 0.175) < 1e-6  # exact where the window holds 1.5 periods
+    # one period only: a lower bound, at worst half (it rises A, falls 2A, rises A)
+    assert abs(got[7] - 0.175 / 2) < 1e-6
     assert got[1] < 1e-6 and got[2] == 0
-    assert abs(got[3] - 0.03) < 1e-12
+    # a drift or a sag only rises (or only falls): half its peak-to-peak (0.03 and 0.03
+    # rad here, over the 2 % band of a 1 rad move) would call it a limit cycle
+    assert got[3] == 0 and got[4] == 0 and got[6] == 0
+    # a cycle on a sag: its back-swing shows, less the sag over its falling half period
+    assert 0.002 < got[5] < 0.004
     assert math.isnan(oscillation_amplitude(t[:2], cycle[:2]))

@@ -353,13 +353,17 @@ OSCILLATION_WINDOW = 0.3  # the last 30 % of a run: 3 s of a 10 s run, a period 
 def oscillation_amplitude(
     t: np.ndarray, e: np.ndarray, window: float = OSCILLATION_WINDOW
 ) -> float | tuple[float, ...]:
-    """Amplitude of sustained oscillation: half the peak-to-peak of the error over the last
-    ``window`` of the run.
+    """Amplitude of sustained oscillation: half the smaller of the error's largest rise and
+    its largest fall over the last ``window`` of the run.
 
-    A limit cycle gives its amplitude (the window must hold one period: 3 s of a 10 s run);
-    a response settled there, at its target or off it, gives ~0; one still drifting gives
-    half its change over the window. (Removing a fitted line instead would bias a window of
-    about one period by up to 15 %.) NaN for fewer than 3 samples in the window.
+    An oscillation both rises and falls: a limit cycle with a period in the window gives
+    its amplitude (half its peak-to-peak). A response settled there, at its target or off
+    it, gives ~0, and so does one still drifting one way (a sag toward its rest state, a
+    slow approach, a monotone runaway): it only rises or only falls, so it is no
+    oscillation (half its peak-to-peak would read its drift as one). It never overstates:
+    exact where the window holds 1.5 periods of the cycle (periods up to 2 s in the 3 s
+    window of a 10 s run), at least half the amplitude where it holds one. NaN for fewer
+    than 3 samples in the window.
 
     Parameters
     ----------
@@ -372,7 +376,11 @@ def oscillation_amplitude(
     tail = t >= t[-1] - window * (t[-1] - t[0])
     if tail.sum() < 3:
         return _per_column(np.full(e.shape[1:], np.nan)) if e.ndim > 1 else math.nan
-    return _per_column(0.5 * np.ptp(e[tail], axis=0))
+    w = e[tail]
+    # NaN propagates (as in the other measures): a NaN anywhere in the window gives NaN
+    rise = np.max(w - np.minimum.accumulate(w, axis=0), axis=0)
+    fall = np.max(np.maximum.accumulate(w, axis=0) - w, axis=0)
+    return _per_column(0.5 * np.minimum(rise, fall))
 
 
 def torque_measures(tau: np.ndarray) -> TorqueMeasures:

@@ -264,7 +264,8 @@ def flexible_map_figure(results: pd.DataFrame | str | Path, move: float = 1.0) -
     if image is not None:
         fig.colorbar(image, ax=axes.ravel().tolist(), label="Ts to the target [s]")
     fig.suptitle(
-        "Flexible joints: settled (colour Ts, number Mp %), grey off target, × unstable, "
+        "Flexible joints: settled (colour Ts, number Mp %), grey off target, × unstable, a "
+        "limit cycle or diverged, "
         f"· twist > {TWIST_LIMIT} rad",
         fontsize=9,
     )

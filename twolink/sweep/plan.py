@@ -91,7 +91,8 @@ __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan",
 # Chunk files and manifest (2: Parquet, 3: oscillation_rad, 4: settling_time_target_s,
 # max_error_rad and Tp only where there is a peak); in the digest, so older chunks are
 # not resumed; 5: max_twist_rad).
-FORMAT_VERSION = 6  # 6: tail_error_rad, tail_growth; final error against the target
+FORMAT_VERSION = 7  # 6: tail_error_rad, tail_growth; final error against the target;
+# 7: oscillation_rad counts a drift as no oscillation (the smaller of rise and fall)
 # Samples per task: each task is one batch of arms (samples x controllers) on the batch
 # engine, whose per-step cost is mostly fixed below ~100 arms (docs/sweeps.md).
 DEFAULT_CHUNK_SIZE = 100
