@@ -398,6 +398,32 @@ def test_sigterm_ends_reproduce_with_one_line_and_exit_143(tmp_path):
     _terminated(["reproduce", "--out", str(tmp_path / "r"), "--no-trace"], 6.0, tmp_path)
 
 
+@pytest.mark.parametrize("command", ["regimes", "gains"])
+def test_sigterm_inside_a_study_sweep_ends_at_once_with_one_line(tmp_path, command):
+    # In a study's own sweep (a pool lent to run_sweep): `twolink regimes` ended in a
+    # SweepInterrupted traceback, exit 1, and both waited ~10 s for the running chunks.
+    import threading
+
+    args = [sys.executable, "-m", "twolink", command, "--out", str(tmp_path / "out")]
+    proc = subprocess.Popen(args, stderr=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    err: list[str] = []
+    reader = threading.Thread(target=lambda: err.extend(iter(lambda: proc.stderr.read(1), "")))
+    reader.start()
+    deadline = time.monotonic() + 60
+    while "0%|" not in "".join(err) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.1)  # until the progress bar shows: the pool's tasks are running
+    time.sleep(2.0)
+    proc.send_signal(signal.SIGTERM)
+    sent = time.monotonic()
+    proc.wait(timeout=120)
+    took = time.monotonic() - sent
+    reader.join()
+    text = "".join(err)
+    assert proc.returncode == 143, text
+    assert "SIGTERM" in text and "Traceback" not in text
+    assert took < 7.0  # the pool is stopped, not waited for (its tasks take ~10 s)
+
+
 # 8 ---------------------------------------------------------------------------- hangs
 
 
