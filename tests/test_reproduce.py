@@ -320,19 +320,27 @@ def test_the_combined_recording_has_a_tab_per_experiment_with_the_pair_side_by_s
 ):
     """reproduction.rrd compares (issue 31): per experiment the pair (and FCM variants) on
     a fitted scale, their errors and torques, the baselines that leave the scale apart;
-    small enough to open (at most 20 MB). The fuzzy runs' phase planes with the fired
-    rules are in each run's trace.rrd."""
+    small enough to open (at most 20 MB) and light for the viewer (an entity per view, two
+    chunks each). The fuzzy runs' phase planes with the fired rules are in each run's
+    trace.rrd."""
+    from collections import Counter
+
     from rerun.chunk import RrdReader
+
+    from twolink.tracing.comparison import read_comparison
 
     path = reproduction.out / "reproduction.rrd"
     assert path.stat().st_size < 20e6
-    entities = {ch.entity_path for ch in RrdReader(path).stream()}
+    chunks = Counter(ch.entity_path for ch in RrdReader(path).store().stream())
+    assert {"/rigid/table2/angle", "/rigid/table2/baselines"} <= set(chunks)
+    assert max(chunks.values()) == 2
+    curves = set(read_comparison(path).columns)
     for name in ("FCM-CTC", "CTC", "FCM-CTC-continuous"):
         for leaf in ("angle", "error", "torque"):
-            assert f"/rigid/table2/{leaf}/{name}" in entities
-    assert "/rigid/table2/angle/reference" in entities
-    assert "/rigid/table2/baselines/fuzzy-PD" in entities  # it leaves the pair's scale
-    assert "/rigid/table2/error/fuzzy-PD" not in entities
+            assert f"rigid/table2/{leaf}/{name}" in curves
+    assert "rigid/table2/angle/reference" in curves
+    assert "rigid/table2/baselines/fuzzy-PD" in curves  # it leaves the pair's scale
+    assert "rigid/table2/error/fuzzy-PD" not in curves
     trace = reproduction.out / "rigid" / "table2" / "FCM-CTC" / "trace.rrd"
     entities = {ch.entity_path for ch in RrdReader(trace).stream()}
     run = "/rigid/table2/FCM-CTC/phase"
