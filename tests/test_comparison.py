@@ -1,14 +1,17 @@
 """The reproduction's combined recording (twolink.tracing.comparison): a tab per
-experiment, one entity per view holding every controller's curve, light for the viewer."""
+experiment with two views (angles, the pair's errors), one entity per view holding every
+controller's curve, light for the viewer."""
 
 from collections import Counter
 from pathlib import Path
 
 import numpy as np
+import pandas.testing as pd_testing
 import pytest
 from rerun.chunk import RrdReader
 
 from twolink.simulation.sim import Trajectory
+from twolink.tracing import read_recording
 from twolink.tracing.comparison import (
     PALETTE,
     ExperimentRuns,
@@ -84,35 +87,32 @@ def legend(path: Path) -> dict[str, tuple[list[str], list[tuple[int, int, int]]]
     return out
 
 
-def test_one_entity_per_view_in_two_chunks_the_first_tab_first(written):
+def test_two_views_per_experiment_one_entity_each_in_two_chunks_the_first_tab_first(written):
     """The viewer spends about a frame on every few chunks it loads, and shows nothing
-    until the layout and the first tab's curves are in: each view is one entity (its
-    legend, then its curves) and the first experiment's come first."""
+    until the layout and the first tab's curves are in: two views per experiment (no
+    torque view, no view of the far baselines), each one entity (its legend, then its
+    curves), the first experiment's first."""
     path, _ = written
     chunks = recording_chunks(path)
     per_entity = Counter(ch.entity_path.strip("/") for ch in chunks)
-    views = ("angle", "error", "torque")
-    assert set(per_entity) == {
-        *(f"rigid/table2/{v}" for v in (*views, "baselines")),
-        *(f"flexible/table3/{v}" for v in views),
-    }
+    views = ("angle", "error")
+    prefixes = ("rigid/table2", "flexible/table3")
+    assert set(per_entity) == {f"{p}/{v}" for p in prefixes for v in views}
     assert set(per_entity.values()) == {2}
     order = [ch.entity_path.strip("/") for ch in chunks]
-    assert order[:8] == [f"rigid/table2/{v}" for v in (*views, "baselines") for _ in range(2)]
+    assert order[:4] == [f"rigid/table2/{v}" for v in views for _ in range(2)]
     assert [ch.is_static for ch in chunks[:2]] == [True, False]
 
 
 def test_the_legend_names_every_controller_the_pair_first_in_its_colour(written):
     """Per view: the pair, the other FCM variants, the baselines on the pair's scale and
     the reference last (a view too short for its legend cuts the last entries); a
-    controller keeps its colour in every view and tab; the far baseline has its own."""
+    controller keeps its colour in every view and tab; the far baseline is in none."""
     path, _ = written
     lines = legend(path)
     pair = ["FCM-CTC", "CTC", "FCM-CTC-continuous"]
     assert lines["rigid/table2/angle"][0] == [*pair, "CTC-I", "PD-G", "reference"]
     assert lines["rigid/table2/error"][0] == pair
-    assert lines["rigid/table2/torque"][0] == pair
-    assert lines["rigid/table2/baselines"][0] == ["fuzzy-PD", "reference"]
     assert lines["flexible/table3/angle"][0] == ["FCM-CTC", "CTC", "reference"]
     colour = {}
     for names, colours in lines.values():
@@ -126,7 +126,8 @@ def test_the_legend_names_every_controller_the_pair_first_in_its_colour(written)
 def test_every_curve_reads_back_at_the_kept_samples_a_short_run_ends_in_nan(written):
     """read_comparison gives each curve its column (``P/<view>/<controller>``, the
     entities of the layout before one entity held a whole view): every 20th sample (50
-    Hz of the 1 kHz loop), each run's last, and NaN past the end of a run cut short."""
+    Hz of the 1 kHz loop), each run's last, and NaN past the end of a run cut short;
+    read_recording reads the file the same way."""
     path, experiments = written
     frame = read_comparison(path)
     rigid, flexible = experiments
@@ -136,13 +137,11 @@ def test_every_curve_reads_back_at_the_kept_samples_a_short_run_ends_in_nan(writ
         j = e.joint - 1
         for name, tr in e.runs.items():
             keep = idx[idx < len(tr.t)]
-            for leaf, values in (("angle", tr.q), ("error", tr.q_ref - tr.q), ("torque", tr.tau)):
+            for leaf, values in (("angle", tr.q), ("error", tr.q_ref - tr.q)):
                 column = f"{e.prefix}/{leaf}/{name}"
-                if name in ("fuzzy-PD", "PD-G", "CTC-I") and leaf != "angle":
-                    assert column not in frame  # errors and torques: the pair's
+                if name == "fuzzy-PD" or (name in ("PD-G", "CTC-I") and leaf != "angle"):
+                    assert column not in frame  # errors: the pair's; far baselines: none
                     continue
-                if name == "fuzzy-PD":
-                    column = f"{e.prefix}/baselines/{name}"
                 got = frame[column].dropna()
                 if e is flexible:  # the other experiment's extra sample is NaN here
                     keep = sample_indices(N, 20)
@@ -155,13 +154,16 @@ def test_every_curve_reads_back_at_the_kept_samples_a_short_run_ends_in_nan(writ
         frame["rigid/table2/angle/reference"].dropna().to_numpy(),
         rigid.runs["CTC"].q_ref[idx, 0],
     )
-    assert "rigid/table2/baselines/reference" in frame
-    assert not any(c.startswith("flexible/table3/baselines") for c in frame)
+    assert not any("torque" in c or "baselines" in c or "fuzzy-PD" in c for c in frame)
+    assert len(frame.columns) == 6 + 3 + 3 + 2  # angles, errors; rigid, flexible
+    pd_testing.assert_frame_equal(read_recording(path), frame)
 
 
 def test_each_tab_has_its_views_their_legends_bottom_right(written):
-    """The layout: a tab per experiment, a view per entity, its legend bottom right, and
-    nothing else the viewer would have to load (each view fits its y axis to its curves)."""
+    """The layout: a tab per experiment, a view per entity, its legend bottom right (the
+    viewer's default, bottom left, covers the start of every step), and nothing else the
+    viewer would have to load (each view fits its y axis to its curves); the angle view's
+    title names a baseline left out."""
     path, experiments = written
     reader = RrdReader(path)
     (bp,) = reader.blueprints()
@@ -185,8 +187,9 @@ def test_each_tab_has_its_views_their_legends_bottom_right(written):
         assert {n.split(":")[0] for n in v} == {"ViewBlueprint", "ViewContents", "PlotLegend"}
     titles = {o: v["ViewBlueprint:display_name"][0] for o, v in by_origin.items()}
     assert titles["rigid/table2/angle"].startswith("θ₁ [rad]: FCM-CTC, CTC, FCM-CTC-continuous")
-    assert titles["rigid/table2/baselines"].endswith("(fuzzy-PD)")
-    assert titles["flexible/table3/torque"] == "torque τ₂ [N·m]"
+    assert titles["rigid/table2/angle"].endswith("(fuzzy-PD leaves it: not shown)")
+    assert titles["flexible/table3/angle"].endswith("the baselines on their scale")
+    assert titles["flexible/table3/error"] == "error θ₂d − θ₂ [rad]"
 
 
 def test_runs_of_one_experiment_share_a_time_grid(tmp_path):

@@ -10,21 +10,22 @@ its static ``SeriesLines`` name and colour them (the legend lists them in this o
 - ``P/angle``: θ of the proposed controller, its baseline and any other FCM variant (the
   *pair*), then of the baselines that stay on their scale, then the reference;
 - ``P/error``: the pair's errors θd − θ, in a view of their own (where a 1e-5 rad
-  difference shows);
-- ``P/torque``: the pair's torques;
-- ``P/baselines``: the baselines that leave the pair's scale (fuzzy-PD's swings would
-  flatten every other curve), then the reference, in a view of their own.
+  difference shows).
 
-Every view fits its y axis to its curves. A run cut short is NaN past its end (its curve
-ends there); the runs of an experiment share one time grid. The same split as the
-response figures (:func:`twolink.simulation.vocabulary.split_by_scale`).
+A baseline that leaves the pair's scale (fuzzy-PD's swings would flatten every other
+curve) is left out, named in the angle view's title; torques are left out too (each
+run's ``trace.rrd`` has both). Every view fits its y axis to its curves. A run cut short
+is NaN past its end (its curve ends there); the runs of an experiment share one time
+grid. The same split as the response figures
+(:func:`twolink.simulation.vocabulary.split_by_scale`).
 
 Light for the viewer: the web viewer ingests what arrives for about 10 ms per frame and
 shows the layout only once all of it is in, and without a GPU a frame takes most of a
-second; so the recording is two chunks per view (its legend, then its curves), the
-first tab's right after the layout, and the layout sets nothing per view the viewer
-does by itself (no y ranges). Earlier versions wrote each curve as an entity of its own
-(``P/angle/CTC``); :func:`read_comparison` names its columns that way.
+second; every view costs five chunks (three of the layout, two of the recording), so
+an experiment has two views, each one entity in two chunks (its legend, then its
+curves), the first tab's right after the layout, and the layout sets nothing per view
+the viewer does by itself (no y ranges). Earlier versions wrote each curve as an entity
+of its own (``P/angle/CTC``); :func:`read_comparison` names its columns that way.
 """
 
 from __future__ import annotations
@@ -100,9 +101,12 @@ class _Plot:
 def _plots(
     e: ExperimentRuns, pair: Sequence[str], colours: Mapping[str, tuple[int, int, int]]
 ) -> tuple[Trajectory, list[tuple[_Plot, str]]]:
-    """The experiment's longest run (its time grid and reference), and its views: each
-    one's entity (angle, error, torque and, where a baseline leaves the pair's scale,
-    baselines) with the view's title."""
+    """The experiment's longest run (its time grid and reference), and its two views, each
+    one's entity with the view's title: ``angle`` (the pair, the FCM variants, the
+    baselines on their scale and the reference) and ``error`` (the pair's and the
+    variants'). A baseline that leaves the pair's scale is named in the angle view's
+    title and left out (each run's ``trace.rrd`` has it, and the response figures give it
+    a panel of its own)."""
     j = e.joint - 1
     longest = max(e.runs.values(), key=lambda tr: len(tr.t))
     angles = {n: tr.q[:, j] for n, tr in e.runs.items()}
@@ -121,17 +125,14 @@ def _plots(
         return _Plot(f"{e.prefix}/{leaf}", names, paint, values)
 
     errors = [e.runs[n].q_ref[:, j] - e.runs[n].q[:, j] for n in pair_like]
-    torques = [e.runs[n].tau[:, j] for n in pair_like]
     sub = "₁₂"[j]
-    views = [
-        (plot("angle", close, [angles[n] for n in close], True),
-         f"θ{sub} [rad]: {', '.join(pair_like)} and the baselines on their scale"),
-        (plot("error", pair_like, errors, False), f"error θ{sub}d − θ{sub} [rad]"),
-        (plot("torque", pair_like, torques, False), f"torque τ{sub} [N·m]"),
-    ]  # fmt: skip
+    title = f"θ{sub} [rad]: {', '.join(pair_like)} and the baselines on their scale"
     if far:
-        title = f"θ{sub} [rad] of the baselines that leave that scale ({', '.join(far)})"
-        views.append((plot("baselines", far, [angles[n] for n in far], True), title))
+        title += f" ({', '.join(far)} {'leaves' if len(far) == 1 else 'leave'} it: not shown)"
+    views = [
+        (plot("angle", close, [angles[n] for n in close], True), title),
+        (plot("error", pair_like, errors, False), f"error θ{sub}d − θ{sub} [rad]"),
+    ]
     return longest, views
 
 
@@ -209,8 +210,7 @@ def read_comparison(path: str | os.PathLike) -> pd.DataFrame:
     ``rigid/table2/angle/CTC``, ``rigid/table2/angle/reference``,
     ``rigid/table2/error/FCM-CTC``, ``rigid/table2/baselines/fuzzy-PD``; a run cut short
     is NaN past its end, as is every curve where another experiment has samples and its
-    own has none. (:func:`twolink.tracing.read_recording` reads recordings of one curve
-    per entity, such as a run's ``trace.rrd``.)
+    own has none. (:func:`twolink.tracing.read_recording` reads this file the same way.)
 
     Parameters
     ----------

@@ -158,12 +158,15 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
     entity path. The index is ``time_s``; a series missing at some time is NaN there. A
     recording keeps the samples its writer kept (``every``; see the file's writer);
     ``trajectory.npz`` beside a run's recording has every sample
-    (:meth:`twolink.simulation.sim.Trajectory.load`).
+    (:meth:`twolink.simulation.sim.Trajectory.load`). The reproduction's combined
+    recording, whose entities hold several curves each, is read as
+    :func:`twolink.tracing.comparison.read_comparison` reads it (a column per curve).
 
     Parameters
     ----------
     path : path-like
-        A ``.rrd`` file written by :func:`write_recording`.
+        A ``.rrd`` file written by :func:`write_recording` (or by
+        :func:`~twolink.tracing.comparison.write_comparison`).
 
     Returns
     -------
@@ -181,6 +184,10 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
             continue
         t = batch.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64) / 1e9
         col = batch.column("Scalars:scalars").flatten()
+        if len(col) != len(t):  # several curves per row: the combined recording
+            from twolink.tracing.comparison import read_comparison
+
+            return read_comparison(path)
         pieces.setdefault(chunk.entity_path.lstrip("/"), []).append(
             pd.Series(col.to_numpy(zero_copy_only=False), index=t)
         )
