@@ -42,10 +42,10 @@ import rerun.blueprint as rrb
 
 from twolink.interface.io import atomic_path
 from twolink.simulation.sim import Trajectory
-from twolink.simulation.vocabulary import TIME_COLUMN, split_by_scale
-from twolink.tracing.files import recording_id
+from twolink.simulation.vocabulary import split_by_scale
+from twolink.tracing.files import _read_curves, recording_id
 from twolink.tracing.layout import time_panel
-from twolink.tracing.runs import REFERENCE_COLOR, TIMELINE, _time_column, sample_indices
+from twolink.tracing.runs import REFERENCE_COLOR, _time_column, sample_indices
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -221,32 +221,7 @@ def read_comparison(path: str | os.PathLike) -> pd.DataFrame:
     -------
     pandas.DataFrame
     """
-    import pandas as pd
-    from rerun.chunk import RrdReader
-
-    names: dict[str, list[str]] = {}
-    pieces: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-    for chunk in RrdReader(path).store().stream():
-        batch = chunk.to_record_batch()
-        entity = chunk.entity_path.strip("/")
-        if chunk.is_static:
-            if "SeriesLines:names" in batch.schema.names:
-                names[entity] = batch.column("SeriesLines:names")[0].as_py()
-            continue
-        if "Scalars:scalars" not in batch.schema.names or TIMELINE not in batch.schema.names:
-            continue
-        t = batch.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64) / 1e9
-        flat = batch.column("Scalars:scalars").flatten().to_numpy(zero_copy_only=False)
-        pieces.setdefault(entity, []).append((t, flat.reshape(len(t), -1)))
-    columns = {}
-    for entity, parts in pieces.items():
-        t = np.concatenate([p[0] for p in parts])
-        values = np.concatenate([p[1] for p in parts])
-        for k, name in enumerate(names.get(entity, [str(k) for k in range(values.shape[1])])):
-            columns[f"{entity}/{name}"] = pd.Series(values[:, k], index=t).sort_index()
-    frame = pd.DataFrame({c: columns[c] for c in sorted(columns)})
-    frame.index.name = TIME_COLUMN
-    return frame
+    return _read_curves(path)
 
 
 def _pair_first(pair: Sequence[str]):
