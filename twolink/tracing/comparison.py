@@ -4,18 +4,28 @@ side (docs/tracing.md, "The reproduction's recording").
 Each run's own ``trace.rrd`` has everything about it (both joints, phase plane with the
 fired rules, the arm in 3D); the combined recording is for comparing. Per experiment
 (variant and paper table) it holds, at 50 Hz, the experiment's joint under every
-controller:
+controller, one entity per view; each row of an entity holds one scalar per curve, and
+its static ``SeriesLines`` name and colour them (the legend lists them in this order):
 
-- ``P/angle/<controller>`` and ``P/angle/reference``: θ of the proposed controller, its
-  baseline and any other FCM variant (the *pair*), and of the baselines that stay on
-  their scale, on a y axis fitted to them;
-- ``P/error/<controller>``: the pair's errors θd − θ, on their own fitted axis (where a
-  1e-5 rad difference shows);
-- ``P/torque/<controller>``: the pair's torques;
-- ``P/baselines/<controller>`` (and its reference): the baselines that leave the pair's
-  scale (fuzzy-PD's swings would flatten every other curve), in a view of their own.
+- ``P/angle``: θ of the proposed controller, its baseline and any other FCM variant (the
+  *pair*), then of the baselines that stay on their scale, then the reference;
+- ``P/error``: the pair's errors θd − θ, in a view of their own (where a 1e-5 rad
+  difference shows).
 
-The same split as the response figures (:func:`twolink.simulation.vocabulary.split_by_scale`).
+A baseline that leaves the pair's scale (fuzzy-PD's swings would flatten every other
+curve) is left out, named in the angle view's title; torques are left out too (each
+run's ``trace.rrd`` has both). Every view fits its y axis to its curves. A run cut short
+is NaN past its end (its curve ends there); the runs of an experiment share one time
+grid. The same split as the response figures
+(:func:`twolink.simulation.vocabulary.split_by_scale`).
+
+Light for the viewer: the web viewer ingests what arrives for about 10 ms per frame and
+shows the layout only once all of it is in, and without a GPU a frame takes most of a
+second; every view costs five chunks (three of the layout, two of the recording), so
+an experiment has two views, each one entity in two chunks (its legend, then its
+curves), the first tab's right after the layout, and the layout sets nothing per view
+the viewer does by itself (no y ranges). Earlier versions wrote each curve as an entity
+of its own (``P/angle/CTC``); :func:`read_comparison` names its columns that way.
 """
 
 from __future__ import annotations
@@ -24,6 +34,7 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import rerun as rr
@@ -32,11 +43,14 @@ import rerun.blueprint as rrb
 from twolink.interface.io import atomic_path
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import split_by_scale
-from twolink.tracing.files import recording_id
+from twolink.tracing.files import _read_curves, recording_id
 from twolink.tracing.layout import time_panel
 from twolink.tracing.runs import REFERENCE_COLOR, _time_column, sample_indices
 
-__all__ = ["COMPARISON_EVERY", "ExperimentRuns", "write_comparison"]
+if TYPE_CHECKING:
+    import pandas as pd
+
+__all__ = ["COMPARISON_EVERY", "ExperimentRuns", "read_comparison", "write_comparison"]
 
 COMPARISON_EVERY = 20  # 50 Hz of the 1 kHz loop: smooth at any zoom a screen shows
 # Controller colours, as in the report's figures: the pair first (green, red, teal), then
@@ -65,23 +79,84 @@ class ExperimentRuns:
     runs: Mapping[str, Trajectory]
 
 
-def _view(name: str, origin: str, y: tuple[float, float]) -> rrb.TimeSeriesView:
-    # the legend in a corner the curves leave free once settled
+def _view(name: str, origin: str) -> rrb.TimeSeriesView:
+    # The legend in a corner the curves leave free once settled. No y range: the viewer
+    # fits each view to its curves, and every blueprint setting is one more chunk to load.
     return rrb.TimeSeriesView(
-        name=name,
-        origin=origin,
-        axis_y=rrb.ScalarAxis(range=y, zoom_lock=False),
-        plot_legend=rrb.PlotLegend(corner="RightBottom", visible=True),
+        name=name, origin=origin, plot_legend=rrb.PlotLegend(corner="RightBottom", visible=True)
     )
 
 
-def _range(values: list[np.ndarray]) -> tuple[float, float]:
-    finite = np.concatenate([v[np.isfinite(v)] for v in values])
-    if not finite.size:
-        return -1.0, 1.0
-    lo, hi = float(finite.min()), float(finite.max())
-    pad = 0.08 * (hi - lo) or 1e-6
-    return lo - pad, hi + pad
+@dataclass(frozen=True)
+class _Plot:
+    """One view's entity: its curves (full-rate arrays), their legend names and colours,
+    in the legend's order (the viewer draws the last on top)."""
+
+    entity: str
+    names: list[str]
+    colours: list[tuple[int, int, int]]
+    values: list[np.ndarray]
+
+
+def _plots(
+    e: ExperimentRuns, pair: Sequence[str], colours: Mapping[str, tuple[int, int, int]]
+) -> tuple[Trajectory, list[tuple[_Plot, str]]]:
+    """The experiment's longest run (its time grid and reference), and its two views, each
+    one's entity with the view's title: ``angle`` (the pair, the FCM variants, the
+    baselines on their scale and the reference) and ``error`` (the pair's and the
+    variants'). A baseline that leaves the pair's scale is named in the angle view's
+    title and left out (each run's ``trace.rrd`` has it, and the response figures give it
+    a panel of its own)."""
+    j = e.joint - 1
+    longest = max(e.runs.values(), key=lambda tr: len(tr.t))
+    angles = {n: tr.q[:, j] for n, tr in e.runs.items()}
+    pair_like, near, far, _ = split_by_scale(angles, longest.q_ref[:, j], pair)
+    # the legend lists the curves in this order (the pair first: a view too short for
+    # its legend cuts the last entries), and the viewer draws them in it
+    order = _pair_first(pair)
+    close = sorted(pair_like + near, key=order)
+    pair_like = sorted(pair_like, key=order)
+    far = sorted(far, key=order)
+
+    def plot(leaf: str, names: list[str], values: list[np.ndarray], reference: bool) -> _Plot:
+        if reference:
+            names, values = [*names, "reference"], [*values, longest.q_ref[:, j]]
+        paint = [REFERENCE_COLOR if n == "reference" else colours[n] for n in names]
+        return _Plot(f"{e.prefix}/{leaf}", names, paint, values)
+
+    errors = [e.runs[n].q_ref[:, j] - e.runs[n].q[:, j] for n in pair_like]
+    sub = "₁₂"[j]
+    title = f"θ{sub} [rad]: {', '.join(pair_like)} and the baselines on their scale"
+    if far:
+        title += f" ({', '.join(far)} {'leaves' if len(far) == 1 else 'leave'} it: not shown)"
+    views = [
+        (plot("angle", close, [angles[n] for n in close], True), title),
+        (plot("error", pair_like, errors, False), f"error θ{sub}d − θ{sub} [rad]"),
+    ]
+    return longest, views
+
+
+def _grid(e: ExperimentRuns, longest: Trajectory, every: int) -> np.ndarray:
+    """The experiment's kept samples: every ``every``-th of the longest run and the last
+    of each run (a run cut short ends where it stopped). The runs share one time grid."""
+    for name, tr in e.runs.items():
+        if not np.array_equal(tr.t, longest.t[: len(tr.t)]):
+            raise ValueError(
+                f"{e.prefix}: run {name!r} is not on the experiment's time grid (its "
+                "runs must share their time step and start)"
+            )
+    ends = [len(tr.t) - 1 for tr in e.runs.values() if len(tr.t)]
+    return np.union1d(sample_indices(len(longest.t), every), ends).astype(int)
+
+
+def _columns(values: list[np.ndarray], idx: np.ndarray) -> np.ndarray:
+    """``(len(idx), len(values))`` scalars: each series at the kept samples, NaN past its
+    end (a run cut short: the viewer ends its curve there)."""
+    out = np.full((len(idx), len(values)), np.nan)
+    for k, v in enumerate(values):
+        have = idx < len(v)
+        out[have, k] = v[idx[have]]
+    return out
 
 
 def write_comparison(
@@ -103,60 +178,50 @@ def write_comparison(
     tabs = []
     logs = []
     for e in experiments:
-        j = e.joint - 1
-        first = next(iter(e.runs.values()))
-        angles = {n: tr.q[:, j] for n, tr in e.runs.items()}
-        pair_like, near, far, scale = split_by_scale(angles, first.q_ref[:, j], pair)
-        close = pair_like + near
-        series = [(f"{e.prefix}/angle/reference", first.t, first.q_ref[:, j], "reference")]
-        for n in close:
-            series.append((f"{e.prefix}/angle/{n}", e.runs[n].t, angles[n], n))
-        errors = {n: e.runs[n].q_ref[:, j] - e.runs[n].q[:, j] for n in pair_like}
-        torques = {n: e.runs[n].tau[:, j] for n in pair_like}
-        series += [(f"{e.prefix}/error/{n}", e.runs[n].t, v, n) for n, v in errors.items()]
-        series += [(f"{e.prefix}/torque/{n}", e.runs[n].t, v, n) for n, v in torques.items()]
-        if far:
-            series.append(
-                (f"{e.prefix}/baselines/reference", first.t, first.q_ref[:, j], "reference")
-            )
-            series += [(f"{e.prefix}/baselines/{n}", e.runs[n].t, angles[n], n) for n in far]
-        logs += series
-        sub = "₁₂"[j]
-
-        views = [
-            _view(f"θ{sub} [rad]: {', '.join(pair_like)} and the baselines on their scale",
-                 f"{e.prefix}/angle", scale),
-            _view(f"error θ{sub}d − θ{sub} [rad]", f"{e.prefix}/error",
-                 _range(list(errors.values()))),
-            _view(f"torque τ{sub} [N·m]", f"{e.prefix}/torque", _range(list(torques.values()))),
-        ]  # fmt: skip
-        if far:
-            views.append(
-                _view(
-                    f"θ{sub} [rad] of the baselines that leave that scale ({', '.join(far)})",
-                    f"{e.prefix}/baselines",
-                    _range([first.q_ref[:, j], *(angles[n] for n in far)]),
-                )
-            )
-        tabs.append(rrb.Vertical(*views, name=e.title))
+        longest, views = _plots(e, pair, colours)
+        idx = _grid(e, longest, every)
+        logs += [(plot, longest.t[idx], _columns(plot.values, idx)) for plot, _ in views]
+        tabs.append(rrb.Vertical(*(_view(t, p.entity) for p, t in views), name=e.title))
     layout = rrb.Blueprint(rrb.Tabs(*tabs, active_tab=0), time_panel())
     path = Path(path)
     with atomic_path(path, suffix=".rrd") as tmp:
         try:
             rec.save(tmp, default_blueprint=layout)
-            for entity, t, values, name in logs:
-                idx = sample_indices(len(t), every)  # a run cut short has fewer samples
-                colour = REFERENCE_COLOR if name == "reference" else colours[name]
-                rec.log(entity, rr.SeriesLines(names=name, colors=[colour]), static=True)
+            for plot, t, scalars in logs:
+                # the legend's names and colours first, then the curves: sent in this
+                # order (not batched), the first tab's entities come right after the layout
+                style = rr.SeriesLines.columns(names=plot.names, colors=plot.colours)
+                rec.send_columns(plot.entity, [], style.partition([len(plot.names)]))
                 rec.send_columns(
-                    entity,
-                    indexes=[_time_column(t[idx])],
-                    columns=rr.Scalars.columns(scalars=values[idx]),
+                    plot.entity,
+                    indexes=[_time_column(t)],
+                    columns=rr.Scalars.columns(scalars=scalars),
                 )
             rec.flush()
         finally:
             rec.disconnect()
     return path
+
+
+def read_comparison(path: str | os.PathLike) -> pd.DataFrame:
+    """The combined recording's curves, one column per curve, indexed by ``time_s``.
+
+    A column is named by its view's entity and the curve's legend name:
+    ``rigid/table2/angle/CTC``, ``rigid/table2/angle/reference``,
+    ``rigid/table2/error/FCM-CTC``, ``rigid/table2/baselines/fuzzy-PD``; a run cut short
+    is NaN past its end, as is every curve where another experiment has samples and its
+    own has none. (:func:`twolink.tracing.read_recording` reads this file the same way.)
+
+    Parameters
+    ----------
+    path : path-like
+        A ``.rrd`` file written by :func:`write_comparison`.
+
+    Returns
+    -------
+    pandas.DataFrame
+    """
+    return _read_curves(path)
 
 
 def _pair_first(pair: Sequence[str]):

@@ -158,12 +158,15 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
     entity path. The index is ``time_s``; a series missing at some time is NaN there. A
     recording keeps the samples its writer kept (``every``; see the file's writer);
     ``trajectory.npz`` beside a run's recording has every sample
-    (:meth:`twolink.simulation.sim.Trajectory.load`).
+    (:meth:`twolink.simulation.sim.Trajectory.load`). The reproduction's combined
+    recording, whose entities hold several curves each, is read as
+    :func:`twolink.tracing.comparison.read_comparison` reads it (a column per curve).
 
     Parameters
     ----------
     path : path-like
-        A ``.rrd`` file written by :func:`write_recording`.
+        A ``.rrd`` file written by :func:`write_recording` (or by
+        :func:`~twolink.tracing.comparison.write_comparison`).
 
     Returns
     -------
@@ -181,6 +184,8 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
             continue
         t = batch.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64) / 1e9
         col = batch.column("Scalars:scalars").flatten()
+        if len(col) != len(t):  # several curves per row: the combined recording
+            return _read_curves(path)
         pieces.setdefault(chunk.entity_path.lstrip("/"), []).append(
             pd.Series(col.to_numpy(zero_copy_only=False), index=t)
         )
@@ -188,6 +193,38 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
         _column(name): pd.concat(parts).sort_index() for name, parts in sorted(pieces.items())
     }
     frame = pd.DataFrame(columns)
+    frame.index.name = TIME_COLUMN
+    return frame
+
+
+def _read_curves(path: str | os.PathLike) -> pd.DataFrame:
+    """A recording whose entities hold several curves each, named by their static
+    ``SeriesLines``: a column ``<entity>/<curve name>`` per curve, indexed by ``time_s``
+    (:func:`twolink.tracing.comparison.read_comparison`)."""
+    import pandas as pd
+    from rerun.chunk import RrdReader
+
+    names: dict[str, list[str]] = {}
+    pieces: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
+    for chunk in RrdReader(path).store().stream():
+        batch = chunk.to_record_batch()
+        entity = chunk.entity_path.strip("/")
+        if chunk.is_static:
+            if "SeriesLines:names" in batch.schema.names:
+                names[entity] = batch.column("SeriesLines:names")[0].as_py()
+            continue
+        if "Scalars:scalars" not in batch.schema.names or TIMELINE not in batch.schema.names:
+            continue
+        t = batch.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64) / 1e9
+        flat = batch.column("Scalars:scalars").flatten().to_numpy(zero_copy_only=False)
+        pieces.setdefault(entity, []).append((t, flat.reshape(len(t), -1)))
+    columns = {}
+    for entity, parts in pieces.items():
+        t = np.concatenate([p[0] for p in parts])
+        values = np.concatenate([p[1] for p in parts])
+        for k, name in enumerate(names.get(entity, [str(k) for k in range(values.shape[1])])):
+            columns[f"{entity}/{name}"] = pd.Series(values[:, k], index=t).sort_index()
+    frame = pd.DataFrame({c: columns[c] for c in sorted(columns)})
     frame.index.name = TIME_COLUMN
     return frame
 
