@@ -15,7 +15,13 @@ from pathlib import Path
 import click
 
 from twolink.arm.params import ArmParams, Flexibility
-from twolink.interface.cli_output import done_line, format_metrics, own_output, set_option
+from twolink.interface.cli_output import (
+    done_line,
+    format_metrics,
+    own_output,
+    set_option,
+    sweep_exits,
+)
 from twolink.interface.cli_output import fail_input as _fail_input
 from twolink.interface.executors import EXECUTORS, open_executor
 from twolink.interface.interrupts import (
@@ -620,19 +626,9 @@ def sweep_command(
     Exit 0 when the table is written (diverged samples are results, not failures),
     1 when the executor fails, 2 on bad input, 130/143 when stopped by SIGINT/SIGTERM.
     """
-    from concurrent import futures
-
     from twolink.interface.config import ConfigError, merge, parse_set
-    from twolink.interface.executors import ExecutorError
     from twolink.interface.io import check_output_folder, check_ownership
-    from twolink.sweep import (
-        SweepInterrupted,
-        SweepOutputError,
-        SweepTaskError,
-        format_summary,
-        load_sweep,
-        run_sweep,
-    )
+    from twolink.sweep import SweepOutputError, format_summary, load_sweep, run_sweep
 
     try:
         overrides = merge(parse_set(settings), {"samples": samples} if samples else {})
@@ -648,26 +644,21 @@ def sweep_command(
     except OSError as exc:
         _fail_input(str(exc))
     try:
-        outcome = run_sweep(
-            plan,
-            out,
-            executor=executor,
-            workers=workers,
-            scheduler=scheduler,
-            progress=progress,
-            plots=not no_plots,
-            fresh=fresh,
-        )
+        with sweep_exits(out):
+            outcome = run_sweep(
+                plan,
+                out,
+                executor=executor,
+                workers=workers,
+                scheduler=scheduler,
+                progress=progress,
+                plots=not no_plots,
+                fresh=fresh,
+            )
     except (SweepOutputError, OutputBusy, ForeignOutput) as exc:
         _fail_input(str(exc))
-    except SweepInterrupted as exc:
-        click.echo(f"\n{exc}", err=True)
-        sys.exit(128 + exc.signum)
     except ValueError as exc:  # inconsistent executor options
         _fail_input(str(exc))
-    except (ExecutorError, SweepTaskError, futures.BrokenExecutor) as exc:
-        click.echo(f"error: {exc}; finished chunks are kept in {out}, rerun to resume", err=True)
-        sys.exit(1)
     click.echo(format_summary(outcome.summary))
     click.echo(
         f"{plan.samples} samples x {len(plan.controllers)} controllers: "

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import click
@@ -13,6 +14,26 @@ def fail_input(message: str) -> None:
     """Print one error line and exit 2 (bad input)."""
     click.echo(f"error: {message}", err=True)
     sys.exit(2)
+
+
+@contextlib.contextmanager
+def sweep_exits(out: Path) -> Iterator[None]:
+    """How a command ends when its sweep does not finish: stopped by SIGINT / SIGTERM, one
+    line and exit 130 / 143; a failed executor or task, one line and exit 1. The chunks
+    already written stay in ``out`` for a rerun to resume from."""
+    from concurrent import futures
+
+    from twolink.interface.executors import ExecutorError
+    from twolink.sweep import SweepInterrupted, SweepTaskError
+
+    try:
+        yield
+    except SweepInterrupted as exc:
+        click.echo(f"\n{exc}", err=True)
+        sys.exit(128 + exc.signum)
+    except (ExecutorError, SweepTaskError, futures.BrokenExecutor) as exc:
+        click.echo(f"error: {exc}; finished chunks are kept in {out}, rerun to resume", err=True)
+        sys.exit(1)
 
 
 # What each command writes at the top of its folder (run: twolink.simulation.experiment.RUN_FILES):

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 
-from twolink.interface.cli_output import done_line, fail_input, own_output
+from twolink.interface.cli_output import done_line, fail_input, own_output, sweep_exits
 
 
 @click.command("regimes", short_help="Where the FCM term acts, helps and hurts.")
@@ -40,14 +39,12 @@ def regimes_command(
       twolink regimes                  # ~2-3 min on 2 cores
       twolink regimes -n 300 --out /tmp/regimes   # 10 plants per cell, quicker
     """
-    from concurrent import futures
-
     from twolink.interface.config import ConfigError
-    from twolink.interface.executors import ExecutorError, open_executor
+    from twolink.interface.executors import open_executor
     from twolink.interface.io import atomic_write_text
     from twolink.interface.plots import save_figure
     from twolink.studies import regimes
-    from twolink.sweep import SweepInterrupted, SweepTaskError, load_sweep
+    from twolink.sweep import load_sweep
 
     study = study_file or regimes.DEFAULT_STUDY
     try:
@@ -55,15 +52,8 @@ def regimes_command(
     except ConfigError as exc:
         fail_input(str(exc))
     own_output(out, "regimes", str(Path(study).resolve()))
-    try:
-        with open_executor("process", workers) as pool:
-            results = regimes.run_regimes(study, out, samples, pool)
-    except SweepInterrupted as exc:  # SIGINT / SIGTERM: one line, as `twolink sweep`
-        click.echo(f"\n{exc}", err=True)
-        sys.exit(128 + exc.signum)
-    except (ExecutorError, SweepTaskError, futures.BrokenExecutor) as exc:
-        click.echo(f"error: {exc}; finished chunks are kept in {out}, rerun to resume", err=True)
-        sys.exit(1)
+    with sweep_exits(out), open_executor("process", workers) as pool:
+        results = regimes.run_regimes(study, out, samples, pool)
     table = regimes.regime_table(results)
     summ = regimes.summary(table)
     atomic_write_text(out / "regimes.csv", table.to_csv(index=False))
