@@ -502,108 +502,101 @@ def _reproduce(
     phase = _Phases(progress, 4)
     workers = workers or os.cpu_count() or 1
     kind = "inprocess" if workers <= 1 else "process"
-    # The pool starts first: its workers import while the design runs.
+    # The pool starts first: its workers import while the design runs. Left by Ctrl-C or
+    # any failure, it stops its tasks at once (SweepExecutor.__exit__); written files are whole.
     with open_executor(kind, workers) as pool:
-        try:
-            phase("design: the FCM rule base (reused when its inputs are unchanged)")
-            result, designed = design_or_load(config, out / "design")
-            rule_base = out / "design" / "rule_base.toml"
-            specs = plan(manifest, rule_base, result.clustering.centers, overrides)
-            scenarios = {
-                sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs
-            }
-            study = (
-                pool.submit(flexible_study, manifest.flexible_study, out)
-                if manifest.flexible_study is not None
-                else None
+        phase("design: the FCM rule base (reused when its inputs are unchanged)")
+        result, designed = design_or_load(config, out / "design")
+        rule_base = out / "design" / "rule_base.toml"
+        specs = plan(manifest, rule_base, result.clustering.centers, overrides)
+        scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
+        study = (
+            pool.submit(flexible_study, manifest.flexible_study, out)
+            if manifest.flexible_study is not None
+            else None
+        )
+        mismatched = (
+            pool.submit(flexible_study, manifest.flexible_study, out, manifest.flexible_model_error)
+            if manifest.flexible_model_error
+            else None
+        )
+        phase(
+            f"runs: {len(specs)} experiments x controllers x variants, as batches of arms"
+            + (" (and the flexible-joint study)" if study else "")
+            + (
+                f"; beside them the claims study ({manifest.claims_study.name})"
+                if manifest.claims_study is not None
+                else ""
             )
-            mismatched = (
-                pool.submit(
-                    flexible_study, manifest.flexible_study, out, manifest.flexible_model_error
+        )
+        # Resume per run, unless the design was just made: its rule base's runs are new.
+        rows, pending = run_all(
+            specs, out, pool, trace, None if designed else scenarios, busy=study is not None
+        )
+        # A task, not drawn here: the main process then never imports matplotlib, and
+        # the runs do not wait for the validity sweep.
+        design_evidence = pool.submit(_design_figures, result, out)
+        drawing = [design_evidence]
+        claims: list[str] = []
+        claim_tables: list[Any] = []
+        # The runs' bar advances as their batches finish, while the claims sweeps (on
+        # the same pool) show their own.
+        with tqdm(
+            total=len(specs),
+            initial=sum(bool(r) for r in rows),
+            desc="runs",
+            unit="run",
+            disable=not progress,
+        ) as bar:
+            for fut, indices in pending.items():
+                fut.add_done_callback(functools.partial(_advance, bar, len(indices)))
+            if manifest.claims_study is not None:
+                claims, claim_tables = run_claims(manifest, out, pool, progress)
+            for fut in as_completed(pending):
+                for i, row in zip(pending[fut], fut.result(), strict=True):
+                    rows[i] = row
+        # The combined recording first (the longest task left), beside the figures.
+        phase(
+            "figures: responses, phase plane, membership functions, control surfaces"
+            + (f"; and reproduction.rrd ({len(specs)} runs) beside them" if trace else "")
+            + ", in the pool"
+        )
+        if trace:
+            drawing.append(pool.submit(_combined_recording, out, specs))
+        figures: dict[str, str] = {}
+        for variant in manifest.variants:
+            for exp in manifest.experiments:
+                runs = {
+                    sp.controller: sp.folder
+                    for sp in specs
+                    if sp.experiment is exp and sp.variant is variant
+                }
+                name = f"figures/{variant.name}_{exp.key}.png"
+                label = exp.label
+                title = f"{label}: {exp.title}\n({variant.title})"
+                drawing.append(
+                    pool.submit(_response_figure, out, runs, exp.joint, title, out / name)
                 )
-                if manifest.flexible_model_error
-                else None
-            )
-            phase(
-                f"runs: {len(specs)} experiments x controllers x variants, as batches of arms"
-                + (" (and the flexible-joint study)" if study else "")
-                + (
-                    f"; beside them the claims study ({manifest.claims_study.name})"
-                    if manifest.claims_study is not None
-                    else ""
-                )
-            )
-            # Resume per run, unless the design was just made: its rule base's runs are new.
-            rows, pending = run_all(
-                specs, out, pool, trace, None if designed else scenarios, busy=study is not None
-            )
-            # A task, not drawn here: the main process then never imports matplotlib, and
-            # the runs do not wait for the validity sweep.
-            design_evidence = pool.submit(_design_figures, result, out)
-            drawing = [design_evidence]
-            claims: list[str] = []
-            claim_tables: list[Any] = []
-            # The runs' bar advances as their batches finish, while the claims sweeps (on
-            # the same pool) show their own.
-            with tqdm(
-                total=len(specs),
-                initial=sum(bool(r) for r in rows),
-                desc="runs",
-                unit="run",
-                disable=not progress,
-            ) as bar:
-                for fut, indices in pending.items():
-                    fut.add_done_callback(functools.partial(_advance, bar, len(indices)))
-                if manifest.claims_study is not None:
-                    claims, claim_tables = run_claims(manifest, out, pool, progress)
-                for fut in as_completed(pending):
-                    for i, row in zip(pending[fut], fut.result(), strict=True):
-                        rows[i] = row
-            # The combined recording first (the longest task left), beside the figures.
-            phase(
-                "figures: responses, phase plane, membership functions, control surfaces"
-                + (f"; and reproduction.rrd ({len(specs)} runs) beside them" if trace else "")
-                + ", in the pool"
-            )
-            if trace:
-                drawing.append(pool.submit(_combined_recording, out, specs))
-            figures: dict[str, str] = {}
-            for variant in manifest.variants:
-                for exp in manifest.experiments:
-                    runs = {
-                        sp.controller: sp.folder
-                        for sp in specs
-                        if sp.experiment is exp and sp.variant is variant
-                    }
-                    name = f"figures/{variant.name}_{exp.key}.png"
-                    label = exp.label
-                    title = f"{label}: {exp.title}\n({variant.title})"
-                    drawing.append(
-                        pool.submit(_response_figure, out, runs, exp.joint, title, out / name)
-                    )
-                    figures[f"{variant.name}/{exp.key}"] = name
-            trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
-            sections = oscillation_section(specs, scenarios, trajectories, rows)
-            if manifest.gain_study is not None:
-                sections += report_section(manifest.gain_study, out, pool)
-            calibrated = None
-            if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
-                from twolink.studies import calibration_report
+                figures[f"{variant.name}/{exp.key}"] = name
+        trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
+        sections = oscillation_section(specs, scenarios, trajectories, rows)
+        if manifest.gain_study is not None:
+            sections += report_section(manifest.gain_study, out, pool)
+        calibrated = None
+        if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
+            from twolink.studies import calibration_report
 
-                shipped = calibration_report.rerun_shipped(manifest.calibration)
-                sections += calibration_report.report_section(manifest.calibration, out, shipped)
-                calibrated = calibration_report.table_values(shipped)
-            validity = design_evidence.result()
-            sections += design_section(result, specs, scenarios, rows, validity)
-            if study is not None:
-                sections += study.result()
-            if mismatched is not None:
-                sections += mismatched.result()
-            for fut in drawing:
-                fut.result()
-        except BaseException:  # Ctrl-C, or any failure: the workers' tasks are moot
-            pool.abort()  # stop now, not after the queued tasks; written files are whole
-            raise
+            shipped = calibration_report.rerun_shipped(manifest.calibration)
+            sections += calibration_report.report_section(manifest.calibration, out, shipped)
+            calibrated = calibration_report.table_values(shipped)
+        validity = design_evidence.result()
+        sections += design_section(result, specs, scenarios, rows, validity)
+        if study is not None:
+            sections += study.result()
+        if mismatched is not None:
+            sections += mismatched.result()
+        for fut in drawing:
+            fut.result()
     phase("report: report.md, metrics.csv, metrics.json")
     atomic_write_text(
         out / "report.md",
