@@ -208,9 +208,9 @@ def read_comparison(path: str | os.PathLike) -> pd.DataFrame:
 
     A column is named by its view's entity and the curve's legend name:
     ``rigid/table2/angle/CTC``, ``rigid/table2/angle/reference``,
-    ``rigid/table2/error/FCM-CTC``, ``rigid/table2/baselines/fuzzy-PD``; a run cut short
-    is NaN past its end, as is every curve where another experiment has samples and its
-    own has none. (:func:`twolink.tracing.read_recording` reads this file the same way.)
+    ``rigid/table2/error/FCM-CTC``; a run cut short is NaN past its end, as is every
+    curve where another experiment has samples and its own has none.
+    (:func:`twolink.tracing.read_recording` reads this file the same way.)
 
     Parameters
     ----------
@@ -221,7 +221,9 @@ def read_comparison(path: str | os.PathLike) -> pd.DataFrame:
     -------
     pandas.DataFrame
     """
-    return _read_curves(path)
+    from rerun.chunk import RrdReader
+
+    return _read_curves(RrdReader(path).store())
 
 
 def _pair_first(pair: Sequence[str]):

@@ -175,17 +175,18 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
     import pandas as pd
     from rerun.chunk import RrdReader
 
+    store = RrdReader(path).store()
     pieces: dict[str, list[pd.Series]] = {}
-    for chunk in RrdReader(path).store().stream():
+    for chunk in store.stream():
         if chunk.is_static:
             continue
         batch = chunk.to_record_batch()
         if "Scalars:scalars" not in batch.schema.names or TIMELINE not in batch.schema.names:
             continue
-        t = batch.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64) / 1e9
+        t = _seconds(batch)
         col = batch.column("Scalars:scalars").flatten()
         if len(col) != len(t):  # several curves per row: the combined recording
-            return _read_curves(path)
+            return _read_curves(store)
         pieces.setdefault(chunk.entity_path.lstrip("/"), []).append(
             pd.Series(col.to_numpy(zero_copy_only=False), index=t)
         )
@@ -197,16 +198,20 @@ def read_recording(path: str | os.PathLike) -> pd.DataFrame:
     return frame
 
 
-def _read_curves(path: str | os.PathLike) -> pd.DataFrame:
-    """A recording whose entities hold several curves each, named by their static
-    ``SeriesLines``: a column ``<entity>/<curve name>`` per curve, indexed by ``time_s``
-    (:func:`twolink.tracing.comparison.read_comparison`)."""
+def _seconds(batch: Any) -> np.ndarray:
+    """A chunk's times on the recording's timeline, in seconds."""
+    return batch.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64) / 1e9
+
+
+def _read_curves(store: Any) -> pd.DataFrame:
+    """A loaded recording (``RrdReader(path).store()``) whose entities hold several
+    curves each, named by their static ``SeriesLines``: a column ``<entity>/<curve name>``
+    per curve, indexed by ``time_s`` (:func:`twolink.tracing.comparison.read_comparison`)."""
     import pandas as pd
-    from rerun.chunk import RrdReader
 
     names: dict[str, list[str]] = {}
     pieces: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {}
-    for chunk in RrdReader(path).store().stream():
+    for chunk in store.stream():
         batch = chunk.to_record_batch()
         entity = chunk.entity_path.strip("/")
         if chunk.is_static:
@@ -215,7 +220,7 @@ def _read_curves(path: str | os.PathLike) -> pd.DataFrame:
             continue
         if "Scalars:scalars" not in batch.schema.names or TIMELINE not in batch.schema.names:
             continue
-        t = batch.column(TIMELINE).to_numpy().astype("timedelta64[ns]").astype(np.int64) / 1e9
+        t = _seconds(batch)
         flat = batch.column("Scalars:scalars").flatten().to_numpy(zero_copy_only=False)
         pieces.setdefault(entity, []).append((t, flat.reshape(len(t), -1)))
     columns = {}
