@@ -144,15 +144,15 @@ def _tost_ps(ds: Sequence[np.ndarray], tolerances: Sequence[float]) -> np.ndarra
     both sides of every sample of one size makes a table of claims one scipy call, not
     one per test (each costs ~0.5 ms of scipy's own overhead)."""
     p = np.ones(len(ds))
-    by_size: dict[int, list[int]] = {}
-    for k, d in enumerate(ds):
-        lower, upper = d - tolerances[k], -(d + tolerances[k])
+    by_size: dict[int, list[tuple[int, np.ndarray, np.ndarray]]] = {}
+    for k, (d, tolerance) in enumerate(zip(ds, tolerances, strict=True)):
+        lower, upper = d - tolerance, -(d + tolerance)
         if d.size >= 2 and np.any(lower) and np.any(upper):  # else: no test, p = 1
-            by_size.setdefault(d.size, []).append(k)
-    for ks in by_size.values():
-        rows = [side for k in ks for side in (ds[k] - tolerances[k], -(ds[k] + tolerances[k]))]
-        both = _signed_rank(np.stack(rows), "less").reshape(len(ks), 2)
-        p[ks] = both.max(axis=1)
+            by_size.setdefault(d.size, []).append((k, lower, upper))
+    for tests in by_size.values():
+        sides = np.stack([side for _, lower, upper in tests for side in (lower, upper)])
+        both = _signed_rank(sides, "less").reshape(len(tests), 2)
+        p[[k for k, _, _ in tests]] = both.max(axis=1)
     return p
 
 
