@@ -44,7 +44,6 @@ from twolink.interface.io import atomic_path
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import split_by_scale
 from twolink.tracing.files import _read_curves, recording_id
-from twolink.tracing.layout import time_panel
 from twolink.tracing.runs import REFERENCE_COLOR, _time_column, sample_indices
 
 if TYPE_CHECKING:
@@ -182,7 +181,9 @@ def write_comparison(
         idx = _grid(e, longest, every)
         logs += [(plot, longest.t[idx], _columns(plot.values, idx)) for plot, _ in views]
         tabs.append(rrb.Vertical(*(_view(t, p.entity) for p, t in views), name=e.title))
-    layout = rrb.Blueprint(rrb.Tabs(*tabs, active_tab=0), time_panel())
+    # no time panel setting: "time" is the file's only timeline, so the viewer opens on it
+    # (setting it makes the viewer warn "Timeline 'time' not found" until the data is in)
+    layout = rrb.Blueprint(rrb.Tabs(*tabs, active_tab=0))
     path = Path(path)
     with atomic_path(path, suffix=".rrd") as tmp:
         try:
