@@ -48,6 +48,21 @@ def test_reproduction_doc_gives_the_shipped_gains_and_fuzzy_scaling():
     assert f"ωn = {wn:g} rad/s" in text
 
 
+def test_the_readme_counts_the_reproductions_runs_from_its_manifest():
+    """The README's "210 runs (10 × 7 × 3)" is the shipped manifest's plan (it said 180
+    after a controller was added), and names every controller the runs have."""
+    from twolink.studies.manifest import load_manifest
+    from twolink.studies.reproduce import plan
+
+    m = load_manifest()
+    n = (len(m.experiments), len(m.controllers), len(m.variants))
+    readme = " ".join((REPO / "README.md").read_text().split())
+    assert f"{len(plan(m, None))} runs ({n[0]} × {n[1]} × {n[2]})" in readme
+    assert f"({n[0]} experiments)" in readme
+    assert "FCM-CTC-continuous" in readme and "four baselines" in readme
+    assert len(m.controllers) == 3 + 4  # CTC, FCM-CTC, its variant and four baselines
+
+
 def test_the_load_results_example_names_real_columns():
     """The docstring's example column is one a sweep table has (it raised KeyError)."""
     import re as _re
