@@ -23,8 +23,8 @@ Light for the viewer: the web viewer ingests what arrives for about 10 ms per fr
 shows the layout only once all of it is in, and without a GPU a frame takes most of a
 second; every view costs five chunks (three of the layout, two of the recording), so
 an experiment has two views, each one entity in two chunks (its legend, then its
-curves), the first tab's right after the layout, and the layout sets nothing per view
-the viewer does by itself (no y ranges). Earlier versions wrote each curve as an entity
+curves), the first tab's right after the layout, and the layout sets nothing the viewer
+does by itself (no y ranges, no time panel). Earlier versions wrote each curve as an entity
 of its own (``P/angle/CTC``); :func:`read_comparison` names its columns that way.
 """
 
