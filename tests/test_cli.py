@@ -83,6 +83,15 @@ def test_install_takes_no_out(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+def test_the_readme_lists_every_command():
+    """The README's command table has a row for each command the CLI has (it had none for
+    `coverage`)."""
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    table = readme.split("## Commands")[1].split("\n\n")[1]
+    rows = {line.split("`")[1].split()[1] for line in table.splitlines() if line.startswith("| `")}
+    assert rows == set(main.commands)
+
+
 def test_version_and_short_help():
     result = CliRunner().invoke(main, ["--version"])
     assert result.exit_code == 0 and "twolink, version" in result.output

@@ -34,8 +34,8 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     """Print the share of the normalised (e, de) input box where RULE_BASE fires no rule,
     the uncovered label cells, and the label cells where its output jumps (the paper's
     Mamdani inference; docs/fuzzy.md, "The relay"). RULE_BASE is "paper" (default),
-    "designed", "default" (the 7x7) or a rule-base TOML file; the engine is the
-    project's 7-label one.
+    "designed", "default" (the 7x7), a rule-base TOML file or a MATLAB .fis file (its
+    rules; `twolink fis` writes one); the engine is the project's 7-label one.
 
     \b
     Examples:

@@ -1,7 +1,7 @@
 """Performance measures of a run: step-response metrics, error integrals, torque effort.
 
 The step-response definitions follow the paper's tables (Tp, Td, Ts, Tr, Mp, ess) as pinned
-down in ``paper/NOTES.md`` section 4 and ``docs/metrics.md``; rise time, settling time,
+down in ``docs/paper_notes.md`` section 4 and ``docs/metrics.md``; rise time, settling time,
 overshoot and peak time agree with python-control's ``step_info`` (and MATLAB's
 ``stepinfo``) wherever those are defined the same way.
 
