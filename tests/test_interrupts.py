@@ -30,7 +30,16 @@ def python_module(tmp_path, name: str, code: str) -> subprocess.CompletedProcess
     return python("-m", name, cwd=tmp_path)
 
 
-def test_a_ctrl_c_inside_the_block_arrives_when_it_ends():
+@pytest.fixture
+def python_ctrl_c():
+    """Python's own Ctrl-C handler, whatever this run started with (a shell starts its
+    background jobs, such as a CI run, with SIGINT ignored, and Python keeps that)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def test_a_ctrl_c_inside_the_block_arrives_when_it_ends(python_ctrl_c):
     reached_the_end = False
     with pytest.raises(KeyboardInterrupt):
         with interrupts_held():
