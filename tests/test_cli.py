@@ -83,6 +83,26 @@ def test_install_takes_no_out(tmp_path):
     assert not (tmp_path / "x").exists()
 
 
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="Linux's /proc clock")
+def test_the_done_line_counts_the_command_not_the_shell_that_execd_it():
+    """A shell runs the last command of ``bash -c "a; twolink ..."`` in its own process:
+    the process's start is then the shell's, and "done in" counted ``a`` too (a 58 s
+    reproduction said 103.6 s after a 46 s install). Python run on its own says its
+    start-up is included; exec'd 6 s into a shell, it counts from twolink's import."""
+    code = "from twolink.interface.cli_output import done_line; print(done_line())"
+    alone = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True
+    ).stdout.strip()
+    assert alone.endswith("s (wall time of the whole command, start-up included)"), alone
+    assert 0 < float(alone.split()[2]) < 5
+    late = subprocess.run(
+        ["bash", "-c", 'sleep 6; exec "$0" -c "$1"', sys.executable, code],
+        capture_output=True, text=True, timeout=60, check=True,
+    ).stdout.strip()  # fmt: skip
+    assert late.endswith("s (wall time from twolink's import)"), late
+    assert 0 < float(late.split()[2]) < 5
+
+
 def test_the_readme_lists_every_command():
     """The README's command table has a row for each command the CLI has (it had none for
     `coverage`)."""
