@@ -100,7 +100,7 @@ def test_the_done_line_counts_the_command_not_the_shell_that_execd_it():
         capture_output=True, text=True, timeout=60, check=True,
     ).stdout.strip()  # fmt: skip
     assert late.endswith("s (wall time from twolink's import)"), late
-    assert 0 < float(late.split()[2]) < 5
+    assert 0 <= float(late.split()[2]) < 5  # not the 6 s sleep (an import can print 0.0)
 
 
 def test_the_readme_lists_every_command():
