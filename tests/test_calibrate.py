@@ -29,6 +29,7 @@ def shipped(study):
     return loaded
 
 
+@pytest.mark.slow  # two tiny fits, 19 s
 def test_same_seed_gives_the_same_parameters(tmp_path):
     params = []
     for name in ("a", "b"):

@@ -297,6 +297,7 @@ def test_the_command_reruns_reusing_the_design_with_identical_metrics_and_each_p
     assert "met the spec" in result.stdout
 
 
+@pytest.mark.slow  # 19 s; the rerun reusing everything stays in the default suite
 def test_an_interrupted_reproduction_resumes_per_run(tmp_path, reproduction):
     import shutil
 
