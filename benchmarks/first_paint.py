@@ -16,14 +16,13 @@ are stopped after every trial. The last screenshot of each trial is kept (``--sh
 renderer, and one every 2 s delays the viewer: on 2026-11-26 an 8 KB recording first
 showed its curve 10-21 s in when polled, yet a single screenshot showed it at 10 s in 4
 of 4 trials (docs/tracing.md). Polled times are upper bounds, for comparing two files
-interleaved. ``--at S`` checks the way
-``rerun-screenshot RECORDING OUT S`` looks: one screenshot S seconds after
-``page.goto``; a trial passes if it shows the curves, and the summary counts passes
-(bracket the paint with several S).
+interleaved. ``--at S`` checks the way ``rerun-screenshot RECORDING OUT S`` looks: one
+screenshot S seconds after ``page.goto``; a trial passes if it shows the curves, and the
+summary counts passes (bracket the paint with several S).
 
-    PYTHONPATH=~/.cache/rerun-screenshot/lib/python3.11/site-packages \\
-        .venv/bin/python benchmarks/first_paint.py main.rrd new.rrd -n 5 --shots /tmp/shots
-        .venv/bin/python benchmarks/first_paint.py new.rrd -n 4 --at 15
+    export PYTHONPATH=~/.cache/rerun-screenshot/lib/python3.11/site-packages
+    .venv/bin/python benchmarks/first_paint.py main.rrd new.rrd -n 5 --shots /tmp/shots
+    .venv/bin/python benchmarks/first_paint.py new.rrd -n 4 --at 15
 """
 
 from __future__ import annotations
