@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from twolink.interface.config import merge, parse_set, scenario_from_dict
+from twolink.simulation.config import merge, parse_set, scenario_from_dict
 from twolink.simulation.experiment import iter_scenarios, measure, run_scenario
 from twolink.sweep import load_sweep
 from twolink.sweep.execution import _metric_values

@@ -27,8 +27,8 @@ import mujoco
 import numpy as np
 
 from twolink.arm.plant import Plant
-from twolink.interface.config import load_scenario
 from twolink.simulation.batch import Arm, BatchPlant, simulate_batch
+from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import build_controller
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -100,7 +100,7 @@ def sweep_step_us(threads: int | None = None) -> tuple[float, int]:
     """Wall time of an in-process robustness sweep (a fresh process, start-up included)
     per arm-step [µs], and its arm-steps; ``threads``: its ``--workers`` (default: all
     cores)."""
-    from twolink.interface.config import scenario_from_dict
+    from twolink.simulation.config import scenario_from_dict
     from twolink.sweep import load_sweep
 
     plan = load_sweep(ROOT / "runs/sweeps/robustness.toml")

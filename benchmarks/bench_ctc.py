@@ -17,7 +17,7 @@ import mujoco
 from twolink.arm.params import ArmParams
 from twolink.arm.plant import Plant
 from twolink.controllers.ctc import ComputedTorque
-from twolink.simulation.references import ArmReference, Step
+from twolink.foundation.references import ArmReference, Step
 from twolink.simulation.sim import simulate
 
 DURATION, DT, REPEATS = 10.0, 1e-3, 5

@@ -25,8 +25,8 @@ from twolink.arm.params import ArmParams, Flexibility
 from twolink.arm.plant import Plant
 from twolink.controllers.ctc import ComputedTorque
 from twolink.controllers.flexible import CompositeControl, FlexibleFeedbackLinearisation, MotorPD
+from twolink.foundation.references import ArmReference, Septic
 from twolink.simulation.batch import Arm, BatchPlant, simulate_batch
-from twolink.simulation.references import ArmReference, Septic
 from twolink.simulation.sim import simulate
 
 DURATION, DT, REPEATS = 10.0, 1e-3, 5

@@ -170,7 +170,7 @@ def closed_loop_ratio() -> None:
     from twolink.arm.plant import Plant
     from twolink.controllers.fuzzy import paper_fuzzy_pd
     from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
-    from twolink.simulation.references import ArmReference, Step
+    from twolink.foundation.references import ArmReference, Step
 
     p = ArmParams()
     plant = Plant.build(p, timestep=DT)

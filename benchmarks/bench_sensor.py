@@ -17,7 +17,7 @@ import time
 
 import mujoco
 
-from twolink.interface.config import load_scenario
+from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import build_controller, build_plant, run_scenarios
 from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import simulate

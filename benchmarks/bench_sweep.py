@@ -37,8 +37,8 @@ import tomllib
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from twolink.interface.config import scenario_from_dict
-from twolink.interface.io import to_toml
+from twolink.foundation.io import to_toml
+from twolink.simulation.config import scenario_from_dict
 from twolink.simulation.experiment import build_controller, build_plant, run_scenario
 from twolink.sweep import format_summary, load_sweep, run_sweep, save_sweep_plots
 

@@ -6,7 +6,7 @@ import math
 from collections.abc import Sequence
 from typing import Protocol, runtime_checkable
 
-from twolink.simulation.references import ArmReference
+from twolink.foundation.references import ArmReference
 
 
 @runtime_checkable

@@ -26,7 +26,7 @@ from twolink.controllers.base import Controller
 from twolink.controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity
 from twolink.controllers.ctc import ComputedTorque
 from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
-from twolink.simulation.references import ArmReference
+from twolink.foundation.references import ArmReference
 
 __all__ = [
     "BatchComputedTorque",

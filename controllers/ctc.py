@@ -16,7 +16,7 @@ from dataclasses import dataclass
 from twolink.arm.dynamics import terms
 from twolink.arm.params import ArmParams
 from twolink.controllers.base import pair, saturate
-from twolink.simulation.references import ArmReference
+from twolink.foundation.references import ArmReference
 
 # Default gains: natural frequency 2 rad/s, damping ratio 0.6 (Mp ~ 9.5 %, Ts ~ 3.3 s),
 # on the seconds time scale of the paper's responses. See docs/control.md.

@@ -48,7 +48,7 @@ from twolink.controllers.base import saturate
 from twolink.controllers.baselines import straight_inertia
 from twolink.controllers.batch import ReferenceTable, _Models
 from twolink.controllers.ctc import ComputedTorque
-from twolink.simulation.references import ArmReference
+from twolink.foundation.references import ArmReference
 
 __all__ = [
     "DEFAULT_FAST_DAMPING",

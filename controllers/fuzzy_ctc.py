@@ -27,7 +27,7 @@ from twolink.arm.dynamics import gravity, mass_matrix
 from twolink.arm.params import ArmParams
 from twolink.controllers.base import pair
 from twolink.controllers.ctc import ComputedTorque
-from twolink.simulation.references import ArmReference
+from twolink.foundation.references import ArmReference
 
 MODES = ("add", "replace")
 DEFAULT_SPAN = 1.0  # rad: E where no joint has a torque limit (the paper's 1 rad moves)

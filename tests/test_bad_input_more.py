@@ -1428,7 +1428,7 @@ def test_each_commands_set_example_is_valid_for_it_and_reproduce_keeps_controlle
     from click.testing import CliRunner
 
     from twolink.interface.cli import main
-    from twolink.interface.config import load_scenario, parse_set
+    from twolink.simulation.config import load_scenario, parse_set
     from twolink.studies.calibrate import load_calibration
     from twolink.studies.gains import load_gain_study
     from twolink.studies.manifest import load_manifest

@@ -19,9 +19,9 @@ from twolink.controllers.baselines import (
 )
 from twolink.controllers.ctc import ComputedTorque
 from twolink.controllers.fuzzy import paper_fuzzy_pd
-from twolink.interface.config import load_scenario
+from twolink.foundation.references import ArmReference, Step
+from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import build_controller
-from twolink.simulation.references import ArmReference, Step
 from twolink.simulation.sim import simulate
 
 KP, KD, KI = 4.0, 2.4, 2.0

@@ -21,9 +21,9 @@ from twolink.arm.params import ArmParams, Flexibility
 from twolink.arm.plant import Plant, incline
 from twolink.controllers.batch import batch_laws
 from twolink.controllers.ctc import ComputedTorque
-from twolink.interface.config import load_scenario, merge
 from twolink.simulation import experiment
 from twolink.simulation.batch import Arm, BatchPlant, model_gravity, simulate_batch
+from twolink.simulation.config import load_scenario, merge
 from twolink.simulation.experiment import measure, run_scenario, run_scenarios
 from twolink.simulation.sim import simulate
 from twolink.simulation.vocabulary import joint_values

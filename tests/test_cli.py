@@ -15,7 +15,7 @@ from twolink.arm.params import ArmParams, Flexibility
 from twolink.arm.plant import model_xml
 from twolink.controllers.fuzzy import load_rule_base
 from twolink.interface.cli import main
-from twolink.interface.config import load_scenario
+from twolink.simulation.config import load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -205,8 +205,9 @@ def test_set_overrides_keys_and_the_saved_config_records_them(tmp_path):
 def test_a_results_folder_can_move_with_its_rule_base(tmp_path):
     import shutil
 
-    from twolink.interface.config import RULEBASE_DIR
-    from twolink.simulation.experiment import build_controller, measure, run_scenario, write_run
+    from twolink.simulation.config import RULEBASE_DIR
+    from twolink.simulation.experiment import build_controller, measure, run_scenario
+    from twolink.studies.run_folder import write_run
 
     project = tmp_path / "a"
     project.mkdir()

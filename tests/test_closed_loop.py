@@ -12,11 +12,12 @@ from twolink.arm import dynamics
 from twolink.arm.params import ArmParams
 from twolink.arm.plant import Plant
 from twolink.controllers.ctc import ComputedTorque
+from twolink.foundation.references import ArmReference, Ramp, Step
 from twolink.interface.cli import main
-from twolink.interface.config import ConfigError, load_scenario
-from twolink.simulation.experiment import build_controller, measure, run_scenario, write_run
-from twolink.simulation.references import ArmReference, Ramp, Step
+from twolink.simulation.config import ConfigError, load_scenario
+from twolink.simulation.experiment import build_controller, measure, run_scenario
 from twolink.simulation.sim import Trajectory, simulate
+from twolink.studies.run_folder import write_run
 
 RUNS = Path(__file__).resolve().parents[1] / "runs"
 KP, KD = 4.0, 2.4

@@ -116,10 +116,72 @@ def test_no_import_cycle_among_the_project_modules():
     modules = module_files()
     graph = {m: imports_of(m, p, modules) for m, p in modules.items()}
     assert graph["twolink.simulation.experiment"] >= {
-        "twolink.interface.config",
+        "twolink.simulation.config",
         "twolink.arm.plant",
     }  # sanity
     assert cycles(graph) == []
+
+
+# The layers, from the ground up; a module may import its own layer and those below.
+LAYERS = {
+    "twolink.foundation": 0,  # imports nothing of twolink outside itself
+    "twolink.arm": 1,
+    "twolink.controllers": 1,
+    "twolink.simulation": 2,
+    "twolink.figures": 3,
+    "twolink.tracing": 3,
+    "twolink.sweep": 4,
+    "twolink.studies": 4,
+    "twolink.interface": 5,  # the command line
+    "twolink.api": 5,
+    "twolink.__main__": 5,
+    "twolink": 5,  # the public names, loaded on first use
+}
+
+
+def layer_of(module: str) -> int:
+    while module not in LAYERS:
+        module = module.rpartition(".")[0]
+    return LAYERS[module]
+
+
+def layer_violations(graph: dict[str, set[str]]) -> list[str]:
+    return sorted(
+        f"{m} (layer {layer_of(m)}) imports {t} (layer {layer_of(t)})"
+        for m, targets in graph.items()
+        for t in targets
+        if layer_of(t) > layer_of(m)
+    )
+
+
+def test_the_layer_check_finds_an_upward_import(tmp_path):
+    modules = {
+        "twolink.foundation.io": tmp_path / "io.py",
+        "twolink.simulation.sim": tmp_path / "sim.py",
+        "twolink.figures.plots": tmp_path / "plots.py",
+    }
+    modules["twolink.foundation.io"].write_text("x = 1\n")
+    modules["twolink.simulation.sim"].write_text(
+        "from twolink.foundation.io import x\ndef f():\n    from twolink.figures import plots\n"
+    )
+    modules["twolink.figures.plots"].write_text("from twolink.simulation.sim import f\n")
+    graph = {m: imports_of(m, p, modules) for m, p in modules.items()}
+    assert layer_violations(graph) == [
+        "twolink.simulation.sim (layer 2) imports twolink.figures.plots (layer 3)"
+    ]
+
+
+def test_no_module_imports_a_layer_above_its_own():
+    modules = module_files()
+    assert all(layer_of(m) >= 0 for m in modules)  # every module has a layer
+    graph = {m: imports_of(m, p, modules) for m, p in modules.items()}
+    outside = {
+        m: {t for t in graph[m] if not t.startswith("twolink.foundation")}
+        for m in modules
+        if m.startswith("twolink.foundation")
+    }
+    assert not any(outside.values()), outside  # the foundation imports nothing else
+    assert layer_violations(graph) == []
 
 
 @pytest.mark.parametrize("name", sorted(module_files()))
@@ -159,7 +221,7 @@ def test_the_flat_module_names_import_the_modules_of_their_layers():
 
     import twolink
 
-    assert len(twolink._FLAT_NAMES) == 34  # all but reproduce, a public function's name
+    assert len(twolink._FLAT_NAMES) == 35  # all but reproduce, a public function's name
     for flat, layered in twolink._FLAT_NAMES.items():
         module = importlib.import_module(flat)
         assert module is importlib.import_module(layered), flat

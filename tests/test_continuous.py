@@ -14,7 +14,7 @@ from twolink.controllers.fuzzy.continuous import ContinuousEngine, lipschitz_bou
 from twolink.controllers.fuzzy.coverage import surface_jumps
 from twolink.controllers.fuzzy.engine import MamdaniEngine
 from twolink.controllers.fuzzy.fis import read_rule_base
-from twolink.interface.config import ConfigError, load_scenario, resolve_rule_base
+from twolink.simulation.config import ConfigError, load_scenario, resolve_rule_base
 from twolink.simulation.experiment import build_controller
 
 RULE_BASES = ("designed", "paper", "default")

@@ -7,7 +7,7 @@ import pytest
 
 from twolink.controllers.fuzzy import Rule, fired_rule_labels, load_rule_base
 from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
-from twolink.interface.config import RULEBASE_DIR, ConfigError, load_scenario
+from twolink.simulation.config import RULEBASE_DIR, ConfigError, load_scenario
 from twolink.simulation.experiment import build_controller, run_scenario
 from twolink.studies.design import (
     DEFAULT_DESIGN,

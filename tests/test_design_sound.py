@@ -15,7 +15,7 @@ import pytest
 from twolink.arm.dynamics import gravity, mass_matrix
 from twolink.arm.params import ArmParams
 from twolink.controllers.fuzzy import Rule, default_fuzzy_pd, load_rule_base, paper_fuzzy_pd
-from twolink.interface.config import (
+from twolink.simulation.config import (
     RULEBASE_DIR,
     ConfigError,
     auto_fuzzy_scaling,

@@ -7,7 +7,7 @@ import math
 import re
 from pathlib import Path
 
-from twolink.interface.config import load_scenario
+from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import build_controller
 
 REPO = Path(__file__).resolve().parents[1]

@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from twolink.controllers.fuzzy import default_fuzzy_pd
 from twolink.controllers.fuzzy.fis import engine_from_fis, parse_fis, read_rule_base, to_fis
 from twolink.interface.cli import main
-from twolink.interface.config import load_scenario
+from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import build_controller
 
 REPO = Path(__file__).resolve().parents[1]

@@ -41,9 +41,9 @@ from twolink.controllers.flexible import (
     motor_pd_bound,
     spring_frequency,
 )
-from twolink.interface.config import ConfigError, load_scenario, merge
+from twolink.foundation.references import ArmReference, Quintic, Septic, Step
+from twolink.simulation.config import ConfigError, load_scenario, merge
 from twolink.simulation.experiment import build_controller, measure, run_scenario, run_scenarios
-from twolink.simulation.references import ArmReference, Quintic, Septic, Step
 from twolink.simulation.sim import simulate
 
 BASE = Path(__file__).resolve().parents[1] / "runs" / "paper" / "base.toml"

@@ -29,8 +29,8 @@ from twolink.controllers.flexible_robust import (
     IntegralFlexibleFeedbackLinearisation,
     integral_polynomial,
 )
+from twolink.foundation.references import ArmReference, Septic
 from twolink.simulation.batch import Arm, BatchPlant, simulate_batch
-from twolink.simulation.references import ArmReference, Septic
 from twolink.simulation.sim import simulate
 
 ARM = ArmParams()

@@ -181,7 +181,7 @@ def test_table_matches_the_engine_at_nodes():
 
 
 def test_closed_loop_with_table_agrees_with_exact_engine():
-    from twolink.interface.config import load_scenario
+    from twolink.simulation.config import load_scenario
     from twolink.simulation.experiment import build_controller, measure, run_scenario
 
     f = "runs/paper/design/heldout_theta1_up.toml"

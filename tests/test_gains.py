@@ -11,7 +11,7 @@ import pytest
 
 from twolink.arm.dynamics import gravity, mass_matrix
 from twolink.arm.params import ArmParams
-from twolink.interface.config import ConfigError, load_scenario
+from twolink.simulation.config import ConfigError, load_scenario
 from twolink.studies import gains
 from twolink.sweep import load_sweep
 

@@ -16,8 +16,8 @@ import pytest
 from twolink.arm import dynamics
 from twolink.arm.params import ArmParams, Flexibility
 from twolink.arm.plant import Plant, holding_motor_q
-from twolink.interface.config import ConfigError, load_scenario
 from twolink.simulation.batch import Arm, BatchPlant
+from twolink.simulation.config import ConfigError, load_scenario
 from twolink.simulation.experiment import build_plant, run_scenario, run_scenarios, start_motor_q
 from twolink.simulation.sim import simulate
 

@@ -13,7 +13,7 @@ import control
 import numpy as np
 import pytest
 
-from twolink.interface.config import merge, scenario_from_dict
+from twolink.simulation.config import merge, scenario_from_dict
 from twolink.simulation.experiment import measure, run_scenario, run_scenarios
 from twolink.simulation.metrics import error_measures, step_metrics
 from twolink.simulation.vocabulary import METRICS, format_value, joint_values, metric

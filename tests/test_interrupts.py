@@ -1,4 +1,4 @@
-"""Ctrl-C wherever it lands (twolink.interface.interrupts, and the command line's handling)."""
+"""Ctrl-C wherever it lands (twolink.foundation.interrupts, and the command line's handling)."""
 
 import os
 import signal
@@ -8,7 +8,7 @@ import threading
 
 import pytest
 
-from twolink.interface.interrupts import interrupts_held
+from twolink.foundation.interrupts import interrupts_held
 
 
 def python(*args: str, cwd=None) -> subprocess.CompletedProcess:
@@ -71,7 +71,7 @@ def test_handlers_are_restored_and_ignored_signals_stay_ignored():
 # complete; unheld, it breaks the import.
 IMPORT_WITH_CTRL_C = """
 import os, signal, sys
-from twolink.interface.interrupts import import_mujoco
+from twolink.foundation.interrupts import import_mujoco
 
 class CtrlCOnFind:
     def find_spec(self, name, path=None, target=None):
@@ -108,7 +108,7 @@ def test_a_ctrl_c_during_mujocos_import_waits_for_it(importer, says):
 WORKER_START_WITH_CTRL_C = """
 import os, signal, sys, time
 from multiprocessing import forkserver
-from twolink.interface.executors import ProcessExecutor
+from twolink.foundation.executors import ProcessExecutor
 
 started = []
 real_read_signed = forkserver.read_signed
@@ -147,10 +147,10 @@ def test_a_worker_started_as_ctrl_c_comes_is_ended_with_the_pool(held):
     code = WORKER_START_WITH_CTRL_C
     if not held:
         code = code.replace(
-            "from twolink.interface.executors import ProcessExecutor",
-            "import contextlib, twolink.interface.executors as ex\n"
+            "from twolink.foundation.executors import ProcessExecutor",
+            "import contextlib, twolink.foundation.executors as ex\n"
             "ex.interrupts_held = contextlib.nullcontext\n"
-            "from twolink.interface.executors import ProcessExecutor",
+            "from twolink.foundation.executors import ProcessExecutor",
         )
     proc = python("-c", code)
     clean = proc.stdout.strip() == "worker ended" and "Traceback" not in proc.stderr

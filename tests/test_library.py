@@ -65,7 +65,7 @@ def test_a_trajectory_converts_to_a_dataframe_and_plots_itself():
     assert np.array_equal(df["joint2_error_rad"].to_numpy(), traj.e[:, 1])
     assert np.array_equal(df["joint1_torque_Nm"].to_numpy(), traj.tau[:, 0])
     assert all("_" in c for c in df.columns)  # every column carries its unit
-    fig = traj.plot("θ1 step")
+    fig = twolink.run_figures(traj, "θ1 step")["angles"]  # figures live above the simulation
     assert len(fig.axes) == 2 and fig.axes[0].get_lines()[1].get_ydata().tolist() == list(
         traj.q[:, 0]
     )
@@ -95,7 +95,7 @@ def test_the_readme_one_call_block_runs(tmp_path):
 
 
 def test_the_fcm_constructor_is_the_reproductions_fcm_ctc():
-    from twolink.interface.config import load_scenario
+    from twolink.simulation.config import load_scenario
     from twolink.simulation.experiment import build_controller
 
     scenario = load_scenario(
@@ -125,7 +125,7 @@ def test_design_and_reproduce_are_one_call(tmp_path):
 
 
 def test_metrics_print_as_tables():
-    from twolink.interface.config import load_scenario
+    from twolink.simulation.config import load_scenario
     from twolink.simulation.experiment import measure, run_scenario
 
     s = load_scenario(REPO / "runs/paper/theta1_step.toml", {"duration": 2.0})

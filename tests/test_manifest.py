@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from twolink.interface.config import ConfigError
+from twolink.simulation.config import ConfigError
 from twolink.simulation.vocabulary import METRICS
 from twolink.studies import report
 from twolink.studies.manifest import DEFAULT_MANIFEST, load_manifest

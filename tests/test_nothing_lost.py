@@ -18,8 +18,7 @@ from click.testing import CliRunner
 from packaging.requirements import Requirement
 from packaging.version import Version
 
-from twolink.interface.cli import main
-from twolink.interface.io import (
+from twolink.foundation.io import (
     LOCK_NAME,
     OWNER_NAME,
     ForeignOutput,
@@ -28,6 +27,7 @@ from twolink.interface.io import (
     seal_intact,
     write_seal,
 )
+from twolink.interface.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
 STEP = REPO / "runs" / "paper" / "theta1_step.toml"
@@ -173,8 +173,9 @@ def test_links_planted_in_a_sweeps_folder_are_never_written_through(tmp_path, pl
 
 
 def test_a_link_inside_a_reproductions_folder_sends_no_run_elsewhere(tmp_path):
-    from twolink.interface.config import load_scenario
-    from twolink.simulation.experiment import measure, run_scenario, write_run
+    from twolink.simulation.config import load_scenario
+    from twolink.simulation.experiment import measure, run_scenario
+    from twolink.studies.run_folder import write_run
 
     root = tmp_path / "reproduce"
     elsewhere = tmp_path / "elsewhere"
@@ -191,8 +192,9 @@ def test_a_link_inside_a_reproductions_folder_sends_no_run_elsewhere(tmp_path):
 
 
 def test_a_users_file_in_a_run_folder_of_a_reproduction_is_kept(tmp_path):
-    from twolink.interface.config import load_scenario
-    from twolink.simulation.experiment import measure, run_scenario, write_run
+    from twolink.simulation.config import load_scenario
+    from twolink.simulation.experiment import measure, run_scenario
+    from twolink.studies.run_folder import write_run
 
     folder = tmp_path / "rigid" / "table2" / "CTC"
     s = load_scenario(STEP, {"duration": 0.05})
@@ -246,10 +248,11 @@ def test_a_damaged_design_is_designed_again_not_a_traceback(tmp_path, capsys):
 
 
 def test_an_edited_run_of_a_reproduction_is_computed_again(tmp_path, capsys):
-    from twolink.interface.config import load_scenario
-    from twolink.simulation.experiment import measure, run_scenario, write_run
+    from twolink.simulation.config import load_scenario
+    from twolink.simulation.experiment import measure, run_scenario
     from twolink.studies.manifest import load_manifest
     from twolink.studies.reproduce import finished_row, plan
+    from twolink.studies.run_folder import write_run
 
     manifest = load_manifest()
     spec = plan(manifest, None, (), None)[0]
@@ -519,7 +522,7 @@ def test_a_run_folder_of_a_twolink_before_owner_records_is_still_its_own(tmp_pat
 def test_a_ctrl_c_while_a_temporary_is_made_or_removed_leaves_none(tmp_path, monkeypatch, when):
     # CI once found `.seal.json.*.tmp` after a Ctrl-C: the signal landed between mkstemp
     # and the temporary's registration. Here it lands exactly there, every time.
-    from twolink.interface import io
+    from twolink.foundation import io
 
     def ctrl_c(*args, **kwargs):
         signal.raise_signal(signal.SIGINT)

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
+from twolink.foundation.io import LOCK_NAME, OutputBusy, output_lock
 from twolink.interface.cli import main
-from twolink.interface.io import LOCK_NAME, OutputBusy, output_lock
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -45,7 +45,7 @@ def test_a_second_command_into_a_folder_in_use_exits_2_and_writes_nothing(tmp_pa
 def test_the_lock_dies_with_a_killed_holder(tmp_path):
     out = tmp_path / "out"
     code = (
-        "import os, sys; from twolink.interface.io import output_lock\n"
+        "import os, sys; from twolink.foundation.io import output_lock\n"
         f"with output_lock({str(out)!r}): os.kill(os.getpid(), 9)"
     )
     subprocess.run([sys.executable, "-c", code], check=False)

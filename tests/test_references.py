@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from twolink.simulation.references import (
+from twolink.foundation.references import (
     ArmReference,
     Quintic,
     Ramp,
@@ -232,7 +232,7 @@ def test_make_reference_errors_name_the_problem() -> None:
 
 
 def test_initial_defaults_to_zero_and_the_rest_is_required():
-    from twolink.simulation.references import Quintic, Ramp, Step
+    from twolink.foundation.references import Quintic, Ramp, Step
 
     assert Step(final=1.0) == Step(0.0, 1.0)  # positional use unchanged
     assert Ramp(final=1.0, duration=2.0) == Ramp(0.0, 1.0, 2.0)

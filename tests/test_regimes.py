@@ -9,7 +9,7 @@ import pytest
 from click.testing import CliRunner
 
 from twolink.interface.cli import main
-from twolink.interface.config import ConfigError, load_scenario, parse_set
+from twolink.simulation.config import ConfigError, load_scenario, parse_set
 from twolink.simulation.experiment import measure, run_scenario
 
 STEP = Path(__file__).resolve().parents[1] / "runs" / "paper" / "theta1_step.toml"

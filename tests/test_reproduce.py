@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from twolink.interface.config import load_scenario
+from twolink.simulation.config import load_scenario
 from twolink.simulation.metrics import StepMetrics, step_metrics
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import STEP_KEYS, metric
@@ -117,7 +117,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     raw = load_results(reproduction.out / "claims_study_raw")
     assert "CTC-matched" in set(raw["controller"])
     fair_raw = pd.read_csv(reproduction.out / "claims_matched_raw.csv")
-    from twolink.interface.config import read_toml
+    from twolink.simulation.config import read_toml
     from twolink.studies.claims_studies import raw_steps
 
     manifest = load_manifest()

@@ -3,8 +3,8 @@
 from dataclasses import fields
 from pathlib import Path
 
-from twolink.interface.config import FuzzyConfig, load_scenario
-from twolink.simulation.references import Quintic, Ramp, Septic, Sine, Step
+from twolink.foundation.references import Quintic, Ramp, Septic, Sine, Step
+from twolink.simulation.config import FuzzyConfig, load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 DOC = (REPO / "docs" / "scenarios.md").read_text()

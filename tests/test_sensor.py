@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 import scipy.signal
 
-from twolink.interface.config import load_scenario
-from twolink.interface.overrides import merge
+from twolink.foundation.overrides import merge
+from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import build_controller, build_plant, run_scenario, run_scenarios
 from twolink.simulation.sensor import Sensor, encoder_resolution
 from twolink.simulation.stability import closed_loop_growth
@@ -248,7 +248,7 @@ def test_with_a_model_error_the_loop_is_linearised_where_it_rests_not_at_the_tar
 
 
 def test_sweep_parameters_k_scale_and_j_scale_are_the_joints_model_error(tmp_path):
-    from twolink.interface.config import scenario_from_dict
+    from twolink.simulation.config import scenario_from_dict
     from twolink.sweep import load_sweep
 
     plan = load_sweep(

@@ -18,8 +18,8 @@ from click.testing import CliRunner
 
 from twolink import sweep as sw
 from twolink.interface.cli import main as cli_main
-from twolink.interface.config import ConfigError, load_scenario
 from twolink.simulation import experiment
+from twolink.simulation.config import ConfigError, load_scenario
 from twolink.simulation.experiment import measure, run_scenario
 from twolink.simulation.vocabulary import STEP_KEYS
 

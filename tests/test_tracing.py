@@ -16,7 +16,7 @@ from rerun.chunk import RrdReader
 from twolink import tracing
 from twolink.arm.params import ArmParams
 from twolink.arm.plant import Plant
-from twolink.interface.config import load_scenario
+from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import run_scenario
 from twolink.simulation.sim import Trajectory
 

@@ -35,11 +35,11 @@ _EXPORTS = {
     "Flexibility": "twolink.arm.params",
     "Plant": "twolink.arm.plant",
     # references and the closed loop
-    "ArmReference": "twolink.simulation.references",
-    "Step": "twolink.simulation.references",
-    "Ramp": "twolink.simulation.references",
-    "Sine": "twolink.simulation.references",
-    "Quintic": "twolink.simulation.references",
+    "ArmReference": "twolink.foundation.references",
+    "Step": "twolink.foundation.references",
+    "Ramp": "twolink.foundation.references",
+    "Sine": "twolink.foundation.references",
+    "Quintic": "twolink.foundation.references",
     "simulate": "twolink.simulation.sim",
     "Trajectory": "twolink.simulation.sim",
     # controllers
@@ -53,7 +53,7 @@ _EXPORTS = {
     "StepMetrics": "twolink.simulation.metrics",
     "error_measures": "twolink.simulation.metrics",
     # scenario files, sweeps, figures
-    "load_scenario": "twolink.interface.config",
+    "load_scenario": "twolink.simulation.config",
     "run_scenario": "twolink.simulation.experiment",
     "measure": "twolink.simulation.experiment",
     "load_results": "twolink.sweep",
@@ -63,34 +63,43 @@ _EXPORTS = {
     "run_sweep": "twolink.api",
     "reproduce": "twolink.studies.reproduce",
     # figures of finished results (matplotlib, headless)
-    "run_figures": "twolink.interface.plots",
-    "response_figure": "twolink.interface.plots",
-    "control_surface_figure": "twolink.interface.plots",
-    "membership_figure": "twolink.interface.plots",
+    "run_figures": "twolink.figures.plots",
+    "response_figure": "twolink.figures.plots",
+    "control_surface_figure": "twolink.figures.plots",
+    "membership_figure": "twolink.figures.plots",
     "sweep_figures": "twolink.sweep.figures",
 }
 
 __all__ = ["__version__", *_EXPORTS]
 
-# The modules grouped by layer (arm, simulation, studies, interface) answer to their
-# earlier flat names too: ``import twolink.params`` gives ``twolink.arm.params`` itself,
-# the same module object, so older code, pickles and DESIGN.md's names keep working.
+# The modules grouped by layer answer to their earlier flat names too: ``import
+# twolink.params`` gives ``twolink.arm.params`` itself, the same module object, so older
+# code, pickles and DESIGN.md's names keep working. So do the names of the modules that
+# moved between layers (``twolink.interface.config`` is ``twolink.simulation.config``).
 _LAYERS = {
+    "foundation": ("references", "io", "interrupts", "executors", "overrides"),
     "arm": ("params", "dynamics", "plant", "validation"),
     "simulation": (
-        "references", "sim", "batch", "metrics", "outcome", "stability", "experiment",
+        "config", "sim", "batch", "metrics", "outcome", "stability", "experiment",
         "vocabulary",
     ),
+    "figures": ("plots",),
     "studies": (
         "design", "design_checks", "validity", "gains", "calibrate", "calibration_report",
         "claims", "claims_studies", "regimes", "reproduce", "manifest", "report",
-        "report_sections",
+        "report_sections", "run_folder",
     ),
-    "interface": (
-        "config", "overrides", "io", "plots", "executors", "interrupts", "cli",
-        "cli_fuzzy", "cli_output", "cli_studies",
-    ),
+    "interface": ("cli", "cli_fuzzy", "cli_output", "cli_studies"),
 }  # fmt: skip
+_MOVED = {
+    "twolink.interface.config": "twolink.simulation.config",
+    "twolink.interface.overrides": "twolink.foundation.overrides",
+    "twolink.interface.io": "twolink.foundation.io",
+    "twolink.interface.plots": "twolink.figures.plots",
+    "twolink.interface.executors": "twolink.foundation.executors",
+    "twolink.interface.interrupts": "twolink.foundation.interrupts",
+    "twolink.simulation.references": "twolink.foundation.references",
+}
 # A public name wins over a flat module name (twolink.reproduce is the function).
 _FLAT_NAMES = {
     f"twolink.{name}": f"twolink.{layer}.{name}"
@@ -98,18 +107,19 @@ _FLAT_NAMES = {
     for name in names
     if name not in _EXPORTS
 }
+_ALIASES = {**_FLAT_NAMES, **_MOVED}
 
 
 class _FlatNames(importlib.abc.MetaPathFinder, importlib.abc.Loader):
     """Imports a flat name (``twolink.params``) as the module of its layer."""
 
     def find_spec(self, name: str, path: Any = None, target: Any = None) -> Any:
-        if name in _FLAT_NAMES:
+        if name in _ALIASES:
             return importlib.util.spec_from_loader(name, self)
         return None
 
     def create_module(self, spec: Any) -> ModuleType:
-        module = importlib.import_module(_FLAT_NAMES[spec.name])
+        module = importlib.import_module(_ALIASES[spec.name])
         spec.loader_state = module.__spec__
         return module
 

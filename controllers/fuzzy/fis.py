@@ -114,7 +114,7 @@ def to_fis(
 
 def write_fis(path: str | Path, engine: MamdaniEngine, name: str = "twolink", scaling=(1, 1, 1)):
     """Write :func:`to_fis` to ``path`` atomically."""
-    from twolink.interface.io import atomic_write_text
+    from twolink.foundation.io import atomic_write_text
 
     atomic_write_text(path, to_fis(engine, name, scaling))
     return Path(path)

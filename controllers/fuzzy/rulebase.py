@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any, NamedTuple
 
 from twolink.controllers.fuzzy.membership import LABELS_7, MIRROR_LABELS
-from twolink.interface.io import atomic_write_text, toml_key, toml_string, toml_table, toml_value
+from twolink.foundation.io import atomic_write_text, toml_key, toml_string, toml_table, toml_value
 
 __all__ = ["RULEBASE_DIR", "Rule", "RuleBase", "load_rule_base", "pd_rule_table", "save_rule_base"]
 

@@ -1,7 +1,7 @@
 """The arm as MuJoCo sees it: model building (MjSpec) and a small stepping wrapper.
 
 This is the only module that imports :mod:`mujoco` (with Ctrl-C held back:
-:mod:`twolink.interface.interrupts`); :mod:`twolink.simulation.batch` takes it from here.
+:mod:`twolink.foundation.interrupts`); :mod:`twolink.simulation.batch` takes it from here.
 
 Frames: the paper's vertical plane (x, y) is MuJoCo's (x, z), so the arm stands up
 in the viewer; the paper's gravity along -y is MuJoCo's -z. Each hinge turns about
@@ -26,7 +26,7 @@ import numpy as np
 
 from twolink.arm.dynamics import gravity
 from twolink.arm.params import ArmParams, Flexibility
-from twolink.interface.interrupts import import_mujoco
+from twolink.foundation.interrupts import import_mujoco
 
 mujoco = import_mujoco()
 

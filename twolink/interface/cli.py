@@ -15,6 +15,14 @@ from pathlib import Path
 import click
 
 from twolink.arm.params import ArmParams, Flexibility
+from twolink.foundation.executors import EXECUTORS, open_executor
+from twolink.foundation.interrupts import (
+    CTRL_C_RECEIVED,
+    forget_escaped_interrupt,
+    on_ctrl_c,
+    resend_dropped_ctrl_c,
+)
+from twolink.foundation.io import ForeignOutput, OutputBusy, WriteFailed
 from twolink.interface.cli_output import (
     done_line,
     format_metrics,
@@ -23,14 +31,6 @@ from twolink.interface.cli_output import (
     sweep_exits,
 )
 from twolink.interface.cli_output import fail_input as _fail_input
-from twolink.interface.executors import EXECUTORS, open_executor
-from twolink.interface.interrupts import (
-    CTRL_C_RECEIVED,
-    forget_escaped_interrupt,
-    on_ctrl_c,
-    resend_dropped_ctrl_c,
-)
-from twolink.interface.io import ForeignOutput, OutputBusy, WriteFailed
 
 REPO_MODELS = Path(__file__).resolve().parents[2] / "models"
 
@@ -164,7 +164,7 @@ def models(out: Path | None, install: bool) -> None:
       twolink models --install       # regenerate the repository's models/
     """
     from twolink.arm.plant import model_xml, scene_xml
-    from twolink.interface.io import atomic_write_text
+    from twolink.foundation.io import atomic_write_text
 
     if install and out is not None:
         _fail_input("--install writes the repository's models/; it takes no --out")
@@ -205,14 +205,14 @@ def run(
     Exit 0 when the run completes, 1 when it diverged (what was computed is kept),
     2 on a bad scenario file.
     """
-    from twolink.interface.config import ConfigError, load_scenario, parse_set
+    from twolink.simulation.config import ConfigError, load_scenario, parse_set
     from twolink.simulation.experiment import (
         build_controller,
         build_plant,
         measure,
         run_scenario,
-        write_run,
     )
+    from twolink.studies.run_folder import write_run
 
     folder = out or Path("results") / Path(scenario).stem
     try:
@@ -311,8 +311,8 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
       twolink design --figure phase.png    # also the paper's Figure 2, phase_validity.png
       twolink design --install             # update controllers/rulebases/designed.toml
     """
-    from twolink.interface.config import RULEBASE_DIR, ConfigError
-    from twolink.interface.io import check_output_file
+    from twolink.foundation.io import check_output_file
+    from twolink.simulation.config import RULEBASE_DIR, ConfigError
     from twolink.studies.design import DEFAULT_DESIGN, load_design_config, write_design
     from twolink.studies.design import design as run_design
 
@@ -368,7 +368,7 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
         update_docs(path, DOCS)
         click.echo(f"designed rule base tables -> {DOCS}")
     if figure:
-        from twolink.interface.plots import phase_plane_figure, save_figure
+        from twolink.figures.plots import phase_plane_figure, save_figure
 
         save_figure(phase_plane_figure(result), figure)
         click.echo(f"phase plane -> {figure}")
@@ -415,7 +415,7 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
       twolink gains --set plants=10             # a quicker, coarser study
       twolink gains --install                   # update runs/paper/gains.csv
     """
-    from twolink.interface.config import ConfigError, parse_set
+    from twolink.simulation.config import ConfigError, parse_set
     from twolink.studies import gains as study_module
 
     try:
@@ -477,7 +477,7 @@ def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> No
       twolink calibrate --set maxiter=2 --set popsize=4   # a tiny, quick fit
       twolink calibrate --install                   # update runs/paper/calibrated.toml
     """
-    from twolink.interface.config import ConfigError, parse_set
+    from twolink.simulation.config import ConfigError, parse_set
     from twolink.studies import calibrate as cal
     from twolink.studies import calibration_report
 
@@ -531,7 +531,7 @@ def reproduce(
       twolink reproduce                          # into results/reproduce
       twolink reproduce --out /tmp/r --no-trace  # elsewhere, without recordings
     """
-    from twolink.interface.config import ConfigError, parse_set
+    from twolink.simulation.config import ConfigError, parse_set
     from twolink.studies.reproduce import DEFAULT_MANIFEST
     from twolink.studies.reproduce import reproduce as run_reproduction
 
@@ -626,8 +626,8 @@ def sweep_command(
     Exit 0 when the table is written (diverged samples are results, not failures),
     1 when the executor fails, 2 on bad input, 130/143 when stopped by SIGINT/SIGTERM.
     """
-    from twolink.interface.config import ConfigError, merge, parse_set
-    from twolink.interface.io import check_output_folder, check_ownership
+    from twolink.foundation.io import check_output_folder, check_ownership
+    from twolink.simulation.config import ConfigError, merge, parse_set
     from twolink.sweep import SweepOutputError, format_summary, load_sweep, run_sweep
 
     try:

@@ -76,7 +76,7 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
 def rule_base_file(name: str) -> Path:
     """The file of a rule base by name or path; another kind of this project's TOML files
     is refused naming what reads it."""
-    from twolink.interface.config import expect_kind, read_toml, resolve_rule_base
+    from twolink.simulation.config import expect_kind, read_toml, resolve_rule_base
 
     path = resolve_rule_base(name)
     if path.suffix.lower() != ".fis" and path.is_file():
@@ -94,7 +94,7 @@ def write_validity_figure(result: Any, path: Path) -> tuple:
     """The cluster-validity sweep of a design (PC, PE and XB for c = 2..10 on its data,
     weighted as it weighs; twolink/studies/validity.py) plotted to ``path`` with the design's c
     marked, as the report's design section shows it. Returns the sweep's rows."""
-    from twolink.interface.plots import save_figure
+    from twolink.figures.plots import save_figure
     from twolink.studies.validity import validity_figure, validity_sweep
 
     rows = validity_sweep(result.points, result.weights)
@@ -131,8 +131,8 @@ def fis_command(rule_base: str, scenario: Path | None, out: Path) -> None:
     """
     from twolink.controllers.fuzzy import default_fuzzy_pd
     from twolink.controllers.fuzzy.fis import read_rule_base, write_fis, written_by_twolink
-    from twolink.interface.config import ConfigError, load_scenario
-    from twolink.interface.io import check_output_file
+    from twolink.foundation.io import check_output_file
+    from twolink.simulation.config import ConfigError, load_scenario
     from twolink.simulation.experiment import build_controller
 
     base = scenario or Path(__file__).resolve().parents[2] / "runs" / "paper" / "base.toml"

@@ -23,7 +23,7 @@ def sweep_exits(out: Path) -> Iterator[None]:
     already written stay in ``out`` for a rerun to resume from."""
     from concurrent import futures
 
-    from twolink.interface.executors import ExecutorError
+    from twolink.foundation.executors import ExecutorError
     from twolink.sweep import SweepInterrupted, SweepTaskError
 
     try:
@@ -36,7 +36,7 @@ def sweep_exits(out: Path) -> Iterator[None]:
         sys.exit(1)
 
 
-# What each command writes at the top of its folder (run: twolink.simulation.experiment.RUN_FILES):
+# What each command writes at the top of its folder (run: twolink.studies.run_folder.RUN_FILES):
 # a folder of only these, from a twolink before owner records, is the command's own.
 KNOWN_OUTPUTS = {
     "gains": frozenset({"gains.csv", "gain_tradeoff.png"}),
@@ -48,14 +48,14 @@ KNOWN_OUTPUTS = {
 def own_output(out: Path, command: str, source: str | None = None, default: bool = False) -> None:
     """Check that ``twolink COMMAND`` may write into ``out`` (exit 2 if not), then hold it
     (lock and owner record) until the command ends (docs/reliability.md)."""
-    from twolink.interface.io import check_output_folder, check_ownership, owned_output
+    from twolink.foundation.io import check_output_folder, check_ownership, owned_output
 
     try:
         check_output_folder(out)
         known = KNOWN_OUTPUTS.get(command, frozenset())
         if command == "run":  # a run folder's own files, as write_run names them
-            from twolink.interface.io import SEAL_NAME
-            from twolink.simulation.experiment import RUN_FILES
+            from twolink.foundation.io import SEAL_NAME
+            from twolink.studies.run_folder import RUN_FILES
 
             known = frozenset({*RUN_FILES, SEAL_NAME})
         check_ownership(out, command, source, default, known=known)

@@ -39,10 +39,10 @@ def regimes_command(
       twolink regimes                  # ~2-3 min on 2 cores
       twolink regimes -n 300 --out /tmp/regimes   # 10 plants per cell, quicker
     """
-    from twolink.interface.config import ConfigError
-    from twolink.interface.executors import open_executor
-    from twolink.interface.io import atomic_write_text
-    from twolink.interface.plots import save_figure
+    from twolink.figures.plots import save_figure
+    from twolink.foundation.executors import open_executor
+    from twolink.foundation.io import atomic_write_text
+    from twolink.simulation.config import ConfigError
     from twolink.studies import regimes
     from twolink.sweep import load_sweep
 

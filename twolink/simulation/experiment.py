@@ -6,13 +6,10 @@ and no control law of its own.
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import math
-import os
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,26 +17,11 @@ import numpy as np
 from twolink.arm.plant import Plant, holding_motor_q
 from twolink.controllers.base import Controller
 from twolink.controllers.ctc import ComputedTorque
-from twolink.interface.config import (
-    BUILTIN_RULE_BASES,
+from twolink.simulation.config import (
     FLEXIBLE_KINDS,
     FUZZY_KINDS,
     Scenario,
     resolve_rule_base,
-)
-from twolink.interface.io import (
-    SEAL_NAME,
-    ForeignOutput,
-    WriteFailed,
-    atomic_write_json,
-    atomic_write_text,
-    folder_entries,
-    refuse_links,
-    replace_files,
-    scratch_folder,
-    show_names,
-    to_toml,
-    write_seal,
 )
 from twolink.simulation.metrics import (
     error_measures,
@@ -48,10 +30,9 @@ from twolink.simulation.metrics import (
     step_metrics,
     torque_measures,
 )
-from twolink.simulation.outcome import classify_run
 from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import Trajectory, simulate
-from twolink.simulation.vocabulary import CONTROLLER_LABELS, format_value, joint_values
+from twolink.simulation.vocabulary import format_value, joint_values
 
 
 def build_plant(s: Scenario) -> Plant:
@@ -470,93 +451,3 @@ def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) ->
     if len(centres):
         extras["centres"] = np.array(centres, dtype=float)
     return extras
-
-
-def portable_config(s: Scenario, out: Path) -> dict[str, Any]:
-    """The resolved config, with a rule-base file path relative to the folder it is saved
-    in (it resolves against that folder when read back), so a results folder can move."""
-    data = s.to_dict()
-    name = data["controller"]["rule_base"]
-    if name not in BUILTIN_RULE_BASES:
-        path = resolve_rule_base(name, s.source).resolve()
-        data["controller"]["rule_base"] = os.path.relpath(path, out.resolve())
-    return data
-
-
-# What a run folder holds (besides its seal): the only names write_run replaces.
-RUN_FILES = (
-    "config.toml",
-    "trajectory.npz",
-    "metrics.json",
-    "angles.png",
-    "errors.png",
-    "torques.png",
-    "trace.rrd",
-)
-
-
-def check_run_folder(out: Path) -> None:
-    """Refuse (:class:`~twolink.interface.io.ForeignOutput`) a run folder that holds anything but a
-    run's files, or is reached through a link inside its output folder."""
-    refuse_links(out)
-    if out.is_dir():
-        extra = folder_entries(out) - {*RUN_FILES, SEAL_NAME}
-        if extra:
-            raise ForeignOutput(
-                f"{out}: holds files that are not a twolink run's ({show_names(extra)}); "
-                "twolink does not overwrite a folder it did not write: move them away or "
-                "use another --out"
-            )
-
-
-@contextlib.contextmanager
-def _named_in(out: Path) -> Iterator[None]:
-    try:
-        yield
-    except WriteFailed as exc:
-        raise exc.moved_to(out) from None
-
-
-def write_run(
-    out: str | Path,
-    s: Scenario,
-    traj: Trajectory,
-    metrics: RunMetrics,
-    plots: bool = True,
-    trace: bool = True,
-    controller: Controller | None = None,
-    centres: Any = (),
-    prefix: str = "run",
-    name: str | None = None,
-) -> Path:
-    """Write one run's folder: config.toml, trajectory.npz, metrics.json, PNG plots and a
-    rerun recording ``trace.rrd`` (of the run under ``prefix``).
-
-    The files are written into a temporary folder, then each moved into ``out`` by one
-    rename and sealed (``seal.json``: their SHA-256, written last), so no file of an
-    earlier run stays beside the new ones and a damaged or edited run is found on reuse.
-    Only the run's own files are replaced: a folder holding anything else is refused
-    (:class:`~twolink.interface.io.ForeignOutput`). ``name`` is the controller's name in the outputs
-    (default: its kind's label)."""
-    out = Path(out)
-    name = name or CONTROLLER_LABELS.get(s.controller.kind, s.controller.kind)
-    check_run_folder(out)
-    out.mkdir(parents=True, exist_ok=True)
-    with scratch_folder(out) as tmp, _named_in(out):
-        atomic_write_text(tmp / "config.toml", to_toml(portable_config(s, out)))
-        traj.save(tmp / "trajectory.npz")
-        atomic_write_json(tmp / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
-        if plots:
-            from twolink.interface.plots import save_run_plots
-
-            save_run_plots(tmp, traj, title=s.name)
-        if trace:
-            from twolink import tracing
-
-            extras = trace_extras(controller, traj, centres) if controller is not None else {}
-            tracing.write_recording(
-                tmp / "trace.rrd", [(prefix, traj, s.plant_params, extras)], every=TRACE_EVERY
-            )
-        replace_files(out, tmp, RUN_FILES)
-    write_seal(out, [n for n in RUN_FILES if (out / n).is_file()])
-    return out

@@ -17,12 +17,11 @@ import numpy as np
 
 from twolink.arm.plant import Plant
 from twolink.controllers.base import Controller
-from twolink.interface.io import atomic_path
+from twolink.foundation.io import atomic_path
 from twolink.simulation.sensor import Sensor
 
 if TYPE_CHECKING:
     import pandas as pd
-    from matplotlib.figure import Figure
 
 STATUS_OK = "ok"
 STATUS_DIVERGED = "diverged"
@@ -133,13 +132,6 @@ class Trajectory:
             for leaf, values in signals.items()
         }
         return pd.DataFrame(columns, index=pd.Index(self.t, name=TIME_COLUMN))
-
-    def plot(self, title: str = "") -> Figure:
-        """The joint angles against their references (matplotlib, headless); errors and
-        torques too: :func:`twolink.interface.plots.run_figures`."""
-        from twolink.interface.plots import angles_figure
-
-        return angles_figure(self, title)
 
     def equals(self, other: Trajectory) -> bool:
         """Bit-for-bit equality of every array and the status."""

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from twolink.interface.config import (
+from twolink.simulation.config import (
     TomlTable,
     expect_kind,
     merge,
@@ -103,7 +103,7 @@ class Calibration:
     def digest(self) -> str:
         """What decides the result: every setting, bound, paper value, the arm and the
         designed rule base the FCM-CTC rows run."""
-        from twolink.interface.config import resolve_rule_base
+        from twolink.simulation.config import resolve_rule_base
 
         data = {k: v for k, v in asdict(self).items() if k != "source"}
         rule_base = resolve_rule_base("designed").read_bytes()  # the FCM rows' rule base
@@ -507,7 +507,7 @@ def rerun(study: Calibration, result: dict[str, Any]) -> dict[str, dict[str, flo
 
 
 def save_result(result: dict[str, Any], path: Path) -> Path:
-    from twolink.interface.io import atomic_write_text, to_toml
+    from twolink.foundation.io import atomic_write_text, to_toml
 
     path.parent.mkdir(parents=True, exist_ok=True)
     head = "# Written by `twolink calibrate` (twolink.studies.calibrate): do not edit by hand.\n"

@@ -137,7 +137,7 @@ def fit_counts(study: Calibration, rows: dict[str, dict[str, float]]) -> tuple[i
 def profile_figure(study: Calibration, result: dict[str, Any], path: Path) -> Path:
     """The objective along each parameter (others held at the optimum: one-at-a-time
     slices, not re-fitted profiles), one panel each."""
-    from twolink.interface.plots import plt, save_figure
+    from twolink.figures.plots import plt, save_figure
 
     panels = [(c, n, p) for c, prof in result["profile"].items() for n, p in prof.items()]
     cols = 5

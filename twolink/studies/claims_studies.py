@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from twolink.interface.config import Scenario, read_toml
+from twolink.simulation.config import Scenario, read_toml
 from twolink.simulation.vocabulary import metric
 from twolink.studies.manifest import Manifest
 from twolink.studies.matching import MATCHED, Matched, match_peak_torque
@@ -78,7 +78,7 @@ def _claims_study(
     import pandas as pd
 
     from twolink import sweep
-    from twolink.interface.io import atomic_write_text
+    from twolink.foundation.io import atomic_write_text
     from twolink.studies import report
     from twolink.studies.claims import paired_claims
 
@@ -109,7 +109,7 @@ def _claims_study(
             replace_other=True,
         )
     except sweep.SweepInterrupted as exc:
-        from twolink.interface.interrupts import CTRL_C_RECEIVED
+        from twolink.foundation.interrupts import CTRL_C_RECEIVED
 
         CTRL_C_RECEIVED.append(exc.signum)  # the command ends as that signal asks (130/143)
         raise KeyboardInterrupt from None  # the reproduction's own stop

@@ -49,7 +49,8 @@ from twolink.controllers.fuzzy import (
     load_rule_base,
     save_rule_base,
 )
-from twolink.interface.config import (
+from twolink.foundation.io import SEAL_NAME, atomic_path, atomic_write_text, seal_intact, write_seal
+from twolink.simulation.config import (
     ConfigError,
     Scenario,
     TomlTable,
@@ -58,7 +59,6 @@ from twolink.interface.config import (
     load_scenario,
     read_toml,
 )
-from twolink.interface.io import SEAL_NAME, atomic_path, atomic_write_text, seal_intact, write_seal
 from twolink.simulation.experiment import build_controller, run_scenarios
 from twolink.studies.design_checks import (
     SymmetryCheck,

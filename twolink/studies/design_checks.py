@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from twolink.controllers.fuzzy import MIRROR_LABELS, MamdaniEngine, Rule
-from twolink.interface.config import Scenario
+from twolink.simulation.config import Scenario
 from twolink.simulation.experiment import build_controller, run_scenarios
 
 SYMMETRY_GRID = 61  # points per axis of the asymmetry check: the universes' own samples

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from twolink.arm.params import Flexibility
-from twolink.interface.config import (
+from twolink.simulation.config import (
     ConfigError,
     TomlTable,
     expect_kind,
@@ -245,7 +245,7 @@ def _run_chunk(source: str, items: list[tuple[dict[str, Any], dict[str, Any]]]) 
 
 def run_gain_study(study: GainStudy, pool: Any = None, progress: bool = False) -> pd.DataFrame:
     """Run every (controller, ωn, ζ, reference, plant) of the study on the batch engine,
-    in chunks on ``pool`` (a :mod:`twolink.interface.executors` executor) or in this process.
+    in chunks on ``pool`` (a :mod:`twolink.foundation.executors` executor) or in this process.
 
     Returns one row per run (columns: the labels, ``status``, and per joint n
     ``final_error{n}`` [rad], ``overshoot{n}`` [%], ``settling{n}`` (to the target) [s],
@@ -446,7 +446,7 @@ def realistic_growth(study: GainStudy, wns: Sequence[float]) -> dict[float, floa
 def tradeoff_figure(table: pd.DataFrame, study: GainStudy, choice: Choice | None, path: Path):
     """The trade-off figure: error under mismatch, torque demand, saturation and overshoot
     against ωn, for the step and the quintic move."""
-    from twolink.interface.plots import plt, save_figure
+    from twolink.figures.plots import plt, save_figure
 
     fig, axes = plt.subplots(2, 2, figsize=(11, 7.5), sharex=True)
     ax_err, ax_tau, ax_sat, ax_mp = axes.ravel()
@@ -521,7 +521,7 @@ def table_path(study: GainStudy) -> Path:
 
 def save_study(table: pd.DataFrame, study: GainStudy, choice: Choice, path: Path) -> Path:
     """Write the study's table (CSV) and, beside it (``.json``), its digest and choice."""
-    from twolink.interface.io import atomic_write_json, atomic_write_text
+    from twolink.foundation.io import atomic_write_json, atomic_write_text
 
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, table.to_csv(index=False))

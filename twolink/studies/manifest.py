@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from twolink.interface.config import TomlTable, expect_kind, read_toml
-from twolink.interface.io import unsafe_name_problem
+from twolink.foundation.io import unsafe_name_problem
+from twolink.simulation.config import TomlTable, expect_kind, read_toml
 from twolink.simulation.vocabulary import STEP_KEYS, metric
 
 DEFAULT_MANIFEST = Path(__file__).resolve().parents[2] / "runs" / "paper" / "reproduce.toml"
@@ -292,7 +292,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
 
 def _model_error(t: TomlTable) -> dict[str, float]:
     """``flexible_model_error``: [plant.scale] factors, checked as a scenario checks them."""
-    from twolink.interface.config import ARM_SCALE_KEYS, JOINT_SCALE_KEYS
+    from twolink.simulation.config import ARM_SCALE_KEYS, JOINT_SCALE_KEYS
 
     known = sorted(ARM_SCALE_KEYS + JOINT_SCALE_KEYS)
     out = {}

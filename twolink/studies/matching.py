@@ -63,8 +63,8 @@ def match_peak_torque(plan: Any, proposed: str, baseline: str) -> Matched:
     """CTC (``baseline`` of ``plan``, a sweep) retuned to ``proposed``'s peak torque on the
     sweep's nominal plant: the largest ωn scale s at which its peak torque stays within the
     proposed controller's on both joints (see the module's docstring)."""
-    from twolink.interface.config import scenario_from_dict
-    from twolink.interface.overrides import merge
+    from twolink.foundation.overrides import merge
+    from twolink.simulation.config import scenario_from_dict
 
     prop = scenario_from_dict(plan.controller_data(proposed), plan.file)
     base = scenario_from_dict(plan.controller_data(baseline), plan.file)

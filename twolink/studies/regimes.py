@@ -47,7 +47,7 @@ def run_regimes(
 ) -> dict[str, pd.DataFrame]:
     """Run the study in both regimes into ``out/<regime>``; their results tables."""
     from twolink import sweep
-    from twolink.interface.config import read_toml
+    from twolink.simulation.config import read_toml
     from twolink.studies.claims_studies import raw_steps
 
     raw = {"reference": raw_steps(read_toml(study).get("reference", {})), "name": "regimes_raw"}
@@ -170,7 +170,7 @@ def figure(summ: pd.DataFrame) -> Any:
     """Heatmaps, one per regime and proposed controller: the fuzzy term's share of samples
     per cell (rows ωn, columns mass x payload), each cell marked with its effect against
     CTC."""
-    from twolink.interface.plots import fixed_layout, plt
+    from twolink.figures.plots import fixed_layout, plt
 
     regimes = list(dict.fromkeys(summ["regime"]))
     proposed_names = list(dict.fromkeys(summ["proposed"]))

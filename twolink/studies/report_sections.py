@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING, Any
 
-from twolink.interface.config import Scenario
+from twolink.simulation.config import Scenario
 from twolink.simulation.experiment import build_controller
 from twolink.simulation.sim import Trajectory
 
@@ -118,7 +118,7 @@ def up_and_down(
     that makes the same move upward: same variant, controller, joint, plant and
     reference shape with the opposite target."""
 
-    from twolink.simulation.references import reference_params
+    from twolink.foundation.references import reference_params
     from twolink.simulation.vocabulary import format_value
 
     def shape(sp: RunSpec) -> tuple[Any, ...]:

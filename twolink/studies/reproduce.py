@@ -21,15 +21,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from twolink.interface.config import FUZZY_KINDS, ConfigError, Scenario, load_scenario, merge
-from twolink.interface.interrupts import raise_if_dropped
-from twolink.interface.io import SEAL_NAME, seal_intact, to_toml
+from twolink.foundation.interrupts import raise_if_dropped
+from twolink.foundation.io import SEAL_NAME, seal_intact, to_toml
+from twolink.simulation.config import FUZZY_KINDS, ConfigError, Scenario, load_scenario, merge
 from twolink.simulation.experiment import (
     build_controller,
     iter_scenarios,
     measure,
-    portable_config,
-    write_run,
 )
 from twolink.simulation.outcome import classify_run
 from twolink.simulation.sim import Trajectory
@@ -42,6 +40,7 @@ from twolink.studies.manifest import (
     Variant,
     load_manifest,
 )
+from twolink.studies.run_folder import portable_config, write_run
 
 
 @dataclass(frozen=True)
@@ -201,7 +200,7 @@ def run_all(
     scenarios: dict[str, Scenario] | None = None,
     busy: int = 0,
 ) -> tuple[list[dict[str, Any]], dict[Any, list[int]]]:
-    """Submit every spec not already done to ``pool`` (a :mod:`twolink.interface.executors`
+    """Submit every spec not already done to ``pool`` (a :mod:`twolink.foundation.executors`
     executor), in one batch of arms per worker.
 
     With ``scenarios`` (by spec folder), a run already whole in ``out`` for the same
@@ -340,7 +339,7 @@ def flexible_study(
     study. With ``model_error`` ([plant.scale] factors) the same sweep on plants that
     differ from every controller's model, into ``out/flexible_study_error``."""
     from twolink import sweep
-    from twolink.interface import plots
+    from twolink.figures import plots
 
     name = "flexible_study_error" if model_error else "flexible_study"
     overrides = {"overrides": {"plant": {"scale": dict(model_error)}}} if model_error else None
@@ -452,7 +451,7 @@ def reproduce(
     ``overrides`` (the command's ``--set``) change every experiment's scenario, not the
     design runs nor the flexible-joint study."""
     from twolink import sweep
-    from twolink.interface.io import check_output_folder, check_ownership, owned_output
+    from twolink.foundation.io import check_output_folder, check_ownership, owned_output
     from twolink.studies.design import load_design_config
 
     out = Path(out)
@@ -492,8 +491,8 @@ def _reproduce(
     """:func:`reproduce` once its inputs are checked and its folder is held."""
     from tqdm import tqdm
 
-    from twolink.interface.executors import open_executor
-    from twolink.interface.io import atomic_write_json, atomic_write_text
+    from twolink.foundation.executors import open_executor
+    from twolink.foundation.io import atomic_write_json, atomic_write_text
     from twolink.studies import report
     from twolink.studies.design import design_or_load
     from twolink.studies.gains import report_section
@@ -622,7 +621,7 @@ def _design_figures(result: Any, out: Path) -> list[Any]:
     base, and the cluster-validity sweep, which it returns
     (:func:`twolink.studies.validity.validity_sweep`: c = 2..10, PC, PE, XB)."""
     from twolink.controllers import fuzzy
-    from twolink.interface import plots
+    from twolink.figures import plots
     from twolink.studies.validity import validity_figure, validity_sweep
 
     validity = validity_sweep(result.points, result.weights)
@@ -650,7 +649,7 @@ def _design_figures(result: Any, out: Path) -> list[Any]:
 def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, path: Path) -> None:
     """One experiment's response under each controller, read from its run folders (a
     worker task)."""
-    from twolink.interface import plots
+    from twolink.figures import plots
 
     trajs = {
         name: Trajectory.load(out / folder / "trajectory.npz") for name, folder in runs.items()

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from twolink.interface.overrides import merge
+from twolink.foundation.overrides import merge
 from twolink.simulation.sensor import ENCODER_BITS, encoder_resolution
 
 __all__ = ["CUTOFFS", "ERROR_BUDGET", "choose_cutoff", "velocity_table"]
@@ -52,7 +52,7 @@ def velocity_table(
 ) -> pd.DataFrame:
     """CTC on the nominal arm, the robustness sweep's move, per (ωn, sensor): torque
     variation per joint [N·m], max|e| of the larger joint [rad] and final error [rad]."""
-    from twolink.interface.config import scenario_from_dict
+    from twolink.simulation.config import scenario_from_dict
     from twolink.simulation.experiment import run_scenarios
     from twolink.simulation.metrics import torque_measures
     from twolink.sweep import load_sweep
@@ -94,7 +94,7 @@ def choose_cutoff(table: pd.DataFrame, wn: float, budget: float = ERROR_BUDGET) 
 
 def design_wn() -> float:
     """The bandwidth of the shipped gains (runs/paper/base.toml's kp = ωn²)."""
-    from twolink.interface.config import load_scenario
+    from twolink.simulation.config import load_scenario
 
     return float(np.sqrt(load_scenario(ROOT / "runs" / "paper" / "base.toml").controller.kp[0]))
 

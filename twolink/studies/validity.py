@@ -125,7 +125,7 @@ def validity_figure(rows: Sequence[ValidityRow], chosen: int):
     matplotlib.use("Agg")
     from matplotlib.figure import Figure
 
-    from twolink.interface.plots import fixed_layout
+    from twolink.figures.plots import fixed_layout
 
     fig = fixed_layout(Figure(figsize=(9, 3)), left=0.06, right=0.98, top=0.9, bottom=0.16)
     fig.subplots_adjust(wspace=0.3)

@@ -24,16 +24,16 @@ from typing import Any
 
 import pandas as pd
 
-from twolink.interface.config import scenario_from_dict
-from twolink.interface.executors import SweepExecutor, check_options, open_executor
-from twolink.interface.interrupts import interrupts_held
-from twolink.interface.io import (
+from twolink.foundation.executors import SweepExecutor, check_options, open_executor
+from twolink.foundation.interrupts import interrupts_held
+from twolink.foundation.io import (
     append_line,
     atomic_write_json,
     atomic_write_text,
     owned_output,
     refuse_links,
 )
+from twolink.simulation.config import scenario_from_dict
 from twolink.simulation.experiment import build_controller, iter_scenarios, measure
 from twolink.simulation.outcome import classify
 from twolink.simulation.vocabulary import joint_values
@@ -355,7 +355,7 @@ class _StopSignals:
     """SIGINT and SIGTERM as KeyboardInterrupt, recorded (the first decides the exit code).
 
     A chunk file and its log line are written with both held back
-    (:func:`twolink.interface.interrupts.interrupts_held`): a handler runs in the main thread,
+    (:func:`twolink.foundation.interrupts.interrupts_held`): a handler runs in the main thread,
     whichever thread the signal reached, so a deferred handler, not a signal mask, is
     what keeps them together.
     """
@@ -403,7 +403,7 @@ def run_sweep(
     out : str or Path
         Output folder. Chunks already there (of the same sweep) are kept, not recomputed.
     executor, workers, scheduler : optional
-        See :func:`twolink.interface.executors.open_executor`; default: the sweep file's
+        See :func:`twolink.foundation.executors.open_executor`; default: the sweep file's
         ``[execution]`` table, else a process pool on all cores.
     pool : SweepExecutor, optional
         An executor already running (the reproduction's pool): the chunks go to it, and

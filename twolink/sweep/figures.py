@@ -19,8 +19,8 @@ __all__ = ["save_sweep_plots", "sweep_figures"]
 
 
 def pyplot() -> Any:
-    # Through twolink.interface.plots, which selects the headless Agg backend before pyplot loads.
-    from twolink.interface import plots
+    # Through twolink.figures.plots, which selects the headless Agg backend before pyplot loads.
+    from twolink.figures import plots
 
     return plots.plt
 
@@ -111,7 +111,7 @@ def sweep_figures(results: pd.DataFrame) -> dict[str, Figure]:
 
 def save_sweep_plots(out: str | Path, results: pd.DataFrame) -> list[Path]:
     """Write the :func:`sweep_figures` as PNG files under ``out/plots``."""
-    from twolink.interface.plots import save_figure
+    from twolink.figures.plots import save_figure
 
     paths = []
     for name, fig in sweep_figures(results).items():

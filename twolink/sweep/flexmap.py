@@ -131,7 +131,7 @@ def disagreements(cells: pd.DataFrame) -> list[str]:
 def rigid_reference(plan: SweepPlan, controller: str = "CTC") -> dict[float, tuple[float, float]]:
     """Ts [s] and Mp [%] (worse moving joint) of ``controller`` on the rigid arm, per
     bandwidth of the map's ``wn`` grid: what "within the rigid arm's values" compares to."""
-    from twolink.interface.config import scenario_from_dict
+    from twolink.simulation.config import scenario_from_dict
     from twolink.simulation.experiment import iter_scenarios, measure
 
     wn_grid = [float(wn) for wn in next(p.values for p in plan.parameters if p.name == "wn")]

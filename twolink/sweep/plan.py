@@ -68,7 +68,9 @@ from typing import Any
 import numpy as np
 
 from twolink.arm.params import Flexibility
-from twolink.interface.config import (
+from twolink.foundation.executors import EXECUTORS
+from twolink.foundation.io import unsafe_name_problem
+from twolink.simulation.config import (
     BUILTIN_RULE_BASES,
     RULE_BASE_KINDS,
     ConfigError,
@@ -81,8 +83,6 @@ from twolink.interface.config import (
     scenario_from_dict,
     strip_replace,
 )
-from twolink.interface.executors import EXECUTORS
-from twolink.interface.io import unsafe_name_problem
 from twolink.simulation.outcome import SuccessSpec, finished, largest_step
 from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
 

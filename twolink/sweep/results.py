@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from twolink.interface.io import atomic_path, atomic_write_json, atomic_write_text
+from twolink.foundation.io import atomic_path, atomic_write_json, atomic_write_text
 from twolink.simulation.outcome import OUTCOMES
 from twolink.simulation.vocabulary import METRICS, format_value
 

@@ -40,7 +40,7 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-from twolink.interface.io import atomic_path
+from twolink.foundation.io import atomic_path
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import split_by_scale
 from twolink.tracing.files import _read_curves, recording_id

@@ -15,7 +15,7 @@ import rerun as rr
 from rerun.error_utils import catch_and_log_exceptions
 
 from twolink.arm.params import ArmParams
-from twolink.interface.io import atomic_path
+from twolink.foundation.io import atomic_path
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import SIGNAL_UNITS, TIME_COLUMN, signal_column
 

@@ -16,7 +16,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.layout_engine import PlaceHolderLayoutEngine  # noqa: E402
 
-from twolink.interface.io import atomic_path  # noqa: E402
+from twolink.foundation.io import atomic_path  # noqa: E402
 from twolink.simulation.vocabulary import split_by_scale  # noqa: E402
 
 if TYPE_CHECKING:
@@ -31,7 +31,7 @@ def save_figure(fig: Figure, path: str | Path, dpi: int = 110) -> None:
     tight bounding box would draw it twice."""
     tight = "tight" if fig.get_layout_engine() is None else None
     with atomic_path(path, suffix=".png") as tmp:
-        # the mark that lets a later run overwrite this file (twolink.interface.io.WRITTEN_BY)
+        # the mark that lets a later run overwrite this file (twolink.foundation.io.WRITTEN_BY)
         mark = {"Software": "written by twolink"}
         fig.savefig(tmp, dpi=dpi, format="png", bbox_inches=tight, metadata=mark)
     plt.close(fig)

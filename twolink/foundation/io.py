@@ -22,7 +22,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from twolink.interface.interrupts import interrupts_held
+from twolink.foundation.interrupts import interrupts_held
 
 # Names from files that become folder or file names (sweep, controller and variant names):
 # one rule, so that none can reach outside the output folder ("../x", "/etc", "a/b").

@@ -32,8 +32,8 @@ from collections.abc import Callable
 from concurrent import futures
 from typing import Any
 
-from twolink.interface.interrupts import interrupts_held
-from twolink.interface.io import discard_pending
+from twolink.foundation.interrupts import interrupts_held
+from twolink.foundation.io import discard_pending
 
 EXECUTORS = ("inprocess", "process", "dask")
 
@@ -107,7 +107,7 @@ WORKER_PRELOAD = [
     "twolink.studies.reproduce",
     "twolink.simulation.experiment",
     "twolink.sweep",
-    "twolink.interface.plots",
+    "twolink.figures.plots",
     "twolink.tracing",
     "twolink.controllers.batch",
 ]

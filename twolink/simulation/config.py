@@ -67,13 +67,13 @@ from twolink.controllers.fuzzy.rulebase import resolve_rule_base as resolve_rule
 from twolink.controllers.fuzzy_ctc import DEFAULT_SPAN as DEFAULT_SPAN
 from twolink.controllers.fuzzy_ctc import auto_fuzzy_scaling as auto_fuzzy_scaling
 from twolink.controllers.fuzzy_ctc import linear_span as linear_span
-from twolink.interface.overrides import (
+from twolink.foundation.overrides import (
     REPLACE as REPLACE,  # merging: re-exported, callers' old home
 )
-from twolink.interface.overrides import merge as merge
-from twolink.interface.overrides import set_nested
-from twolink.interface.overrides import strip_replace as strip_replace
-from twolink.simulation.references import ArmReference, make_reference, reference_params
+from twolink.foundation.overrides import merge as merge
+from twolink.foundation.overrides import set_nested
+from twolink.foundation.overrides import strip_replace as strip_replace
+from twolink.foundation.references import ArmReference, make_reference, reference_params
 from twolink.simulation.sensor import VELOCITY_ESTIMATES, Sensor
 
 # Controllers of flexible joints (controllers/flexible.py): they read the motor states and
