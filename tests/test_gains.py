@@ -3,6 +3,7 @@ shipped table and the gains in use are what the study and its rule give."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -125,7 +126,11 @@ def test_shipped_table_is_current_and_the_base_uses_its_choice():
     saved = gains.load_study(study)
     assert saved is not None, "runs/paper/gains.csv is stale: run `twolink gains --install`"
     table, choice = saved
-    assert gains.choose(table, study) == choice
+    chosen = gains.choose(table, study)
+    # σ is an eigenvalue of a finite-difference Jacobian: its last digits (1e-13 relative)
+    # follow the BLAS build, so it is compared to 1e-9; every other field exactly.
+    assert math.isclose(chosen.realistic_growth, choice.realistic_growth, rel_tol=1e-9)
+    assert dataclasses.replace(chosen, realistic_growth=choice.realistic_growth) == choice
     base = load_scenario(gains.DEFAULT_STUDY.parent / "base.toml")
     assert base.controller.kp == (choice.wn**2,) * 2
     assert base.controller.kd == (2 * choice.zeta * choice.wn,) * 2
