@@ -33,7 +33,8 @@ Schema (all keys optional except the reference)::
     kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules);
                              # baselines: "pd_gravity", "ctc_integral", "fuzzy_pd";
                              # flexible joints: "motor_pd", "composite", "flexible_fl",
-                             # "flexible_fl_integral" (with integral action)
+                             # "flexible_fl_integral" (with integral action),
+                             # "flexible_fl_kalman" (that, from encoder angles only)
     kp = [4, 4]  kd = [2.4, 2.4]  torque_limit = 1e3
     ki = [2, 2]              # ctc_integral: integral gain, 1/s^3
     rule_base = "paper"      # fcm_ctc, fuzzy_pd: "paper", "designed", "default" or a path
@@ -78,7 +79,13 @@ from twolink.simulation.sensor import VELOCITY_ESTIMATES, Sensor
 
 # Controllers of flexible joints (controllers/flexible.py): they read the motor states and
 # model the joints with [plant.flexibility], so they need a flexible plant.
-FLEXIBLE_KINDS = ("motor_pd", "composite", "flexible_fl", "flexible_fl_integral")
+FLEXIBLE_KINDS = (
+    "motor_pd",
+    "composite",
+    "flexible_fl",
+    "flexible_fl_integral",
+    "flexible_fl_kalman",
+)
 CONTROLLER_KINDS = (
     "ctc",
     "fuzzy_ctc",

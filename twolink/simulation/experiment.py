@@ -54,6 +54,18 @@ def build_controller(s: Scenario) -> Controller:
             return flexible.MotorPD(**common, joints=joints)
         if c.kind == "composite":
             return flexible.CompositeControl(**common, joints=joints)
+        if c.kind == "flexible_fl_kalman":  # it assumes the scenario's encoders (or 17-bit)
+            from twolink.controllers.flexible_observed import (
+                DEFAULT_RESOLUTION,
+                ObservedIntegralFlexibleFeedbackLinearisation,
+            )
+
+            return ObservedIntegralFlexibleFeedbackLinearisation(
+                **common,
+                joints=joints,
+                control_dt=s.control_dt,
+                resolution_rad=s.sensor.resolution_rad or DEFAULT_RESOLUTION,
+            )
         if c.kind == "flexible_fl_integral":
             from twolink.controllers.flexible_robust import IntegralFlexibleFeedbackLinearisation
 

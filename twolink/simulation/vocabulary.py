@@ -67,6 +67,7 @@ CONTROLLER_LABELS = {
     "composite": "composite",
     "flexible_fl": "flexible-FL",
     "flexible_fl_integral": "flexible-FL-I",
+    "flexible_fl_kalman": "flexible-FL-KF",
 }
 
 
