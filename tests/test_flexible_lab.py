@@ -158,3 +158,12 @@ def test_the_integral_law_with_a_payload_on_stiff_joints():
     assert cell.outcome == "off target" and max(cell.tail_error) > 1.5
     lab = run_cell(scenario("flexible_fl_kalman", "stiff", "error + 0.2 kg", "true state"))
     assert lab.outcome == "met spec"
+
+
+def test_the_batch_engine_runs_it_arm_by_arm_as_the_single_path():
+    from twolink.simulation.experiment import run_scenarios
+
+    cells = [("realistic", "error"), ("soft", "exact")]
+    scenarios = [scenario("flexible_fl_kalman", j, p, "17-bit, differenced") for j, p in cells]
+    for s, traj in zip(scenarios, run_scenarios(scenarios), strict=True):
+        np.testing.assert_array_equal(traj.tau, run_scenario(s).tau)
