@@ -18,7 +18,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, ClassVar
 
 from twolink.arm.dynamics import terms
 from twolink.arm.params import ArmParams
@@ -82,6 +82,8 @@ class IntegralComputedTorque(ComputedTorque):
 
     ki: float | Sequence[float] = DEFAULT_KI
     control_dt: float = 1e-3
+    # its own state, for the stability check's linearisation (twolink.simulation.stability)
+    internal_state: ClassVar[tuple[str, ...]] = ("z",)
 
     def __post_init__(self) -> None:
         super().__post_init__()

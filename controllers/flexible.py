@@ -485,6 +485,8 @@ class FlexibleFeedbackLinearisation(_FlexibleJointController):
 
     control_dt: float = 1e-3
     fast_damping: float | None = DEFAULT_FAST_DAMPING
+    # its own state, for the stability check's linearisation (twolink.simulation.stability)
+    internal_state: ClassVar[tuple[str, ...]] = ("held",)
 
     def __post_init__(self) -> None:
         super().__post_init__()

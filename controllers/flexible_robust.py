@@ -22,6 +22,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
@@ -125,6 +126,8 @@ class IntegralFlexibleFeedbackLinearisation(FlexibleFeedbackLinearisation):
     """
 
     integral_fraction: float = DEFAULT_INTEGRAL_FRACTION
+    # its own state, for the stability check's linearisation (twolink.simulation.stability)
+    internal_state: ClassVar[tuple[str, ...]] = ("held", "z")
 
     def __post_init__(self) -> None:
         f = self.integral_fraction

@@ -19,7 +19,6 @@ from twolink.controllers.base import Controller
 from twolink.controllers.ctc import ComputedTorque
 from twolink.simulation.config import (
     FLEXIBLE_KINDS,
-    FUZZY_KINDS,
     Scenario,
     resolve_rule_base,
 )
@@ -297,8 +296,9 @@ class RunMetrics:
     # |θ_target − θ| per joint, and the growth of the error (twolink.simulation.outcome.tail_growth)
     tail_error: tuple[float, float] = (math.nan, math.nan)
     tail_growth: tuple[float, float] = (math.nan, math.nan)
-    # The closed loop's growth rate σ [1/s] linearised at the target (twolink.simulation.stability),
-    # the loop's, shown for both joints; NaN but for linearisable laws on flexible joints
+    # The closed loop's growth rate σ [1/s] linearised at its rest state near the target
+    # (twolink.simulation.stability), the loop's, shown for both joints; NaN where the loop
+    # has no linearisation there (a relay, no rest state found, a sensor with dynamics)
     linear_growth: tuple[float, float] = (math.nan, math.nan)
     # Fuzzy laws: the share of samples where the fuzzy term's output is not 0 (it acts),
     # per joint, on the run's errors; NaN for laws without a fuzzy term
@@ -355,13 +355,13 @@ class RunMetrics:
 def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None) -> RunMetrics:
     """Step metrics per joint (towards the reference's final value, Ts both to the final
     value and to the target), error measures (integrals, max |e|), torque, oscillation,
-    the settling window's error and growth, and (flexible joints, linearisable laws) the
-    loop's linear growth rate at the target, of ``controller`` (default: the scenario's;
-    a sweep's arms carry their own)."""
+    the settling window's error and growth, and the loop's linear growth rate at its rest
+    state (every law, every plant: :mod:`twolink.simulation.stability`), of ``controller``
+    (default: the scenario's; a sweep's arms carry their own)."""
     growth = math.nan
-    if controller is None and (s.plant.flexibility is not None or s.controller.kind in FUZZY_KINDS):
+    if controller is None:
         controller = build_controller(s)
-    if s.plant.flexibility is not None and traj.ok:
+    if traj.ok:  # every law, every plant (twolink.simulation.stability)
         from twolink.simulation.stability import closed_loop_growth
 
         end = (traj.q[-1], traj.motor_q[-1] if len(traj.motor_q) else ())

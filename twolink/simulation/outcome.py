@@ -23,10 +23,10 @@ before it: a mode growing at σ ≥ 0.67 s⁻¹ over a 1 s window is caught; a d
 any period, or one settled at an offset is not growth), and overshoot at most 20 %.
 
 An unstable mode can still be too small to see at the end of a short run (CTC at ωn 4 on
-a realistic 2000 N·m/rad joint: +1.4 s⁻¹, yet 7e-4 rad and decaying at 3 s). For a law
-with a linearisation on a flexible-joint plant, where rigid-model laws do go unstable,
-the run also carries the growth rate σ of its closed loop linearised at the target
-(:mod:`twolink.simulation.stability`); σ > 0 is off target ("unstable at the target"). A sweep file
+a realistic 2000 N·m/rad joint: +1.4 s⁻¹, yet 7e-4 rad and decaying at 3 s). So every
+run also carries the growth rate σ of its closed loop linearised at its rest state (every
+law, its fuzzy term and its own state included: :mod:`twolink.simulation.stability`);
+σ > 0 is off target ("unstable at the target"). A sweep file
 overrides the spec in a ``[success]`` table (``docs/sweeps.md``).
 """
 

@@ -1,48 +1,91 @@
-"""Linear stability of a closed loop at its target: the discrete-time eigenvalues of one
-control period, MuJoCo's plant and the controller together.
+"""Linear stability of a closed loop at its rest state: the discrete-time eigenvalues of
+one control period, MuJoCo's plant and the controller together.
 
 A run can sit inside the band at its last sample while an unstable mode is still too
 small to see (CTC at ωn 4 rad/s on a realistic joint of 2000 N·m/rad grows at +1.4 s⁻¹,
-yet its 3 s run ends 7e-4 rad from the target, still decaying). For a law with a
-linearisation (no fuzzy term, no internal state) the loop's local stability is decided at
-the target instead: the map Φ from the state at one control instant to the next (the
-controller's torque held over the period, MuJoCo stepping the plant) is differentiated by
-central differences at the loop's rest state near the target, and its spectral radius ρ
-gives the growth rate ``σ = ln ρ / control_dt``: σ > 0 is unstable
-(:func:`closed_loop_growth`). With an exact model that rest state is the target (at rest;
-a flexible arm's rotors where their springs hold it there); with a model error the loop
-rests off it (CTC's steady-state error), so the fixed point of Φ is found first by Newton's
-method from the target, and where it is not found the answer is NaN (no linearisation
-claimed). The map is that of the true state, so a loop behind a sensor with dynamics of
-its own (a velocity estimate, a delay, an encoder's quantum) has none here: NaN.
+yet its 3 s run ends 7e-4 rad from the target, still decaying). So the loop's local
+stability is decided at its rest state instead: the map Φ from the state at one control
+instant to the next (the controller's torque held over the period, MuJoCo stepping the
+plant) is differentiated by finite differences at the loop's rest state near the target,
+and its spectral radius ρ gives the growth rate ``σ = ln ρ / control_dt``: σ > 0 is
+unstable (:func:`closed_loop_growth`).
+
+**Every law** is linearised this way (docs/metrics.md, "Linear growth"):
+
+- The state is the plant's (links, and a flexible arm's rotors) and the controller's
+  own (:attr:`internal_state`: CTC-I's integrators ``z``, flexible-FL's held torque
+  ``held``, flexible-FL-I's both), so a law with memory is linearised with it.
+- A fuzzy law (FCM-CTC, fuzzy-CTC, fuzzy-PD) is linearised with its fuzzy term, whose
+  Jacobian at the rest state the differences take along: 0 where no rule fires near the
+  rest state (the designed rules near the target: the linearisation is CTC's), the rule
+  table's local slope where one does.
+- Where the law is not differentiable at the rest state the answer says so: where the
+  one-sided differences disagree (a kink, e.g. a rule's edge) σ is the largest of the
+  central and the two one-sided Jacobians' (no claim of stability that one side denies);
+  where a one-sided difference does not converge as the step shrinks (a jump: the
+  Mamdani relay of a reduced rule base, docs/fuzzy.md "The relay") there is no
+  linearisation, NaN, and :func:`linearise` says why.
+
+With an exact model the rest state is the target (at rest; a flexible arm's rotors where
+their springs hold it there); with a model error the loop rests off it (CTC's steady-state
+error), so the fixed point of Φ is found first by Newton's method from the target, and
+where it is not found the answer is NaN (no linearisation claimed: a loop with no rest
+state near the target may circle one, a limit cycle). The map is that of the true state,
+so a loop behind a sensor with dynamics of its own (a velocity estimate, a delay, an
+encoder's quantum) is not linearised here (NaN): its filter's state and its quantiser's
+steps are not part of Φ (a quantiser has no derivative at all).
 """
 
 from __future__ import annotations
 
+import copy
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["LINEARISABLE_KINDS", "closed_loop_growth"]
+__all__ = ["Linearisation", "closed_loop_growth", "internal_state", "linearise"]
 
-# Laws that are smooth functions of the measured state with no internal state: their
-# closed loop has a linearisation at the target. (Fuzzy laws switch rules at e = 0; CTC with
-# integral action carries its integral; flexible-FL holds its last torque.)
-LINEARISABLE_KINDS = ("ctc", "pd_gravity", "motor_pd", "composite")
-_LINEARISABLE = ("ComputedTorque", "PDGravity", "MotorPD", "CompositeControl")  # their classes
-EPSILON = 1e-6  # rad, rad/s: central differences; the map is smooth far beyond it
+EPSILON = 1e-6  # rad, rad/s: the differences' step; the smooth map is smooth far beyond it
+# A one-sided difference that changes by more than this (relative to the Jacobian's
+# largest entry) when its step shrinks 8-fold does not converge: a jump in the law. A
+# smooth map changes by ~h |Φ''| (1e-6 of a unit curvature), a kink not at all.
+JUMP_TOLERANCE = 1e-3
+KINK_TOLERANCE = 1e-3  # relative: one-sided Jacobians further apart than this are a kink (a
+# smooth map's are h |Φ''| apart, 1e-6 of a unit curvature)
 NEWTON_STEPS = 20  # to the loop's rest state: Φ is smooth, so a few steps converge
 REST_TOLERANCE = 1e-11  # rad, rad/s: |Φ(x) − x| at a rest state
+
+
+@dataclass(frozen=True)
+class Linearisation:
+    """The loop linearised at its rest state: ``sigma`` [1/s] (NaN: none) and, where it
+    is NaN or from a kink, ``note``: why, in words."""
+
+    sigma: float
+    note: str = ""
+
+
+def internal_state(controller: Any) -> tuple[str, ...]:
+    """The names of a controller's own state variables (each a pair of floats, or None
+    before its first call): its class's ``internal_state`` (none by default)."""
+    return tuple(getattr(controller, "internal_state", ()))
 
 
 def closed_loop_growth(
     scenario, plant, controller, eps: float = EPSILON, near: Any = None
 ) -> float:
+    """The growth rate σ [1/s] of :func:`linearise` (NaN where it finds none)."""
+    return linearise(scenario, plant, controller, eps, near).sigma
+
+
+def linearise(
+    scenario, plant, controller, eps: float = EPSILON, near: Any = None
+) -> Linearisation:
     """Largest growth rate σ [1/s] of the closed loop of ``scenario``'s plant (``plant``,
-    built afresh: it is stepped here) and ``controller`` (reset and stepped here)
-    linearised at its rest state (see the module's docstring); NaN for a law without a
-    linearisation (:data:`LINEARISABLE_KINDS`) or where no rest state is found.
+    built afresh: it is stepped here) and ``controller`` (a copy of it is reset and
+    stepped here) linearised at its rest state (see the module's docstring).
 
     The reference is held at its final value (the map is taken after it has finished), so
     the result describes the loop at rest after the move, where the settling window of the
@@ -52,41 +95,50 @@ def closed_loop_growth(
     from twolink.arm.plant import holding_motor_q
     from twolink.simulation.outcome import reference_end
 
-    if type(controller).__name__ not in _LINEARISABLE or not scenario.sensor.ideal:
-        return math.nan
+    if not scenario.sensor.ideal:
+        return Linearisation(math.nan, "a sensor with dynamics of its own: not linearised")
     t_hold = reference_end(scenario.reference)
     if not math.isfinite(t_hold):
-        return math.nan
+        return Linearisation(math.nan, "a reference that never rests: no rest state")
     t_hold += 1.0
+    fields = internal_state(controller)
+    controller = copy.copy(controller)  # the caller's keeps its state; ours is reset
     target = np.array(scenario.reference.final, dtype=float)
     flexible = plant.flexible
     needs_motor = bool(getattr(controller, "needs_motor", False))
     substeps = round(scenario.control_dt / plant.dt)
     nq = plant.model.nq
-    x0 = np.zeros(2 * nq)
-    x0[:2] = target
-    if flexible:
-        x0[2:4] = holding_motor_q(
-            scenario.plant_params, scenario.plant_joints, target, scenario.plant.payload
-        )
+    n_plant = 2 * nq
+    n = n_plant + 2 * len(fields)
 
-    def advance(x: np.ndarray) -> np.ndarray:
-        plant.set_state(x[:nq], x[nq:])
+    def call(x: np.ndarray) -> tuple[float, float]:
         q, qd = tuple(x[:2]), tuple(x[nq : nq + 2])
         if needs_motor:
-            tau = controller(t_hold, q, qd, tuple(x[2:4]), tuple(x[nq + 2 : nq + 4]))
-        else:
-            tau = controller(t_hold, q, qd)
+            return controller(t_hold, q, qd, tuple(x[2:4]), tuple(x[nq + 2 : nq + 4]))
+        return controller(t_hold, q, qd)
+
+    def advance(x: np.ndarray) -> np.ndarray:
+        plant.set_state(x[:nq], x[nq:n_plant])
+        for k, name in enumerate(fields):
+            i = n_plant + 2 * k
+            setattr(controller, name, (float(x[i]), float(x[i + 1])))
+        tau = call(x)
         for _ in range(substeps):
             plant.step(*tau)
-        return np.concatenate([plant.data.qpos, plant.data.qvel])
+        own = [v for name in fields for v in getattr(controller, name)]
+        return np.concatenate([plant.data.qpos, plant.data.qvel, own])
 
-    def jacobian(x: np.ndarray) -> np.ndarray:
-        jac = np.empty((2 * nq, 2 * nq))
-        for i in range(2 * nq):
-            dx = np.zeros(2 * nq)
-            dx[i] = eps
-            jac[:, i] = (advance(x + dx) - advance(x - dx)) / (2 * eps)
+    def differences(x: np.ndarray, step: float, side: int) -> np.ndarray:
+        """Central (side 0), forward (+1) or backward (−1) differences of Φ at x."""
+        jac = np.empty((n, n))
+        base = None if side == 0 else advance(x)
+        for i in range(n):
+            dx = np.zeros(n)
+            dx[i] = step
+            if side == 0:
+                jac[:, i] = (advance(x + dx) - advance(x - dx)) / (2 * step)
+            else:
+                jac[:, i] = (advance(x + side * dx) - base) / (side * step)
         return jac
 
     def rest_state(x: np.ndarray) -> np.ndarray | None:
@@ -97,23 +149,53 @@ def closed_loop_growth(
             if np.abs(residual).max() < REST_TOLERANCE:
                 return x
             try:
-                x = x - np.linalg.solve(jacobian(x) - np.eye(2 * nq), residual)
+                x = x - np.linalg.solve(differences(x, eps, 0) - np.eye(n), residual)
             except np.linalg.LinAlgError:
                 return None
         return None
 
-    controller.reset()
-    starts = [x0]
-    if near is not None:
-        q, motor_q = near
-        x1 = np.zeros(2 * nq)
-        x1[:2] = q
+    def start(q: Any, motor_q: Any, own: np.ndarray) -> np.ndarray:
+        x = np.zeros(n)
+        x[:2] = q
         if flexible and len(motor_q):
-            x1[2:4] = motor_q
-        starts.append(x1)
+            x[2:4] = motor_q
+        x[n_plant:] = own
+        return x
+
+    controller.reset()
+    motor0 = ()
+    if flexible:
+        motor0 = holding_motor_q(
+            scenario.plant_params, scenario.plant_joints, target, scenario.plant.payload
+        )
+    # the controller's own state at the target: what one call there leaves (a held
+    # torque: the springs' holding torque; an integrator: empty)
+    own0 = np.zeros(2 * len(fields))
+    if fields:
+        x0 = start(target, motor0, own0)
+        plant.set_state(x0[:nq], x0[nq:n_plant])
+        call(x0)
+        own0 = np.array([v for name in fields for v in getattr(controller, name)], dtype=float)
+    starts = [start(target, motor0, own0)]
+    if near is not None:
+        starts.append(start(near[0], near[1], own0))
     x = next((r for r in map(rest_state, starts) if r is not None), None)
     if x is None:
-        return math.nan
-    jac = jacobian(x)
-    rho = float(np.max(np.abs(np.linalg.eigvals(jac))))
-    return math.log(rho) / scenario.control_dt if rho > 0 else -math.inf
+        return Linearisation(math.nan, "no rest state found near the target")
+    central = differences(x, eps, 0)
+    one_sided = {s: differences(x, eps, s) for s in (1, -1)}
+    scale = max(1.0, float(np.abs(central).max()))
+    for side, jac in one_sided.items():
+        finer = differences(x, eps / 8, side)
+        if np.abs(finer - jac).max() > JUMP_TOLERANCE * scale:
+            return Linearisation(
+                math.nan, "the law jumps at its rest state (a relay): no linearisation"
+            )
+    note = ""
+    jacs = [central]
+    if max(np.abs(j - central).max() for j in one_sided.values()) > KINK_TOLERANCE * scale:
+        note = "a kink at the rest state: the largest σ of its one-sided linearisations"
+        jacs += list(one_sided.values())
+    rho = max(float(np.max(np.abs(np.linalg.eigvals(j)))) for j in jacs)
+    sigma = math.log(rho) / scenario.control_dt if rho > 0 else -math.inf
+    return Linearisation(sigma, note)
