@@ -39,9 +39,7 @@ def map_cell(controller: str, k: float, wn: float):
 
 
 @pytest.mark.parametrize(("k", "wn", "sigma"), [(2000.0, 4.0, 1.44), (1e4, 7.0, 1.61)])
-def test_fcm_ctc_is_linearised_with_its_fuzzy_term_and_is_not_met_spec_where_unstable(
-    k, wn, sigma
-):
+def test_fcm_ctc_is_linearised_with_its_fuzzy_term_and_is_not_met_spec_where_unstable(k, wn, sigma):
     # Near the target no rule of the designed base fires: FCM-CTC's linearisation is
     # CTC's, unstable; before issue 37 it had none (NaN) and its calm 3 s run "met spec".
     ctc, fcm = map_cell("CTC", k, wn), map_cell("FCM-CTC", k, wn)

@@ -80,9 +80,7 @@ def closed_loop_growth(
     return linearise(scenario, plant, controller, eps, near).sigma
 
 
-def linearise(
-    scenario, plant, controller, eps: float = EPSILON, near: Any = None
-) -> Linearisation:
+def linearise(scenario, plant, controller, eps: float = EPSILON, near: Any = None) -> Linearisation:
     """Largest growth rate σ [1/s] of the closed loop of ``scenario``'s plant (``plant``,
     built afresh: it is stepped here) and ``controller`` (a copy of it is reset and
     stepped here) linearised at its rest state (see the module's docstring).
