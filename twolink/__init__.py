@@ -46,6 +46,7 @@ _EXPORTS = {
     "ComputedTorque": "twolink.controllers.ctc",
     "FuzzyComputedTorque": "twolink.controllers.fuzzy_ctc",
     "MamdaniEngine": "twolink.controllers.fuzzy",
+    "read_fis": "twolink.controllers.fuzzy.matlab",
     "default_fuzzy_pd": "twolink.controllers.fuzzy",
     "paper_fuzzy_pd": "twolink.controllers.fuzzy",
     # metrics
