@@ -210,7 +210,11 @@ def test_the_controllers_install_as_twolink_controllers_not_a_top_level_module(t
     assert done.returncode == 0, done.stderr
     setuptools = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
     assert all(p == "twolink" or p.startswith("twolink.") for p in setuptools["packages"])
-    assert setuptools["package-dir"] == {"twolink.controllers": "controllers"}
+    assert setuptools["package-dir"] == {
+        "twolink.controllers": "controllers",
+        "twolink.runs": "runs",  # shipped files: package data (tests/test_wheel.py)
+        "twolink.models": "models",
+    }
 
 
 def test_the_flat_module_names_import_the_modules_of_their_layers():

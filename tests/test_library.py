@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+from clone_guard import clone_files, written
 
 import twolink
 
@@ -23,10 +24,12 @@ def readme_quick_start() -> str:
 def test_the_readme_quick_start_runs_and_says_what_the_closed_form_says(tmp_path):
     code = readme_quick_start()
     assert len(code.strip().splitlines()) <= 12  # "about ten lines"
+    before = clone_files()
     result = subprocess.run(
         [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=120
     )
     assert result.returncode == 0, result.stderr
+    assert written(before) == []  # from any folder, writing only there
     # ωn = 5, ζ = 1 with an exact model: e(t) = (1 + ωn t) exp(-ωn t), whose 10-90 %
     # rise time is 0.672 s and 2 % settling time 1.167 s (solved numerically below).
     t = np.linspace(0, 3, 300_001)
@@ -77,14 +80,14 @@ def readme_one_call_block() -> str:
     return re.search(r"```python\n(.*?)```", section, re.S).group(1)
 
 
-def test_the_readme_one_call_block_runs(tmp_path):
-    code = readme_one_call_block().replace(
-        '"runs/sweeps/robustness.toml"', repr(str(REPO / "runs/sweeps/robustness.toml"))
-    )
+def test_the_readme_one_call_block_runs_from_any_folder_and_writes_only_there(tmp_path):
+    code = readme_one_call_block()  # as it stands: the sweep by its shipped name
+    before = clone_files()
     result = subprocess.run(
         [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=300
     )
     assert result.returncode == 0, result.stderr
+    assert written(before) == []
     out = result.stdout
     assert "5 rules:\n  IF e is NM AND de is PS THEN u is NS" in out
     assert "mamdani Tp — s, Td 0.202 s" in out and "continuous Tp — s, Td 0.202 s" in out

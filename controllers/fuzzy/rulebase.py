@@ -18,10 +18,11 @@ from typing import Any, NamedTuple
 
 from twolink.controllers.fuzzy.membership import LABELS_7, MIRROR_LABELS
 from twolink.foundation.io import atomic_write_text, toml_key, toml_string, toml_table, toml_value
+from twolink.foundation.shipped import rulebases_dir
 
 __all__ = ["RULEBASE_DIR", "Rule", "RuleBase", "load_rule_base", "pd_rule_table", "save_rule_base"]
 
-RULEBASE_DIR: Path = Path(__file__).resolve().parents[1] / "rulebases"
+RULEBASE_DIR: Path = rulebases_dir()  # package data (twolink/foundation/shipped.py)
 # The shipped rule bases by name (scenario ``rule_base`` keys, ``twolink.load_rule_base``)
 BUILTIN_RULE_BASES = {
     "paper": "paper_table1.toml",

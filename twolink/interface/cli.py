@@ -23,6 +23,7 @@ from twolink.foundation.interrupts import (
     resend_dropped_ctrl_c,
 )
 from twolink.foundation.io import ForeignOutput, OutputBusy, WriteFailed
+from twolink.foundation.shipped import NotAClone, install_target, locate, models_dir
 from twolink.interface.cli_output import (
     done_line,
     format_metrics,
@@ -31,8 +32,6 @@ from twolink.interface.cli_output import (
     sweep_exits,
 )
 from twolink.interface.cli_output import fail_input as _fail_input
-
-REPO_MODELS = Path(__file__).resolve().parents[2] / "models"
 
 
 def interrupted_exit() -> None:
@@ -73,7 +72,7 @@ class _Group(click.Group):
         except click.ClickException as exc:
             exc.show()
             sys.exit(exc.exit_code)
-        except (ForeignOutput, OutputBusy) as exc:
+        except (ForeignOutput, OutputBusy, NotAClone) as exc:
             click.echo(f"error: {exc}", err=True)
             sys.exit(2)
         except WriteFailed as exc:
@@ -105,8 +104,8 @@ def main() -> None:
     \b
     Examples:
       twolink reproduce                          # the paper's tables and figures
-      twolink run runs/paper/theta1_step.toml    # one scenario
-      twolink sweep runs/sweeps/robustness.toml -n 50
+      twolink run paper/theta1_step              # one shipped scenario (or a file)
+      twolink sweep sweeps/robustness -n 50
     """
 
 
@@ -168,7 +167,7 @@ def models(out: Path | None, install: bool) -> None:
 
     if install and out is not None:
         _fail_input("--install writes the repository's models/; it takes no --out")
-    out = REPO_MODELS if install else out or Path("results/models")
+    out = install_target(models_dir()) if install else out or Path("results/models")
     if not install:
         own_output(out, "models")
     files = {
@@ -195,12 +194,13 @@ def models(out: Path | None, install: bool) -> None:
 def run(
     scenario: Path, out: Path | None, settings: tuple[str, ...], no_plots: bool, no_trace: bool
 ) -> None:
-    """Run one scenario file and write its results folder.
+    """Run one scenario file (or a shipped one by its name: paper/theta1_step, the path
+    under the shipped runs without .toml; a real path wins) and write its results folder.
 
     \b
     Examples:
-      twolink run runs/paper/theta1_step.toml
-      twolink run runs/paper/theta1_step.toml --out /tmp/step --no-trace
+      twolink run paper/theta1_step               # a shipped scenario by its name
+      twolink run my_scenario.toml --out /tmp/step --no-trace
 
     Exit 0 when the run completes, 1 when it diverged (what was computed is kept),
     2 on a bad scenario file.
@@ -214,6 +214,7 @@ def run(
     )
     from twolink.studies.run_folder import write_run
 
+    scenario = locate(scenario)  # a real path, else a shipped scenario's name
     folder = out or Path("results") / Path(scenario).stem
     try:
         s = load_scenario(scenario, parse_set(settings))
@@ -319,7 +320,9 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
     if install and out is not None:
         _fail_input("--install writes the shipped designed rule base; it takes no --out")
     target = (
-        RULEBASE_DIR / "designed.toml" if install else out or Path("results/design/rule_base.toml")
+        install_target(RULEBASE_DIR / "designed.toml")
+        if install
+        else out or Path("results/design/rule_base.toml")
     )
     try:
         config = load_design_config(config_path or DEFAULT_DESIGN)
@@ -424,6 +427,8 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
         )
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
+    if install:
+        install_target(study_module.table_path(study))
     own_output(out, "gains", str(study.source))
     click.echo(f"gain study: {study_module.n_runs(study)} runs ({study.source})", err=True)
     if install and parse_set(settings):
@@ -485,7 +490,9 @@ def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> No
         study = cal.load_calibration(study_file or cal.DEFAULT_STUDY, parse_set(settings))
     except (ConfigError, OSError) as exc:
         _fail_input(str(exc))
-    own_output(out, "calibrate", str(Path(study_file or cal.DEFAULT_STUDY).resolve()))
+    if install:
+        install_target(cal.result_path(study))
+    own_output(out, "calibrate", str(Path(study.source).resolve()))
     if install and parse_set(settings):
         _fail_input("--install writes the shipped result of the study file as it is; drop --set")
     result = cal.calibrate(study, log=lambda msg: click.echo(msg, err=True))
@@ -615,12 +622,13 @@ def sweep_command(
     progress: bool,
     settings: tuple[str, ...],
 ) -> None:
-    """Run a Monte Carlo sweep file: every controller on N drawn plants.
+    """Run a Monte Carlo sweep file (or a shipped one by its name, as sweeps/robustness):
+    every controller on N drawn plants.
 
     \b
     Examples:
-      twolink sweep runs/sweeps/robustness.toml -n 50
-      twolink sweep runs/sweeps/robustness.toml --executor dask --workers 4
+      twolink sweep sweeps/robustness -n 50       # a shipped sweep by its name
+      twolink sweep sweeps/robustness --executor dask --workers 4
 
     Resumable: rerun the same command to compute only the chunks not yet in --out.
     Exit 0 when the table is written (diverged samples are results, not failures),

@@ -132,10 +132,11 @@ def fis_command(rule_base: str, scenario: Path | None, out: Path) -> None:
     from twolink.controllers.fuzzy import default_fuzzy_pd
     from twolink.controllers.fuzzy.fis import read_rule_base, write_fis, written_by_twolink
     from twolink.foundation.io import check_output_file
+    from twolink.foundation.shipped import runs_dir
     from twolink.simulation.config import ConfigError, load_scenario
     from twolink.simulation.experiment import build_controller
 
-    base = scenario or Path(__file__).resolve().parents[2] / "runs" / "paper" / "base.toml"
+    base = scenario or runs_dir() / "paper" / "base.toml"
     try:
         # a .fis cannot carry twolink's mark: an existing one is twolink's if it is exactly
         # what twolink writes for its content

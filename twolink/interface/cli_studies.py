@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from twolink.foundation.shipped import locate
 from twolink.interface.cli_output import done_line, fail_input, own_output, sweep_exits
 
 
@@ -46,7 +47,7 @@ def regimes_command(
     from twolink.studies import regimes
     from twolink.sweep import load_sweep
 
-    study = study_file or regimes.DEFAULT_STUDY
+    study = locate(study_file or regimes.DEFAULT_STUDY)
     try:
         load_sweep(study, {"samples": samples} if samples else None)
     except ConfigError as exc:

@@ -75,6 +75,7 @@ from twolink.foundation.overrides import merge as merge
 from twolink.foundation.overrides import set_nested
 from twolink.foundation.overrides import strip_replace as strip_replace
 from twolink.foundation.references import ArmReference, make_reference, reference_params
+from twolink.foundation.shipped import locate, locate_beside, shipped_hint
 from twolink.simulation.sensor import VELOCITY_ESTIMATES, Sensor
 
 # Controllers of flexible joints (controllers/flexible.py): they read the motor states and
@@ -274,7 +275,7 @@ MIN_TIME_STEP = 1e-6  # s: timestep and control_dt; finer is not a control loop
 def read_toml(path: str | Path) -> dict[str, Any]:
     """Read a TOML file, following ``extends`` chains; errors name the file (and, for a
     missing or broken base, the file and key that point to it)."""
-    path = Path(path)
+    path = locate(path)
     refuse_fis(path)
     chain: list[tuple[Path, dict[str, Any]]] = []
     while True:
@@ -287,7 +288,7 @@ def read_toml(path: str | Path) -> dict[str, Any]:
             raise ConfigError(f"{path}: extends: must be a file path, got {base!r}")
         if len(chain) > MAX_EXTENDS:
             raise ConfigError(f"{chain[0][0]}: extends: a chain of more than {MAX_EXTENDS} files")
-        following = path.parent / base
+        following = locate_beside(path.parent, base)  # beside the file, else shipped
         seen = [p.resolve() for p, _ in chain]
         if following.resolve() in seen:
             raise ConfigError(f"{path}: extends: {base} extends itself (cycle through {seen})")
@@ -305,7 +306,8 @@ def _read_one(path: Path, referrer: Path | None) -> dict[str, Any]:
     if path.exists() and not path.is_file():
         raise ConfigError(f"{where}{path}: is not a regular file (a pipe, a device)")
     if not path.is_file():
-        raise ConfigError(f"{where}{path}: no such file")
+        hint = shipped_hint(path) if referrer is None else ""
+        raise ConfigError(f"{where}{path}: no such file{hint}")
     if path.stat().st_size > MAX_TOML_BYTES:
         raise ConfigError(f"{where}{path}: larger than {MAX_TOML_BYTES} bytes")
     try:
@@ -678,7 +680,9 @@ def _check_rule_base(top: TomlTable, s: Scenario) -> None:
 
 
 def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> Scenario:
-    """Read and validate a scenario file, with optional overrides merged on top."""
+    """Read and validate a scenario file, with optional overrides merged on top. ``path``
+    is a file or a shipped scenario's name (``paper/theta1_step``; a real path wins)."""
+    path = locate(path)
     data = read_toml(path)
     expect_kind(data, path, "scenario")
     if overrides:

@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from twolink.foundation.shipped import locate, runs_dir
 from twolink.simulation.config import (
     TomlTable,
     expect_kind,
@@ -50,7 +51,7 @@ __all__ = [
     "rerun",
 ]
 
-DEFAULT_STUDY = Path(__file__).resolve().parents[2] / "runs" / "paper" / "calibrate.toml"
+DEFAULT_STUDY = runs_dir() / "paper" / "calibrate.toml"  # package data
 SYMBOLS = ("Tp", "Td", "Ts", "Tr", "Mp", "ess")
 FIELDS = {
     "Tp": "peak_time",
@@ -119,7 +120,7 @@ def load_calibration(path: str | Path = DEFAULT_STUDY, overrides: dict | None = 
     """Read and validate a calibration file; errors name the file and key."""
     from twolink.studies.manifest import load_manifest
 
-    path = Path(path)
+    path = locate(path)
     data = read_toml(path)
     expect_kind(data, path, "calibration")
     data = merge(data, overrides or {})

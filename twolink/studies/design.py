@@ -50,6 +50,7 @@ from twolink.controllers.fuzzy import (
     save_rule_base,
 )
 from twolink.foundation.io import SEAL_NAME, atomic_path, atomic_write_text, seal_intact, write_seal
+from twolink.foundation.shipped import clone_root, locate, runs_dir
 from twolink.simulation.config import (
     ConfigError,
     Scenario,
@@ -70,8 +71,9 @@ from twolink.studies.design_checks import (
     with_mirrors,
 )
 
-DEFAULT_DESIGN = Path(__file__).resolve().parents[2] / "runs" / "paper" / "design.toml"
-DOCS = Path(__file__).resolve().parents[2] / "docs" / "fuzzy.md"
+DEFAULT_DESIGN = runs_dir() / "paper" / "design.toml"  # package data
+# The docs `twolink design --install` updates: the clone's (a wheel ships no docs).
+DOCS = (clone_root() or Path(".")) / "docs" / "fuzzy.md"
 DOCS_BEGIN = "<!-- designed rule base: written by `twolink design --install` -->"
 DOCS_END = "<!-- end of the designed rule base -->"
 DECIMATE = 2  # cluster every 2nd sample (500 Hz): a stiff loop settles in ~0.4 s
@@ -155,7 +157,7 @@ def load_design_config(path: str | Path = DEFAULT_DESIGN) -> DesignConfig:
     clusters than the design runs give points (or than :data:`MAX_CLUSTERS`),
     ``max_iter`` < 1, a held-out run that is also a design run.
     """
-    path = Path(path)
+    path = locate(path)
     data = read_toml(path)
     expect_kind(data, path, "design")
     t = TomlTable(data, "", str(path))

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from twolink.arm.params import Flexibility
+from twolink.foundation.shipped import locate, runs_dir
 from twolink.simulation.config import (
     ConfigError,
     TomlTable,
@@ -48,7 +49,7 @@ __all__ = [
     "tradeoff_figure",
 ]
 
-DEFAULT_STUDY = Path(__file__).resolve().parents[2] / "runs" / "paper" / "gains.toml"
+DEFAULT_STUDY = runs_dir() / "paper" / "gains.toml"  # package data
 
 
 @dataclass(frozen=True)
@@ -115,8 +116,9 @@ def _numbers(t: TomlTable, key: str) -> tuple[float, ...]:
 
 
 def load_gain_study(path: str | Path = DEFAULT_STUDY, overrides: dict | None = None) -> GainStudy:
-    """Read and validate a gain-study file; errors name the file and key."""
-    path = Path(path)
+    """Read and validate a gain-study file (or a shipped one's name); errors name the
+    file and key."""
+    path = locate(path)
     data = merge(read_toml(path), overrides or {})
     expect_kind(data, path, "gains")
     t = TomlTable(data, "", str(path))

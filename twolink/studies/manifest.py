@@ -15,10 +15,11 @@ from pathlib import Path
 from typing import Any
 
 from twolink.foundation.io import unsafe_name_problem
+from twolink.foundation.shipped import locate, runs_dir
 from twolink.simulation.config import TomlTable, expect_kind, read_toml
 from twolink.simulation.vocabulary import STEP_KEYS, metric
 
-DEFAULT_MANIFEST = Path(__file__).resolve().parents[2] / "runs" / "paper" / "reproduce.toml"
+DEFAULT_MANIFEST = runs_dir() / "paper" / "reproduce.toml"  # package data
 # The paper's tables name their columns by symbol; the manifest's paper values do too.
 PAPER_SYMBOLS = tuple(metric(k).symbol for k in STEP_KEYS)  # Tp, Td, Tr, Ts, Mp, ess
 
@@ -175,7 +176,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     The files it names (design, flexible-joint study, experiments' scenarios) must exist:
     a missing one is refused here, naming the manifest's key, before anything runs.
     """
-    path = Path(path)
+    path = locate(path)
     data = read_toml(path)
     expect_kind(data, path, "manifest")
     top = TomlTable(data, "", str(path))

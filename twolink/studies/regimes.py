@@ -21,9 +21,11 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from twolink.foundation.shipped import runs_dir
+
 __all__ = ["CELL", "OPPONENTS", "REGIME_METRICS", "regime_table", "run_regimes", "summary"]
 
-DEFAULT_STUDY = Path(__file__).resolve().parents[2] / "runs" / "sweeps" / "regimes.toml"
+DEFAULT_STUDY = runs_dir() / "sweeps" / "regimes.toml"  # package data
 CELL = ("wn", "mass", "payload")
 # The paper's FCM-CTC and our continuous inference of the same rules
 PROPOSED = ("FCM-CTC", "FCM-CTC-continuous")

@@ -11,18 +11,17 @@ prints the table.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from twolink.foundation.overrides import merge
+from twolink.foundation.shipped import runs_dir
 from twolink.simulation.sensor import ENCODER_BITS, encoder_resolution
 
 __all__ = ["CUTOFFS", "ERROR_BUDGET", "choose_cutoff", "velocity_table"]
 
-ROOT = Path(__file__).resolve().parents[2]
-SWEEP = ROOT / "runs" / "sweeps" / "robustness.toml"
+SWEEP = runs_dir() / "sweeps" / "robustness.toml"  # package data
 CUTOFFS = (10.0, 20.0, 30.0, 50.0, 100.0, 200.0)  # Hz
 BANDWIDTHS = (4.0, 10.0, 15.0)  # rad/s: the gain study's range up to its choice
 # The filter's lag τ adds a tracking error of about kd τ |q̈| / kp during a move; it may cost
@@ -96,7 +95,7 @@ def design_wn() -> float:
     """The bandwidth of the shipped gains (runs/paper/base.toml's kp = ωn²)."""
     from twolink.simulation.config import load_scenario
 
-    return float(np.sqrt(load_scenario(ROOT / "runs" / "paper" / "base.toml").controller.kp[0]))
+    return float(np.sqrt(load_scenario(runs_dir() / "paper" / "base.toml").controller.kp[0]))
 
 
 if __name__ == "__main__":

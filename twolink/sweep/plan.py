@@ -70,6 +70,7 @@ import numpy as np
 from twolink.arm.params import Flexibility
 from twolink.foundation.executors import EXECUTORS
 from twolink.foundation.io import unsafe_name_problem
+from twolink.foundation.shipped import locate, locate_beside, shipped_hint
 from twolink.simulation.config import (
     BUILTIN_RULE_BASES,
     RULE_BASE_KINDS,
@@ -481,11 +482,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     ConfigError
         The file or its base scenario is invalid; the message names the file and key.
     """
-    path = Path(path)
+    path = locate(path)
     file = str(path)
     refuse_fis(path)
     if not path.is_file():
-        raise ConfigError(f"{file}: no such file")
+        raise ConfigError(f"{file}: no such file{shipped_hint(path)}")
     raw = path.read_bytes()
     try:
         data = tomllib.loads(raw.decode())
@@ -555,7 +556,7 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     st.done()
 
     # The base scenario: its own errors name its own file.
-    base_path = path.parent / scenario_path
+    base_path = locate_beside(path.parent, scenario_path)  # beside the file, else shipped
     try:
         base = read_toml(base_path)
         scenario_from_dict(base, str(base_path))
