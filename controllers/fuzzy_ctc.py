@@ -139,11 +139,12 @@ class FuzzyComputedTorque(ComputedTorque):
         **kwargs: Any,
     ) -> FuzzyComputedTorque:
         """FCM-CTC as the reproduction builds it: CTC with the ``rule_base`` ("designed",
-        "paper", "default" or a TOML or ``.fis`` file) in its bracket, scaled by the gains
-        (:func:`auto_fuzzy_scaling` with the span :func:`linear_span` of the torque limits;
-        docs/fuzzy.md, "Scaling"). ``inference="continuous"`` infers the same rules
-        continuously (our extension: docs/fuzzy.md, "The relay"). The defaults are the
-        shipped gains (ωn = 15 rad/s, ζ = 1) and the paper's 60 / 15 N·m limits.
+        "paper", "default", a TOML file or any two-input, one-output ``.fis``) in its
+        bracket, scaled by the gains (:func:`auto_fuzzy_scaling` with the span
+        :func:`linear_span` of the torque limits; docs/fuzzy.md, "Scaling").
+        ``inference="continuous"`` infers the same rules continuously (our extension:
+        docs/fuzzy.md, "The relay"). The defaults are the shipped gains (ωn = 15 rad/s,
+        ζ = 1) and the paper's 60 / 15 N·m limits.
 
         >>> from twolink import ArmParams, ArmReference, FuzzyComputedTorque, Step
         >>> arm, ref = ArmParams(), ArmReference(Step(final=1.0), Step(final=0.0))
@@ -151,14 +152,13 @@ class FuzzyComputedTorque(ComputedTorque):
         >>> round(fcm.ke, 2), round(fcm.kde, 3), round(fcm.ku, 2), len(fcm.engine.rules)
         (14.86, 0.991, 15.14, 5)
         """
-        from twolink.controllers.fuzzy import default_fuzzy_pd
         from twolink.controllers.fuzzy.continuous import ContinuousEngine
-        from twolink.controllers.fuzzy.fis import read_rule_base
+        from twolink.controllers.fuzzy.matlab import rule_base_engine
         from twolink.controllers.fuzzy.rulebase import resolve_rule_base
 
         if inference not in ("mamdani", "continuous"):
             raise ValueError(f'inference must be "mamdani" or "continuous", got {inference!r}')
-        engine = default_fuzzy_pd().with_rules(read_rule_base(resolve_rule_base(rule_base)))
+        engine = rule_base_engine(resolve_rule_base(rule_base))
         if inference == "continuous":
             engine = ContinuousEngine(engine)
         kp2 = pair("kp", kp)

@@ -72,6 +72,12 @@ class ContinuousEngine:
     _flat: list = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        if not isinstance(self.exact, MamdaniEngine):  # a MATLAB FIS's term (matlab.py)
+            source = getattr(getattr(self.exact, "fis", None), "source", "this engine")
+            raise ValueError(
+                f"{source}: continuous inference re-infers the rules of the project's "
+                'triangular partitions; this system is not one (use inference = "mamdani")'
+            )
         e_peaks, de_peaks = _partition_peaks(self.exact.e), _partition_peaks(self.exact.de)
         if e_peaks is None or de_peaks is None:
             raise ValueError(

@@ -500,7 +500,8 @@ class FisTerm:
 
         term(e, de) = F(clip(e R_e), clip(de R_de)) / R_u,
 
-    R the largest magnitude of a variable's range and clip to the file's ranges (the
+    R the largest magnitude of a variable's range (1 for a Sugeno output's [0 0]) and clip
+    to the file's ranges (the
     project's engines clip their inputs; the Toolbox does not). ``scaling`` =
     (1/R_e, 1/R_de, R_u) gives back the file's own physical law as
     ``ku term(ke e, kde de)``; a scenario's ``[controller.fuzzy]`` ke, kde, ku apply as for
@@ -518,9 +519,9 @@ class FisTerm:
                 f"{f.source}: a fuzzy term takes 2 inputs (error, rate) and 1 output; this "
                 f"system has {len(f.inputs)} inputs and {len(f.outputs)} outputs"
             )
-        scale = [max(abs(v.range[0]), abs(v.range[1])) for v in (*f.inputs, *f.outputs)]
-        if not all(s > 0 for s in scale):
-            raise ValueError(f"{f.source}: a fuzzy term needs ranges other than [0 0]")
+        # a Sugeno output's range may be [0 0] (the Toolbox uses it only where nothing
+        # fires): its output is then not scaled
+        scale = [max(abs(v.range[0]), abs(v.range[1])) or 1.0 for v in (*f.inputs, *f.outputs)]
         object.__setattr__(self, "_scale", tuple(scale))
         for name, var, s in zip(("e", "de", "u"), (*f.inputs, *f.outputs), scale, strict=True):
             lo, hi = var.range
@@ -561,3 +562,21 @@ class FisTerm:
         e, de = np.broadcast_arrays(np.asarray(e, dtype=float), np.asarray(de, dtype=float))
         w = self.fis.firing(self._physical(e.ravel(), de.ravel()))
         return w.reshape(e.shape + (len(self.fis.rules),))
+
+
+def rule_base_engine(path: str | Path):
+    """The fuzzy term a rule-base file gives a controller (docs/fuzzy.md, "Any MATLAB
+    FIS"): a TOML rule base, or a ``.fis`` whose membership functions are the project's
+    7-label partition (what ``twolink fis`` writes), is the project's engine with those
+    rules, as before; any other ``.fis`` with two inputs (error, rate) and one output is
+    a :class:`FisTerm` (exact). Errors are one line naming the file."""
+    from twolink.controllers.fuzzy import default_fuzzy_pd
+    from twolink.controllers.fuzzy.fis import read_rule_base
+
+    path = Path(path)
+    if path.suffix.lower() != ".fis":
+        return default_fuzzy_pd().with_rules(read_rule_base(path))
+    try:
+        return default_fuzzy_pd().with_rules(read_rule_base(path))
+    except ValueError:
+        return read_fis(path).term()

@@ -243,6 +243,12 @@ def _cells(
     index of each cell's first piece along e and de."""
     from twolink.controllers.fuzzy.engine import _partition_peaks
 
+    if not isinstance(exact, MamdaniEngine):  # a MATLAB FIS's term (controllers/fuzzy/matlab.py)
+        source = getattr(getattr(exact, "fis", None), "source", "this engine")
+        raise ValueError(
+            f"{source}: the table's proven bound needs the project's engine (triangular "
+            "partitions, centroid); for another system measure the table against it"
+        )
     pe, pd, pu = (_partition_peaks(v) for v in (exact.e, exact.de, exact.u))
     if exact.defuzz != "centroid" or pe is None or pd is None or pu is None:
         raise ValueError("table_bound needs triangular partitions on e, de and u and the centroid")

@@ -670,13 +670,16 @@ def _check_rule_base(top: TomlTable, s: Scenario) -> None:
     path = resolve_rule_base(name, s.source)
     if not path.is_file():
         top.fail("controller.rule_base", f"no such file {path}")
-    from twolink.controllers.fuzzy import default_fuzzy_pd
-    from twolink.controllers.fuzzy.fis import read_rule_base
+    from twolink.controllers.fuzzy.continuous import ContinuousEngine
+    from twolink.controllers.fuzzy.matlab import rule_base_engine
 
     try:
-        default_fuzzy_pd().with_rules(read_rule_base(path))  # its labels must be the engine's
+        engine = rule_base_engine(path)  # TOML labels must be the engine's; any 2-input .fis
+        if s.controller.fuzzy.inference == "continuous":
+            ContinuousEngine(engine)  # says so where the file is not a triangular partition
     except (ValueError, OSError) as exc:
-        top.fail("controller.rule_base", f"{path}: {exc}")
+        message = str(exc)
+        top.fail("controller.rule_base", message if str(path) in message else f"{path}: {message}")
 
 
 def load_scenario(path: str | Path, overrides: dict[str, Any] | None = None) -> Scenario:

@@ -100,15 +100,16 @@ def build_controller(s: Scenario) -> Controller:
 
 @functools.lru_cache(maxsize=32)
 def _engine(rule_base: str | None, *version: int):
-    """The engine of a rule-base file (None: the 7x7 heuristic), built once per file
-    version: controllers of one rule base share their engine, which is what lets the
+    """The engine of a rule-base file (None: the 7x7 heuristic; a .fis that is not the
+    project's 7-label partition: its :class:`~controllers.fuzzy.matlab.FisTerm`), built
+    once per file version: controllers of one rule base share their engine, which is what lets the
     batch engine run them as one law (``controllers/batch.py``)."""
     from twolink.controllers import fuzzy
-    from twolink.controllers.fuzzy.fis import read_rule_base
+    from twolink.controllers.fuzzy.matlab import rule_base_engine
 
     if rule_base is None:
         return fuzzy.default_fuzzy_pd()
-    return fuzzy.default_fuzzy_pd().with_rules(read_rule_base(rule_base))
+    return rule_base_engine(rule_base)  # any two-input .fis too (docs/fuzzy.md)
 
 
 @functools.lru_cache(maxsize=32)
