@@ -479,3 +479,16 @@ def test_evaluate_takes_n_by_inputs():
     assert fis.evaluate(np.array([1.0, 5.0, 9.0])).shape == (3, 1)
     with pytest.raises(ValueError, match="t.fis: evaluate takes"):
         fis.evaluate(np.ones((2, 3)))
+
+
+def test_exact_and_sampled_differ_as_docs_fuzzy_md_says():
+    def largest(name):
+        fis = read_fis(DATA / name)
+        axes = [np.linspace(*v.range, 21) for v in fis.inputs]
+        x = np.stack([a.ravel() for a in np.meshgrid(*axes, indexing="ij")], axis=1)
+        return np.abs(fis.evaluate(x) - fis.evaluate(x, sampled=True)).max()
+
+    for name in ("tank.fis", "tank2.fis", "shower.fis"):  # symmetric triangles on the grid
+        assert largest(name) < 1e-12
+    assert 0.004 < largest("tipper.fis") < 0.006
+    assert 0.04 < largest("mam21.fis") < 0.046
