@@ -488,7 +488,8 @@ def test_exact_and_sampled_differ_as_docs_fuzzy_md_says():
         x = np.stack([a.ravel() for a in np.meshgrid(*axes, indexing="ij")], axis=1)
         return np.abs(fis.evaluate(x) - fis.evaluate(x, sampled=True)).max()
 
-    for name in ("tank.fis", "tank2.fis", "shower.fis"):  # symmetric triangles on the grid
+    for name in ("tank.fis", "tank2.fis"):  # prod implication of symmetric triangles
         assert largest(name) < 1e-12
+    assert 2e-4 < largest("shower.fis") < 4e-4
     assert 0.004 < largest("tipper.fis") < 0.006
     assert 0.04 < largest("mam21.fis") < 0.046
