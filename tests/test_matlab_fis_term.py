@@ -15,7 +15,7 @@ from twolink.controllers.fuzzy.fis import to_fis
 from twolink.controllers.fuzzy.matlab import FisTerm, parse_matlab_fis, read_fis
 from twolink.controllers.fuzzy.table import FuzzyTable, table_bound
 from twolink.simulation.config import ConfigError, load_scenario
-from twolink.simulation.experiment import build_controller, run_scenario
+from twolink.simulation.experiment import build_controller, run_scenario, trace_extras
 
 REPO = Path(__file__).resolve().parents[1]
 DATA = Path(__file__).parent / "data" / "fis"
@@ -47,6 +47,11 @@ def test_a_two_input_fis_is_the_fuzzy_term_of_a_scenario_and_its_table(tmp_path)
     assert c.engine.scaling == (0.2, 0.2, 5.0)
     traj = run_scenario(load_scenario(scenario(tmp_path, DATA / "mam21.fis")))
     assert np.isfinite(traj.q).all() and np.isfinite(traj.tau).all()
+    labels = trace_extras(c, traj)["fired_rules"]  # what a recording shows
+    assert (
+        set(np.unique(labels).tolist()) <= {*c.engine.rules, "none"}
+        and "small,small→negBig" in c.engine.rules
+    )
     # the lookup table of the same term: exact at its nodes, close between them
     t = build_controller(load_scenario(scenario(tmp_path, DATA / "mam21.fis", engine="table",
                                                 table_points=41)))  # fmt: skip
@@ -62,6 +67,17 @@ def test_a_two_input_fis_is_the_fuzzy_term_of_a_scenario_and_its_table(tmp_path)
     fcm = FuzzyComputedTorque.fcm(ArmParams(), ArmReference(Step(final=0.05), Step(final=0.0)),
                                   rule_base=str(DATA / "mam21.fis"))  # fmt: skip
     assert isinstance(fcm.engine, FisTerm)
+
+
+def test_the_rules_of_a_term_read_as_text():
+    assert read_fis(DATA / "tipper.fis").term().rules == (
+        "poor|rancid→cheap",
+        "good,*→average",
+        "excellent|delicious→generous",
+    )
+    text = read_fis(DATA / "allmf_min_max.fis").term().rules
+    assert len(text) == 12 and text[3] == "gauss2,¬dsig→gauss2 (0.9)"
+    assert text[11] == "gauss,dsig→¬gauss (0.4)"
 
 
 def test_a_sugeno_fis_is_a_fuzzy_term_too(tmp_path):

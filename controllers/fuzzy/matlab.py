@@ -536,8 +536,22 @@ class FisTerm:
         return 1.0 / re_, 1.0 / rd, ru
 
     @property
-    def rules(self) -> tuple[FisRule, ...]:
-        return self.fis.rules
+    def rules(self) -> tuple[str, ...]:
+        """The rules as short text (``"poor|rancid→cheap"``: ``|`` OR, ``,`` AND, ``¬``
+        NOT, ``*`` don't-care, a weight other than 1 in brackets), the labels a recording
+        shows for the fired rule."""
+        f = self.fis
+        out = []
+        for rule in f.rules:
+            parts = []
+            pairs = zip((*f.inputs, *f.outputs), (*rule.antecedent, *rule.consequent), strict=True)
+            for var, idx in pairs:
+                label = var.mfs[abs(idx) - 1].label if idx else "*"
+                parts.append(("¬" if idx < 0 else "") + label)
+            joint = "," if rule.connection == 1 else "|"
+            text = f"{joint.join(parts[: len(f.inputs)])}→{','.join(parts[len(f.inputs) :])}"
+            out.append(text + (f" ({rule.weight:g})" if rule.weight != 1 else ""))
+        return tuple(out)
 
     def _physical(self, e: np.ndarray, de: np.ndarray) -> np.ndarray:
         (e_lo, e_hi), (d_lo, d_hi) = self.fis.inputs[0].range, self.fis.inputs[1].range
