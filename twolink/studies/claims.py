@@ -1,29 +1,39 @@
 """Paired statistics for claims such as the paper's "FCM-CTC lowers the overshoot against
 CTC", judged on many plants: on each plant of a sweep both controllers ran, so a claim
 rests on the *paired* differences d = metric(A) − metric(B), plant by plant (lower is
-better for every metric judged here). Per metric (docs/statistics.md):
+better for every metric judged here). Per metric (docs/statistics.md has the rule, its
+sources and its choices):
 
 - **better / worse / equal**: plants where A is lower than B by more than the metric's
-  practical tolerance δ (:data:`TOLERANCES`), higher by more, or within ±δ;
-- **the paired test**: a two-sided sign test on better against worse (ties within ±δ
-  dropped: zero-inflated data, e.g. 97 plants worse and 103 exactly equal, read as the
-  97-to-0 they are, not as a median difference of 0), p-values Holm-corrected across the
-  table's family (``p_adjusted``);
-- **the estimate**: the Hodges-Lehmann estimate of the shift (the median of the Walsh
-  averages), with its distribution-free 95 % interval from the signed-rank distribution
-  (``ci_low``, ``ci_high``);
-- **equivalence**: two one-sided signed-rank tests against ±δ (TOST; the tests the
-  Hodges-Lehmann interval inverts), Holm-corrected across the family too;
-- **the verdict**: ``better`` or ``worse`` where the sign test rejects "as often better
-  as worse" after Holm; else ``equivalent`` where the equivalence test holds after Holm;
-  else ``inconclusive``. A metric whose value is set by the reference for both
-  controllers (Td and Tr of a smooth quintic move: on the typical plant every
-  controller's are the move's own, within the tolerance) is ``set by the reference``,
-  and one that neither controller has on any plant (Tp of a response with no peak) is
-  ``undefined``: no verdict.
+  practical tolerance δ (:data:`TOLERANCES`), higher by more, or within ±δ (a difference
+  of exactly δ is equal);
+- **the typical plant**: the Hodges-Lehmann estimate of the shift (the median of the
+  Walsh averages) with its distribution-free 95 % interval (``ci_low``, ``ci_high``), and
+  the signed-rank tests that interval inverts, against the margins ±δ: better or worse by
+  more than δ (``margin_p``, one-sided at 2.5 % each way, as a 95 % interval clear of the
+  margin) and equivalent within ±δ (``tost_p``, Schuirmann's two one-sided tests at 5 %),
+  each Holm-corrected across the table's family;
+- **the shares**: the shares of plants practically better and practically worse (beyond
+  ±δ, with the plants that only one controller reaches, below), each with its exact
+  (Clopper-Pearson) 95 % interval, and exact binomial tests that a share exceeds
+  :data:`MIN_SHARE` (Holm across the family) or stays below it;
+- **the verdict**: better / worse / equivalent from the typical plant; where the typical
+  plant decides nothing, better or worse from the shares (one share shown, the other
+  shown negligible, the estimate on the same side); else inconclusive. It never points
+  against its own estimate. ``reading`` says it in words, with every share shown
+  ("equivalent on the typical plant; worse by more than 1 mrad on 29 of 200").
+  ``set by the reference``: a metric both controllers take from the reference (Td and Tr
+  of a smooth move); ``undefined``: no plant compares.
+- **the sign test** of better against worse (``p_value``, Holm ``p_adjusted``) stays in
+  the tables as a count's evidence; the verdict no longer follows it.
 
-A plant counts for a metric only where both controllers have a value (a run that
-diverged, or an undefined metric, such as a settling time never reached, leaves it out).
+Undefined values: a time that one controller reaches and the other never does
+(:data:`REACHED`: Td, Tr, Ts, Ts→θd never reached) counts against the second
+(``unreached_better``, ``unreached_worse``, apart from the numeric comparison, inside the
+shares). Elsewhere a plant counts only where both controllers have a value.
+
+All tables of a study are judged at once (:func:`paired_claims_many`): one pass over the
+results, numpy over cells, controllers and metrics.
 """
 
 from __future__ import annotations
@@ -39,6 +49,8 @@ from twolink.simulation.vocabulary import CLAIMED_BETTER
 
 __all__ = [
     "CLAIM_METRICS",
+    "MIN_SHARE",
+    "REACHED",
     "TOLERANCES",
     "VERDICTS",
     "count_wins",
@@ -46,12 +58,19 @@ __all__ = [
     "holm",
     "judge",
     "paired_claims",
+    "paired_claims_many",
+    "proportion_interval",
 ]
 
 CLAIM_METRICS = CLAIMED_BETTER  # the paper's claims: FCM-CTC lowers Tp, Td, Ts, Tr, Mp, ess
 VERDICTS = ("better", "worse", "equivalent", "inconclusive", "set by the reference", "undefined")
 ALPHA = 0.05
 SET_BY_REFERENCE = "set by the reference"
+# The smallest share of plants worth a word: one plant in 20 (docs/statistics.md).
+MIN_SHARE = 0.05
+# Times a response may never reach (NaN): a plant where one controller reaches it and the
+# other does not counts against the second. Tp is not one: no peak is no failure.
+REACHED = ("delay_time_s", "rise_time_s", "settling_time_s", "settling_time_target_s")
 
 # Practical tolerance per metric: a difference smaller than this is no difference a user
 # of the arm would act on. Times: 10 control periods; overshoot: 1 percentage point;
@@ -99,17 +118,64 @@ def hodges_lehmann(d: np.ndarray, confidence: float = 0.95) -> tuple[float, floa
     gives (normal approximation, Hollander & Wolfe, *Nonparametric Statistical Methods*,
     3.6). NaN for fewer than 2 values."""
     d = np.asarray(d, dtype=float)
-    n = d.size
-    if n < 2:
-        value = float(d[0]) if n else math.nan
-        return value, math.nan, math.nan
-    i, j = np.triu_indices(n)
-    walsh = np.sort((d[i] + d[j]) / 2.0)
-    m = walsh.size  # n (n + 1) / 2
+    estimate, low, high = _hodges_lehmann_rows(d[None, :], confidence)
+    return float(estimate[0]), float(low[0]), float(high[0])
+
+
+def _hodges_lehmann_rows(
+    d: np.ndarray, confidence: float = 0.95, budget: int = 4_000_000
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`hodges_lehmann` of every row of ``d`` (R, N) at once, NaN marking a plant a
+    row does not have. Rows with the same count n share the ranks they need (the median's
+    and the interval's), so each such group is one ``np.partition`` of its Walsh
+    averages at those ranks (its NaNs go last), in chunks of ``budget`` averages."""
+    rows = d.shape[0]
+    estimate, low, high = (np.full(rows, np.nan) for _ in range(3))
+    finite = np.isfinite(d)
+    n_all = finite.sum(axis=1)
+    ordered = np.sort(np.where(finite, d, np.nan), axis=1)  # each row's values first
     z = stats.norm.ppf(0.5 + confidence / 2.0)
-    k = int(math.floor(m / 2.0 - z * math.sqrt(n * (n + 1) * (2 * n + 1) / 24.0)))
-    k = min(max(k, 0), m - 1)
-    return float(np.median(walsh)), float(walsh[k]), float(walsh[m - 1 - k])
+    for n in np.unique(n_all):
+        members = np.flatnonzero(n_all == n)
+        if n == 1:
+            estimate[members] = ordered[members, 0]
+        if n < 2:
+            continue
+        i, j = np.triu_indices(int(n))
+        m = i.size  # n (n + 1) / 2
+        k = int(math.floor(m / 2.0 - z * math.sqrt(n * (n + 1) * (2 * n + 1) / 24.0)))
+        k = min(max(k, 0), m - 1)
+        ranks = sorted({k, m - 1 - k, (m - 1) // 2, m // 2})
+        step = max(1, budget // m)
+        for start in range(0, members.size, step):
+            part = members[start : start + step]
+            values = ordered[part, : int(n)]
+            walsh = np.partition((values[:, i] + values[:, j]) / 2.0, ranks, axis=1)
+            if m % 2:
+                estimate[part] = walsh[:, (m - 1) // 2]
+            else:  # np.median's mean of the two middle values
+                estimate[part] = (walsh[:, m // 2 - 1] + walsh[:, m // 2]) / 2.0
+            low[part], high[part] = walsh[:, k], walsh[:, m - 1 - k]
+    return estimate, low, high
+
+
+def _row_medians(x: np.ndarray) -> np.ndarray:
+    """The median of each row's finite values (NaN for none), as ``np.median`` of them."""
+    n = np.isfinite(x).sum(axis=1)
+    s = np.sort(np.where(np.isfinite(x), x, np.nan), axis=1)
+    r = np.arange(x.shape[0])
+    mid = np.maximum(n - 1, 0) // 2
+    upper = s[r, np.minimum(n // 2, x.shape[1] - 1)]
+    out = np.where(n % 2 == 1, s[r, mid], (s[r, mid] + upper) / 2)
+    return np.where(n > 0, out, np.nan)
+
+
+def _row_extreme(d: np.ndarray, which: np.ufunc) -> np.ndarray:
+    """The smallest (``np.fmin``) or largest (``np.fmax``) finite value of each row, NaN
+    for none: how far the plant that differs most differs."""
+    if d.shape[1] == 0:
+        return np.full(d.shape[0], np.nan)
+    return which.reduce(d, axis=1)
 
 
 def holm(p: Sequence[float]) -> np.ndarray:
@@ -125,35 +191,83 @@ def holm(p: Sequence[float]) -> np.ndarray:
     return out
 
 
+def _holm_families(p: np.ndarray, family: np.ndarray) -> np.ndarray:
+    """:func:`holm` within each family (rows with the same label)."""
+    out = np.full(p.shape, np.nan)
+    order = np.argsort(family, kind="stable")
+    bounds = np.flatnonzero(np.diff(family[order])) + 1
+    for members in np.split(order, bounds):
+        out[members] = holm(p[members])
+    return out
+
+
+def proportion_interval(
+    k: np.ndarray, n: np.ndarray, confidence: float = 0.95
+) -> tuple[np.ndarray, np.ndarray]:
+    """The exact (Clopper-Pearson) interval of a proportion ``k`` of ``n``: what
+    ``scipy.stats.binomtest(k, n).proportion_ci(confidence, method="exact")`` gives (it
+    finds the same bounds by root search: tests/test_claims.py checks them to 1e-10),
+    here in closed form by the beta quantiles, for arrays. NaN where ``n`` is 0."""
+    k, n = np.asarray(k, dtype=float), np.asarray(n, dtype=float)
+    a = (1.0 - confidence) / 2.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        low = np.where(k > 0, stats.beta.ppf(a, np.maximum(k, 1), n - k + 1), 0.0)
+        high = np.where(k < n, stats.beta.ppf(1 - a, k + 1, np.maximum(n - k, 1)), 1.0)
+    bad = n <= 0
+    return np.where(bad, np.nan, low), np.where(bad, np.nan, high)
+
+
+_SIGN_P: dict[tuple[int, int], float] = {}
+
+
 def _sign_p(better: int, worse: int) -> float:
     n = better + worse
-    return 1.0 if n == 0 else float(stats.binomtest(better, n, 0.5).pvalue)
+    if n == 0:
+        return 1.0
+    key = (int(better), int(n))
+    if key not in _SIGN_P:
+        _SIGN_P[key] = float(stats.binomtest(key[0], key[1], 0.5).pvalue)
+    return _SIGN_P[key]
 
 
 def _tost_p(d: np.ndarray, tolerance: float) -> float:
     """p of two one-sided signed-rank tests (the tests the Hodges-Lehmann interval
     inverts) that the shift lies within ±``tolerance``: the larger of the two p-values."""
-    return float(_tost_ps([np.asarray(d, dtype=float)], [tolerance])[0])
+    return float(_margin_tests([np.asarray(d, dtype=float)], [tolerance])[0][0])
 
 
-def _tost_ps(ds: Sequence[np.ndarray], tolerances: Sequence[float]) -> np.ndarray:
-    """:func:`_tost_p` of several samples at once: one signed-rank call per sample size.
+def _margin_tests(
+    ds: Sequence[np.ndarray] | np.ndarray, tolerances: Sequence[float] | np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per sample, the one-sided signed-rank p-values against the margins ±δ: (TOST's p
+    that the shift lies within ±δ, p that it lies below −δ, p that it lies above +δ).
+    ``ds``: samples, or an (R, N) array whose NaNs are no values. One scipy call per
+    sample size (each call costs ~0.5 ms of scipy's own overhead); the test does not
+    depend on the order of a sample's values.
 
     "Shift above −δ" (``d + δ``, alternative "greater") is tested as "−(d + δ) lower"
-    (alternative "less"): the same p, as the normal approximation is symmetric. Stacking
-    both sides of every sample of one size makes a table of claims one scipy call, not
-    one per test (each costs ~0.5 ms of scipy's own overhead)."""
-    p = np.ones(len(ds))
-    by_size: dict[int, list[tuple[int, np.ndarray, np.ndarray]]] = {}
-    for k, (d, tolerance) in enumerate(zip(ds, tolerances, strict=True)):
-        lower, upper = d - tolerance, -(d + tolerance)
-        if d.size >= 2 and np.any(lower) and np.any(upper):  # else: no test, p = 1
-            by_size.setdefault(d.size, []).append((k, lower, upper))
-    for tests in by_size.values():
-        sides = np.stack([side for _, lower, upper in tests for side in (lower, upper)])
-        both = _signed_rank(sides, "less").reshape(len(tests), 2)
-        p[[k for k, _, _ in tests]] = both.max(axis=1)
-    return p
+    (alternative "less"): the same p, as the normal approximation is symmetric. A side
+    whose differences are all zero has no test: p = 1."""
+    if not isinstance(ds, np.ndarray):
+        width = max((x.size for x in ds), default=0)
+        ds = np.array([np.pad(np.asarray(x, float), (0, width - x.size), constant_values=np.nan)
+                       for x in ds]).reshape(len(ds), width)  # fmt: skip
+    tol = np.asarray(tolerances, dtype=float)
+    count = ds.shape[0]
+    tost, below, above = np.ones(count), np.ones(count), np.ones(count)
+    sizes = np.isfinite(ds).sum(axis=1)
+    ordered = np.sort(ds, axis=1)  # NaNs last
+    for n in np.unique(sizes[sizes >= 2]):
+        members = np.flatnonzero(sizes == n)
+        d, t = ordered[members, : int(n)], tol[members, None]
+        # shift < δ; shift > −δ (TOST's two); shift < −δ; shift > δ
+        sides = np.stack([d - t, -(d + t), d + t, t - d], axis=1)  # (rows, 4, n)
+        p = _signed_rank(sides.reshape(-1, int(n)), "less").reshape(-1, 4)
+        p = np.where(np.any(sides != 0, axis=2), p, 1.0)
+        live = np.any(sides[:, :2] != 0, axis=2).all(axis=1)
+        tost[members] = np.where(live, np.maximum(p[:, 0], p[:, 1]), 1.0)
+        below[members], above[members] = p[:, 2], p[:, 3]
+    return tost, below, above
 
 
 def _signed_rank(d: np.ndarray, side: str) -> np.ndarray:
@@ -168,80 +282,225 @@ def _signed_rank(d: np.ndarray, side: str) -> np.ndarray:
     return np.asarray(result.pvalue, dtype=float)
 
 
+def judge_rows(
+    a: np.ndarray,
+    b: np.ndarray,
+    tolerance: np.ndarray,
+    reference: np.ndarray,
+    family: np.ndarray,
+    reached: np.ndarray,
+) -> dict[str, np.ndarray]:
+    """The statistics and verdicts of R metrics' pairs at once: ``a``, ``b`` (R, N) the
+    proposed and the opponent's values (NaN: none, or a plant the row does not have),
+    per row its ``tolerance``, ``reference`` value (NaN: none), ``family`` (Holm's
+    family label) and whether a NaN is a time never ``reached``. The columns of
+    :func:`paired_claims`, as arrays."""
+    fa, fb = np.isfinite(a), np.isfinite(b)
+    both = fa & fb
+    d = np.where(both, a - b, np.nan)
+    tol = np.asarray(tolerance, dtype=float)
+    n = both.sum(axis=1)
+    with np.errstate(invalid="ignore"):
+        better = (d < -tol[:, None]).sum(axis=1)
+        worse = (d > tol[:, None]).sum(axis=1)
+    reached = np.asarray(reached, dtype=bool)
+    unreached_worse = np.where(reached, (fb & ~fa).sum(axis=1), 0)
+    unreached_better = np.where(reached, (fa & ~fb).sum(axis=1), 0)
+    plants = n + unreached_better + unreached_worse
+    k_better, k_worse = better + unreached_better, worse + unreached_worse
+    with np.errstate(invalid="ignore", divide="ignore"):
+        share_better = np.where(plants > 0, k_better / np.maximum(plants, 1), np.nan)
+        share_worse = np.where(plants > 0, k_worse / np.maximum(plants, 1), np.nan)
+    better_low, better_high = proportion_interval(k_better, plants)
+    worse_low, worse_high = proportion_interval(k_worse, plants)
+    # exact binomial tests of a share against MIN_SHARE: above it (shown), below (none)
+    shown_p = np.concatenate([stats.binom.sf(k_better - 1, plants, MIN_SHARE),
+                              stats.binom.sf(k_worse - 1, plants, MIN_SHARE)])  # fmt: skip
+    shown_p[np.concatenate([plants, plants]) == 0] = np.nan
+    none_better = stats.binom.cdf(k_better, plants, MIN_SHARE) < ALPHA / 2
+    none_worse = stats.binom.cdf(k_worse, plants, MIN_SHARE) < ALPHA / 2
+    estimate, ci_low, ci_high = _hodges_lehmann_rows(d)
+    medians_a = _row_medians(np.where(both, a, np.nan))
+    medians_b = _row_medians(np.where(both, b, np.nan))
+    sign_p = np.array([_sign_p(x, y) for x, y in zip(better, worse, strict=True)])
+    tost_p, below_p, above_p = _margin_tests(d, tol)
+    margin_p = np.minimum(1.0, 2.0 * np.minimum(below_p, above_p))
+    reference = np.asarray(reference, dtype=float)
+    with np.errstate(invalid="ignore"):
+        by_reference = (
+            np.isfinite(reference)
+            & (n > 0)
+            & (np.abs(medians_a - reference) <= tol)
+            & (np.abs(medians_b - reference) <= tol)
+        )
+    judged = ~by_reference & (n > 0)
+    family = np.asarray(family)
+
+    def adjusted(p: np.ndarray, rows: np.ndarray, labels: np.ndarray = family) -> np.ndarray:
+        return _holm_families(np.where(rows, p, np.nan), labels)
+
+    p_adjusted = adjusted(sign_p, judged)
+    tost_adjusted = adjusted(tost_p, judged)
+    margin_adjusted = adjusted(margin_p, judged)
+    compared = ~by_reference & (plants > 0)
+    shown = adjusted(shown_p, np.concatenate([compared, compared]), np.tile(family, 2))
+    shown_better = shown[: len(n)] < ALPHA / 2
+    shown_worse = shown[len(n) :] < ALPHA / 2
+    typical = np.full(len(n), "undecided", dtype=object)
+    differ = judged & (margin_adjusted < ALPHA)
+    typical[differ & (below_p < above_p) & (estimate < -tol)] = "better"
+    typical[differ & (above_p < below_p) & (estimate > tol)] = "worse"
+    typical[judged & (typical == "undecided") & (tost_adjusted < ALPHA)] = "equivalent"
+    verdict = np.where(typical == "undecided", "inconclusive", typical).astype(object)
+    open_ = compared & (typical == "undecided")
+    with np.errstate(invalid="ignore"):
+        not_below = ~(estimate <= 0)  # > 0, or no estimate (NaN): never against it
+        not_above = ~(estimate >= 0)
+    verdict[open_ & shown_worse & none_better & not_below] = "worse"
+    verdict[open_ & shown_better & none_worse & not_above] = "better"
+    typical[~judged] = "none"
+    verdict[by_reference] = SET_BY_REFERENCE
+    verdict[plants == 0] = "undefined"
+    return {
+        "n": n,
+        "better": better,
+        "worse": worse,
+        "equal": n - better - worse,
+        "tolerance": tol,
+        "proposed_median": medians_a,
+        "baseline_median": medians_b,
+        "estimate": estimate,
+        "ci_low": ci_low,
+        "ci_high": ci_high,
+        "difference_min": _row_extreme(d, np.fmin),
+        "difference_max": _row_extreme(d, np.fmax),
+        "p_value": np.where(n > 0, sign_p, 1.0),
+        "tost_p": tost_p,
+        "margin_p": margin_p,
+        "p_adjusted": p_adjusted,
+        "tost_p_adjusted": tost_adjusted,
+        "margin_p_adjusted": margin_adjusted,
+        "unreached_better": unreached_better,
+        "unreached_worse": unreached_worse,
+        "plants": plants,
+        "share_better": share_better,
+        "share_better_low": better_low,
+        "share_better_high": better_high,
+        "share_worse": share_worse,
+        "share_worse_low": worse_low,
+        "share_worse_high": worse_high,
+        "share_better_shown": shown_better & compared,
+        "share_worse_shown": shown_worse & compared,
+        "typical": typical,
+        "verdict": verdict,
+    }
+
+
 def judge(
     a: np.ndarray,
     b: np.ndarray,
     tolerance: float,
     reference: float | None = None,
+    reached: bool = False,
 ) -> dict[str, float | int | str]:
-    """The unadjusted statistics of one metric's pairs (``a`` proposed, ``b`` baseline,
-    one value per plant): counts, estimate and interval, sign-test and equivalence p. With
-    ``reference`` (the value the reference itself has), both controllers' medians within
-    ``tolerance`` of it mark the metric as set by the reference: on the typical plant
-    neither controller, the reference did."""
-    return _judge_all([(a, b, tolerance, reference)])[0]
+    """The statistics of one metric's pairs (``a`` proposed, ``b`` baseline, one value per
+    plant), judged as a family of one: counts, estimate and interval, shares, p-values
+    and the verdict. With ``reference`` (the value the reference itself has), both
+    controllers' medians within ``tolerance`` of it mark the metric as set by the
+    reference; ``reached``: a NaN is a time never reached (:data:`REACHED`)."""
+    a, b = np.asarray(a, dtype=float)[None, :], np.asarray(b, dtype=float)[None, :]
+    ref = np.array([math.nan if reference is None else reference])
+    out = judge_rows(a, b, np.array([tolerance]), ref, np.zeros(1, int), np.array([reached]))
+    return {key: getattr(v[0], "item", lambda v=v: v[0])() for key, v in out.items()}
 
 
-def _judge_all(
-    pairs: Sequence[tuple[np.ndarray, np.ndarray, float, float | None]],
-) -> list[dict[str, float | int | str]]:
-    """:func:`judge` of several (a, b, tolerance, reference), the equivalence tests of
-    all of them batched (:func:`_tost_ps`)."""
-    rows, ds = [], []
-    for a, b, tolerance, reference in pairs:
-        a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-        both = np.isfinite(a) & np.isfinite(b)
-        a, b = a[both], b[both]
-        d = a - b
-        better, worse, equal = count_wins(a, b, tolerance)
-        estimate, low, high = hodges_lehmann(d)
-        by_reference = (
-            reference is not None
-            and d.size > 0
-            and abs(float(np.median(a)) - reference) <= tolerance
-            and abs(float(np.median(b)) - reference) <= tolerance
-        )
-        ds.append(d)
-        rows.append({
-            "n": int(d.size),
-            "better": better,
-            "worse": worse,
-            "equal": equal,
-            "tolerance": tolerance,
-            "proposed_median": float(np.median(a)) if d.size else math.nan,
-            "baseline_median": float(np.median(b)) if d.size else math.nan,
-            "estimate": estimate,
-            "ci_low": low,
-            "ci_high": high,
-            "p_value": _sign_p(better, worse),
-            "tost_p": math.nan,
-            "set_by_reference": by_reference,
-        })  # fmt: skip
-    for row, p in zip(rows, _tost_ps(ds, [row["tolerance"] for row in rows]), strict=True):
-        row["tost_p"] = float(p)
-    return rows
+def _dense(
+    results: pd.DataFrame, names: Sequence[str], columns: Sequence[str], by: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray, pd.DataFrame]:
+    """The results as one array: (controller, group, plant, column) values, NaN where a
+    plant did not run that controller, with the (controller, group, plant) mask of runs
+    and the groups' keys. Plants are the samples of a group, in order; a run that raised
+    (``status`` "error") did not run."""
+    frame = results
+    if "status" in frame.columns:
+        frame = frame[frame["status"].to_numpy(object) != "error"]
+    frame = frame[frame["controller"].isin(names)]
+    if by:
+        group = frame.groupby(list(by), sort=True, observed=True).ngroup().to_numpy()
+        keys = frame[list(by)].drop_duplicates().sort_values(list(by)).reset_index(drop=True)
+    else:
+        group, keys = np.zeros(len(frame), int), pd.DataFrame(index=[0])
+    sample = frame["sample"].to_numpy()
+    plant_key = pd.MultiIndex.from_arrays([group, sample])
+    codes, uniques = pd.factorize(plant_key, sort=True)
+    ugroup = np.asarray(uniques.get_level_values(0))
+    first = np.searchsorted(ugroup, np.arange(len(keys)))
+    slot = np.arange(len(uniques)) - first[ugroup]
+    size = int(slot.max()) + 1 if len(slot) else 0
+    who = pd.Categorical(frame["controller"], categories=list(names)).codes
+    values = np.full((len(names), len(keys), size, len(columns)), np.nan)
+    ran = np.zeros((len(names), len(keys), size), bool)
+    at = (who, ugroup[codes], slot[codes])
+    values[at] = frame[list(columns)].to_numpy(dtype=float)
+    ran[at] = True
+    return values, ran, keys
 
 
-def _verdicts(table: pd.DataFrame) -> pd.DataFrame:
-    """Holm across the table's family (its rows), then the verdicts (on the columns'
-    arrays: this runs once per cell of the regime map)."""
-    n, better, worse = (table[c].to_numpy() for c in ("n", "better", "worse"))
-    by_reference = table["set_by_reference"].to_numpy(dtype=bool)
-    judged = ~by_reference & (n > 0)
-    p_adjusted, tost_adjusted = np.full(len(table), np.nan), np.full(len(table), np.nan)
-    p_adjusted[judged] = holm(table["p_value"].to_numpy(dtype=float)[judged])
-    tost_adjusted[judged] = holm(table["tost_p"].to_numpy(dtype=float)[judged])
-    verdict = np.full(len(table), "inconclusive", dtype=object)
-    differ = judged & (p_adjusted < ALPHA)
-    verdict[differ & (better > worse)] = "better"
-    verdict[differ & (worse > better)] = "worse"
-    verdict[judged & ~differ & (tost_adjusted < ALPHA)] = "equivalent"
-    verdict[by_reference] = SET_BY_REFERENCE
-    verdict[n == 0] = "undefined"
-    table["p_adjusted"] = p_adjusted
-    table["tost_p_adjusted"] = tost_adjusted
-    table["verdict"] = verdict
-    return table.drop(columns=["set_by_reference"])
+def paired_claims_many(
+    results: pd.DataFrame,
+    pairs: Sequence[tuple[str, str]],
+    metrics: Sequence[str] = CLAIM_METRICS,
+    joints: Sequence[int] = (1, 2),
+    by: Sequence[str] = (),
+    reference_values: Mapping[tuple[int, str], float] | None = None,
+    tolerances: Mapping[str, float] | None = None,
+) -> pd.DataFrame:
+    """Every (proposed, opponent) of ``pairs`` judged in every group of plants (``by``: the
+    columns that name a group, e.g. a regime map's cell), per joint and metric, in one
+    pass: the rows of :func:`paired_claims` of each table, stacked, with the group's keys,
+    ``proposed`` and ``opponent`` first. Each (group, pair) is its own family (Holm). A
+    pair of which either controller has no plant in a group is left out there."""
+    tol = {**TOLERANCES, **(tolerances or {})}
+    names = list(dict.fromkeys(name for pair in pairs for name in pair))
+    keys_ = [(j, key) for j in joints for key in metrics]
+    columns = [f"joint{j}_{key}" for j, key in keys_]
+    values, ran, groups = _dense(results, names, columns, by)
+    where = {name: k for k, name in enumerate(names)}
+    blocks = []  # (group, proposed, opponent) families in output order
+    for g in range(len(groups)):
+        for proposed, opponent in pairs:
+            p, o = where[proposed], where[opponent]
+            if ran[p, g].any() and ran[o, g].any():
+                blocks.append((g, p, o))
+    count, width = len(blocks), len(keys_)
+    if not count:
+        return pd.DataFrame()
+    g_, p_, o_ = (np.array([b[i] for b in blocks]) for i in range(3))
+    both = ran[p_, g_] & ran[o_, g_]  # (family, plant)
+    a = np.where(both[:, None, :], values[p_, g_].transpose(0, 2, 1), np.nan)
+    b = np.where(both[:, None, :], values[o_, g_].transpose(0, 2, 1), np.nan)
+    # plants neither ran stay NaN in both: no pair, no count
+    refs = reference_values or {}
+    out = judge_rows(
+        a.reshape(count * width, -1),
+        b.reshape(count * width, -1),
+        np.tile([tol[key] for _, key in keys_], count),
+        np.tile([refs.get(k, math.nan) for k in keys_], count),
+        np.repeat(np.arange(count), width),
+        np.tile([key in REACHED for _, key in keys_], count),
+    )
+    table = pd.DataFrame({
+        **{c: groups[c].to_numpy()[np.repeat(g_, width)] for c in by},
+        "proposed": np.repeat(np.array(names, dtype=object)[p_], width),
+        "opponent": np.repeat(np.array(names, dtype=object)[o_], width),
+        "joint": np.tile([j for j, _ in keys_], count),
+        "metric": np.tile([key for _, key in keys_], count),
+        **out,
+    })  # fmt: skip
+    from twolink.studies.claims_words import reading
+
+    table["reading"] = reading(table)
+    return table
 
 
 def paired_claims(
@@ -266,7 +525,7 @@ def paired_claims(
         What to judge: the table's family, Holm-corrected together.
     reference_values : mapping, optional
         ``(joint, metric) -> value`` of the reference itself (e.g. Td of the quintic move):
-        where both controllers have it on every plant, the verdict is "set by the
+        where both controllers have it on the typical plant, the verdict is "set by the
         reference".
     tolerances : mapping, optional
         Practical tolerance per metric (default :data:`TOLERANCES`).
@@ -276,25 +535,17 @@ def paired_claims(
     DataFrame
         One row per (joint, metric): ``n``, ``better``, ``worse``, ``equal``,
         ``tolerance``, the two medians, ``estimate`` (Hodges-Lehmann) with ``ci_low`` and
-        ``ci_high`` (95 %), ``p_value`` (sign test) and ``p_adjusted`` (Holm),
-        ``tost_p`` and ``tost_p_adjusted``, and the ``verdict``.
+        ``ci_high`` (95 %), the shares (``share_better``, ``share_worse`` with their
+        ``_low``/``_high`` 95 % bounds, of ``plants``), ``unreached_better`` and
+        ``unreached_worse``, the p-values (sign test ``p_value``, TOST ``tost_p``,
+        margins ``margin_p``, each with its Holm ``_adjusted``), ``typical``, the
+        ``verdict`` and its ``reading``.
     """
     names = set(results["controller"])
     for name in (proposed, baseline):
         if name not in names:
             raise ValueError(f"no controller {name!r} in the results (have {sorted(names)})")
-    tol = {**TOLERANCES, **(tolerances or {})}
-    a = results[results["controller"] == proposed].set_index("sample")
-    b = results[results["controller"] == baseline].set_index("sample")
-    plants = a.index.intersection(b.index, sort=False)  # the plants both ran
-    keys = [(j, key) for j in joints for key in metrics]
-    columns = [f"joint{j}_{key}" for j, key in keys]
-    values_a = a.loc[plants, columns].to_numpy(dtype=float)
-    values_b = b.loc[plants, columns].to_numpy(dtype=float)
-    refs = reference_values or {}
-    judged = _judge_all([
-        (values_a[:, k], values_b[:, k], tol[key], refs.get((j, key)))
-        for k, (j, key) in enumerate(keys)
-    ])  # fmt: skip
-    rows = [{"joint": j, "metric": key, **row} for (j, key), row in zip(keys, judged, strict=True)]
-    return _verdicts(pd.DataFrame(rows))
+    table = paired_claims_many(
+        results, [(proposed, baseline)], metrics, joints, (), reference_values, tolerances
+    )
+    return table.drop(columns=["proposed", "opponent"]).reset_index(drop=True)

@@ -75,12 +75,11 @@ def _claims_study(
     """One claims study into ``out/claims_study[_VARIANT]``: the paper's claim judged on
     its plants (``claims[_VARIANT].csv``), every controller against the baseline
     (``claims_all[_VARIANT].csv``); the report's sections on them."""
-    import pandas as pd
 
     from twolink import sweep
     from twolink.foundation.io import atomic_write_text
     from twolink.studies import report
-    from twolink.studies.claims import paired_claims
+    from twolink.studies.claims import paired_claims, paired_claims_many
 
     study = manifest.claims_study
     plan = sweep.load_sweep(study)
@@ -129,15 +128,16 @@ def _claims_study(
     sensor = plan.nominal_scenario().sensor.describe()
     met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
     met.setdefault(MATCHED, met[manifest.baseline])  # the baseline as its own match
-    # Who wins on what: every controller of the sweep against the baseline, on one table.
+    # Who wins on what: every controller of the sweep against the baseline, one pass.
+    others = [name for name in plan.controller_names if name != manifest.baseline]
+    every = paired_claims_many(
+        outcome.results, [(name, manifest.baseline) for name in others],
+        report.WINNER_METRICS, plan.joints, reference_values=refs,
+    )  # fmt: skip
     versus = {
-        name: paired_claims(
-            outcome.results, name, manifest.baseline, report.WINNER_METRICS, plan.joints, refs
-        )
-        for name in plan.controller_names
-        if name != manifest.baseline
+        name: t.drop(columns=["proposed", "opponent"]).reset_index(drop=True)
+        for name, t in every.groupby("proposed", sort=False)
     }
-    every = pd.concat([t.assign(controller=n) for n, t in versus.items()], ignore_index=True)
     atomic_write_text(out / f"claims_all{suffix}.csv", every.to_csv(index=False))
     sections = report.winners_section(versus, manifest.baseline, met, plan.samples, regime) + (
         report.claims_section(table, manifest, plan.samples, source, met, regime, sensor)

@@ -70,29 +70,32 @@ def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
     """One row per (regime, cell, proposed, opponent, joint, metric): the proposed
     controller's paired statistics against the opponent on the cell's plants, and the
     share of samples where its fuzzy term acts. A proposed controller the study does not
-    run is left out."""
-    from twolink.studies.claims import paired_claims
+    run is left out. Every cell's table in one pass
+    (:func:`twolink.studies.claims.paired_claims_many`)."""
+    from twolink.studies.claims import paired_claims_many
 
-    frames = []
-    for regime, r in results.items():
-        for cell, frame in r.groupby(list(CELL)):
-            keys = dict(zip(CELL, cell, strict=True))
-            for proposed in (p for p in PROPOSED if (frame["controller"] == p).any()):
-                fcm = frame[frame["controller"] == proposed]
-                active = fcm[["joint1_fuzzy_active_share", "joint2_fuzzy_active_share"]]
-                share = float(np.nanmean(active.to_numpy(float)))
-                for opponent in OPPONENTS:
-                    t = paired_claims(frame, proposed, opponent, REGIME_METRICS, joints=(1, 2))
-                    frames.append(
-                        t.assign(
-                            regime=regime,
-                            proposed=proposed,
-                            opponent=opponent,
-                            fuzzy_active_share=share,
-                            **keys,
-                        )
-                    )
-    table = pd.concat(frames, ignore_index=True)
+    regimes = list(results)
+    frame = pd.concat(
+        [
+            r.assign(regime=pd.Categorical([g] * len(r), categories=regimes))
+            for g, r in results.items()
+        ],
+        ignore_index=True,
+    )
+    ran = set(frame["controller"])
+    pairs = [(p, o) for p in PROPOSED if p in ran for o in OPPONENTS]
+    by = ["regime", *CELL]
+    table = paired_claims_many(frame, pairs, REGIME_METRICS, (1, 2), by)
+    active = ["joint1_fuzzy_active_share", "joint2_fuzzy_active_share"]
+    fuzzy = frame[frame["controller"].isin(PROPOSED)]
+    values = fuzzy[active].to_numpy(float)
+    share = {  # per cell and proposed controller, over its runs in the table's order
+        key: float(np.nanmean(np.asfortranarray(values[rows])))  # pandas stores columns
+        for key, rows in fuzzy.groupby([*by, "controller"], observed=True).indices.items()
+    }
+    keys = zip(*(table[c] for c in [*by, "proposed"]), strict=True)
+    table["fuzzy_active_share"] = [share[tuple(k)] for k in keys]
+    table["regime"] = table["regime"].astype(str)
     first = ["regime", *CELL, "proposed", "opponent", "fuzzy_active_share", "joint", "metric"]
     return table[first + [c for c in table.columns if c not in first]]
 

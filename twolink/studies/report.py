@@ -361,10 +361,14 @@ WINNER_METRICS = (
 STATISTICS = (
     "Per plant the difference controller − baseline (negative: lower, better for every metric "
     "here). better / worse / equal: plants where it is lower / higher by more than the "
-    "metric's practical tolerance, or within it; the verdict from a sign test on better "
-    "against worse, Holm-corrected across the table (**better**, **worse**), else two "
-    "one-sided tests against ± the tolerance (**equivalent**), else **inconclusive**; the "
-    "estimate is the Hodges-Lehmann shift with its 95 % interval (docs/statistics.md)."
+    "metric's practical tolerance, or within it. The verdict: on the typical plant (the "
+    "Hodges-Lehmann shift, with its 95 % interval) **better** or **worse** by more than the "
+    "tolerance (signed-rank tests against ± the tolerance), else **equivalent** within it "
+    "(two one-sided tests), each Holm-corrected across the table; where the typical plant "
+    "decides nothing, the share of plants practically worse (or better) where it is shown "
+    "above 5 % and the other below 5 % (exact binomial tests); else **inconclusive**. A "
+    "verdict never points against its estimate; the reading names every share above 5 %, "
+    "and a time one controller never reaches counts against it (docs/statistics.md)."
 )
 
 
@@ -418,8 +422,9 @@ def claims_section(
     sensor: str = "",
 ) -> list[str]:
     """The paper's claims judged on many plants (:func:`twolink.studies.claims.paired_claims`'s
-    table): per joint and metric the counts, the estimate with its interval, the adjusted
-    p-value and the verdict; ``met``: plants on which each met the spec."""
+    table): per joint and metric the counts, the plants only one controller reaches, the
+    estimate with its interval, the shares with theirs, the verdict and its reading;
+    ``met``: plants on which each met the spec."""
     p, b = manifest.proposed, manifest.baseline
     out = [
         "",
@@ -431,24 +436,35 @@ def claims_section(
         + (f", seen through the sensor: {sensor} (docs/sensors.md)" if sensor else "")
         + ". "
         + STATISTICS.replace("controller − baseline", f"{p} − {b}"),
-        "n: plants where both have the metric (a response that never settles has none).",
+        "n: plants where both have the metric; never reached: plants where one never reaches",
+        "a time the other does (counted against it, in the shares).",
         "",
         f"First, whether either reached its targets: {p} met the spec on {met.get(p, 0)} of",
         f"{plants} plants, {b} on {met.get(b, 0)}. A claim that holds between two controllers",
         "that both miss their targets compares two failures.",
         "",
-        "| joint | metric | tolerance | n | better | worse | equal | estimate [95 % CI] "
-        "| p (Holm) | verdict |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| joint | metric | tolerance | n | better | worse | equal | never reached "
+        f"({p} / {b}) | estimate [95 % CI] | better / worse share [95 % CI] | verdict "
+        "| reading |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in table.itertuples():
         m = metric(r.metric)
+        shares = (
+            f"{_pct(r.share_better)} [{_pct(r.share_better_low)}, {_pct(r.share_better_high)}] / "
+            f"{_pct(r.share_worse)} [{_pct(r.share_worse_low)}, {_pct(r.share_worse_high)}]"
+        )
         out.append(
             f"| θ{r.joint} | {m.symbol} `{r.metric}` | {r.tolerance:g} {m.unit} | {r.n} | "
-            f"{r.better} | {r.worse} | {r.equal} | {fmt(r.estimate)} "
-            f"[{fmt(r.ci_low)}, {fmt(r.ci_high)}] | {fmt(r.p_adjusted)} | {r.verdict} |"
+            f"{r.better} | {r.worse} | {r.equal} | {r.unreached_worse} / {r.unreached_better} | "
+            f"{fmt(r.estimate)} [{fmt(r.ci_low)}, {fmt(r.ci_high)}] | {shares} | "
+            f"**{r.verdict}** | {r.reading} |"
         )
     return out
+
+
+def _pct(x: float) -> str:
+    return "—" if x != x else f"{100 * x:.0f} %"
 
 
 def conclusions(rows, manifest: Manifest, studies: Sequence[Any] = ()) -> list[str]:

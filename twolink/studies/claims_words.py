@@ -1,0 +1,79 @@
+"""A claims table's verdicts in words (:mod:`twolink.studies.claims`): per row what happens
+on the typical plant and on how many plants the difference matters, e.g. "equivalent on
+the typical plant; worse by more than 1 mrad on 29 of 200 (10-20 %)".
+
+The words follow the table's columns and nothing else: ``typical`` (the shift's verdict),
+the shares shown (``share_*_shown``: a share above :data:`~twolink.studies.claims.MIN_SHARE`
+by its exact test) and the plants only one controller reaches (``unreached_*``)."""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import pandas as pd
+
+__all__ = ["amount", "reading", "row_reading"]
+
+# Display units for small amounts: (unit, below, factor, shown unit)
+_SMALL = {"rad": (0.1, 1e3, "mrad"), "s": (1.0, 1e3, "ms")}
+
+
+@functools.cache
+def _units() -> dict[str, str]:
+    from twolink.simulation.vocabulary import METRICS
+
+    return {m.key: m.unit for m in METRICS}
+
+
+def amount(key: str, value: float) -> str:
+    """``value`` of metric ``key`` with its unit, small angles in mrad and times in ms."""
+    known = _units()
+    if key not in known:  # a metric of the caller's own: no unit known
+        return f"{value:.3g}"
+    unit = known[key]
+    if unit in _SMALL and abs(value) < _SMALL[unit][0]:
+        _, factor, unit = _SMALL[unit]
+        value = value * factor
+    sep = "" if unit == "%" else " "
+    return f"{value:.3g}{sep}{unit}"
+
+
+def _share(direction: str, k: int, plants: int, low: float, high: float, tol: str) -> str:
+    return f"{direction} by more than {tol} on {k} of {plants} ({100 * low:.0f}-{100 * high:.0f} %)"
+
+
+def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
+    """One row's words (``r`` a row of the table, e.g. from ``itertuples``)."""
+    if r.verdict == "undefined":
+        return "no plant has it for both"
+    if r.verdict == "set by the reference":
+        return "set by the reference: both take the move's own value on the typical plant"
+    tol = amount(r.metric, r.tolerance)
+    parts = []
+    if r.typical in ("better", "worse", "equivalent"):
+        parts.append(f"{r.typical} on the typical plant")
+    elif r.n > 0:
+        parts.append("the typical plant undecided")
+    for side in ("better", "worse"):
+        if getattr(r, f"share_{side}_shown"):
+            k = getattr(r, side) + getattr(r, f"unreached_{side}")
+            low, high = getattr(r, f"share_{side}_low"), getattr(r, f"share_{side}_high")
+            parts.append(_share(side, k, r.plants, low, high, tol))
+    who = proposed or "the proposed"
+    other = opponent or "the opponent"
+    if r.unreached_worse:
+        parts.append(f"{who} never reaches it on {r.unreached_worse} where {other} does")
+    if r.unreached_better:
+        parts.append(f"{other} never reaches it on {r.unreached_better} where {who} does")
+    return "; ".join(parts)
+
+
+def reading(table: pd.DataFrame) -> list[str]:
+    """Every row's words (the table of :func:`~twolink.studies.claims.paired_claims_many`)."""
+    names = table.get("proposed", pd.Series([""] * len(table), index=table.index))
+    others = table.get("opponent", pd.Series([""] * len(table), index=table.index))
+    return [
+        row_reading(r, p, o)
+        for r, p, o in zip(table.itertuples(index=False), names, others, strict=True)
+    ]
