@@ -493,3 +493,15 @@ def test_exact_and_sampled_differ_as_docs_fuzzy_md_says():
     assert 2e-4 < largest("shower.fis") < 4e-4
     assert 0.004 < largest("tipper.fis") < 0.006
     assert 0.04 < largest("mam21.fis") < 0.046
+
+
+def test_inputs_are_not_clipped_to_their_ranges_as_in_the_toolbox():
+    fis = read_fis(DATA / "tipper.fis")
+    outside = np.array([[13.0, -2.0], [-4.0, 11.0]])
+    got = fis.evaluate(outside)
+    for row, g in zip(outside, got, strict=True):
+        assert abs(g[0] - Ref(fis).exact(row)[0]) < TOL
+    clipped = fis.evaluate(np.clip(outside, 0, 10))
+    assert np.all(np.abs(got - clipped) > 1e-3)  # the gaussians are read where x is
+    with pytest.raises(ValueError, match="tipper.fis: inputs contain NaN"):
+        fis.evaluate([[np.nan, 1.0]])
