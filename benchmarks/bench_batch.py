@@ -16,6 +16,7 @@ baseline. A log-log figure of the scaling is written to ``docs/figures/batch_sca
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import subprocess
 import sys
@@ -34,6 +35,12 @@ from twolink.simulation.experiment import build_controller
 ROOT = Path(__file__).resolve().parents[1]
 SIZES = (1, 10, 100, 1000, 10000)
 SCENARIOS = {"CTC": "runs/paper/theta1_step.toml", "FCM-CTC": "runs/theta1_step_fcm.toml"}
+# The fuzzy term's other two engines (docs/fuzzy.md): the lookup table and the continuous
+# inference, on the same scenario.
+VARIANTS = {
+    "FCM-CTC table": ("FCM-CTC", {"controller": {"fuzzy": {"engine": "table"}}}),
+    "FCM-CTC continuous": ("FCM-CTC", {"controller": {"fuzzy": {"inference": "continuous"}}}),
+}
 ARM_STEPS = 400_000  # per measurement: enough to time, few enough for N = 10,000
 
 
@@ -73,7 +80,8 @@ def drawn_arms(n: int, rng: np.random.Generator, arm) -> list[Arm]:
 
 def batch_step_us(n: int, controller_name: str) -> float:
     """Time of simulate_batch per arm and control step [µs]."""
-    s = load_scenario(ROOT / SCENARIOS[controller_name])
+    base, overrides = VARIANTS.get(controller_name, (controller_name, None))
+    s = load_scenario(ROOT / SCENARIOS[base], overrides)
     steps = max(20, ARM_STEPS // n)
     plant = BatchPlant(drawn_arms(n, np.random.default_rng(n), s.arm), s.timestep)
     controller = build_controller(s)
@@ -82,6 +90,17 @@ def batch_step_us(n: int, controller_name: str) -> float:
     elapsed = time.perf_counter() - start
     assert all(st == "ok" for st in run.status), "a benchmark arm diverged"
     return elapsed / (n * (steps + 1)) * 1e6
+
+
+def compile_kernels() -> None:
+    """Compile (or load) the fuzzy kernels before timing (controllers/fuzzy/kernels.py)."""
+    from twolink.controllers.fuzzy import kernels
+
+    if kernels.available():
+        for name in VARIANTS:
+            batch_step_us(100, name)
+        batch_step_us(100, "FCM-CTC")
+    print(f"fuzzy kernels compiled (numba): {kernels.available()}\n")
 
 
 def mujoco_step_us(n: int) -> float:
@@ -125,17 +144,38 @@ def main() -> None:
     parser.add_argument(
         "--figure", type=Path, default=ROOT / "docs/figures/batch_scaling.png", help="PNG path"
     )
+    parser.add_argument(
+        "--sizes", type=int, nargs="+", default=list(SIZES), help="batch sizes N to time"
+    )
+    parser.add_argument(
+        "--repeats",
+        type=int,
+        default=1,
+        help="time every row this many times, interleaved, and keep the least (on a shared, "
+        "loaded machine the least time is the one least disturbed)",
+    )
     args = parser.parse_args()
+    sizes = args.sizes
 
     bare = bare_step_us()
     print(f"baseline: bare single-arm mj_step loop {bare:.2f} µs per step\n")
-    print(f"{'N':>7}  {'controller':<14}  {'µs/arm-step':>11}  {'ratio':>6}")
-    results: dict[str, list[float]] = {name: [] for name in (*SCENARIOS, "mj_step alone")}
-    for n in SIZES:
-        for name in results:
-            us = mujoco_step_us(n) if name == "mj_step alone" else batch_step_us(n, name)
+    print(
+        f"{'N':>7}  {'controller':<18}  {'µs/arm-step':>11}  {'/ bare':>6}  {'/ mj_step':>9}"
+        "   (/ mj_step: over MuJoCo's own step of the same batch model, this run)"
+    )
+    names = ("mj_step alone", *SCENARIOS, *VARIANTS)
+    results: dict[str, list[float]] = {name: [] for name in names}
+    compile_kernels()
+    for n in sizes:
+        best = dict.fromkeys(results, math.inf)
+        for _ in range(args.repeats):
+            for name in results:
+                us = mujoco_step_us(n) if name == "mj_step alone" else batch_step_us(n, name)
+                best[name] = min(best[name], us)
+        for name, us in best.items():
             results[name].append(us)
-            print(f"{n:>7}  {name:<14}  {us:>11.2f}  {us / bare:>5.2f}x", flush=True)
+            own = us / best["mj_step alone"]
+            print(f"{n:>7}  {name:<18}  {us:>11.2f}  {us / bare:>5.2f}x  {own:>8.2f}x", flush=True)
     if args.sweep:
         for threads, label in ((1, "one thread"), (None, "threads on all cores")):
             us, arm_steps = sweep_step_us(threads)
@@ -153,7 +193,7 @@ def main() -> None:
     fig, ax = plt.subplots(figsize=(6.5, 4.2), layout="constrained")
     for name, values in results.items():
         style = ":" if name == "mj_step alone" else "-"
-        ax.loglog(SIZES, np.array(values) / bare, "o" + style, label=f"batch, {name}")
+        ax.loglog(sizes, np.array(values) / bare, "o" + style, label=f"batch, {name}")
     ax.axhline(1.0, color="k", ls="--", lw=1, label="bare single-arm mj_step loop")
     ax.set_xlabel("arms in one batch (N)")
     ax.set_ylabel("time per arm-step / bare mj_step")

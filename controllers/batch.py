@@ -11,6 +11,13 @@ AVX-512) and for the fuzzy term, whose numpy path agrees with the pure-Python on
 Arms are grouped by :func:`batch_laws`: all controllers of one class form one law (their
 models, gains and limits become per-arm arrays), fuzzy ones one law per engine (and
 mode); any other controller is called arm by arm (correct, not fast).
+
+The laws of CTC, CTC-I, PD-G, fuzzy-PD and the fuzzy CTCs are written once for two array
+backends: their arithmetic takes its functions from the namespace ``self.xp`` (numpy
+here; ``jax.numpy`` on MuJoCo's accelerator backend, :mod:`twolink.simulation.mjx`, via
+:func:`on_namespace`), and their state (CTC-I's integrators) is passed in and returned by
+:meth:`BatchComputedTorque.step` rather than kept, so that a compiled loop can carry it.
+Called as ``law(k, q, qd)`` (numpy), a law keeps its state itself.
 """
 
 from __future__ import annotations
@@ -42,12 +49,17 @@ __all__ = [
 class ReferenceTable:
     """The references of many arms sampled once on the control grid ``times``.
 
-    Equal references are stored once: memory (len(times), unique, 2) per signal.
+    Equal references are stored once: memory (len(times), unique, 2) per signal. Where all
+    arms share one reference (a sweep's chunk), :meth:`at` answers with broadcast views,
+    copying nothing.
     """
+
+    xp: Any = np
 
     def __init__(self, references: Sequence[ArmReference], times: np.ndarray) -> None:
         unique: dict[ArmReference, int] = {}
         self.index = np.array([unique.setdefault(r, len(unique)) for r in references])
+        self.shared = len(unique) == 1
         samples = [ref.sample(times) for ref in unique]
         self.pos, self.vel, self.acc = (
             np.stack([s[signal] for s in samples], axis=1) for signal in range(3)
@@ -56,6 +68,11 @@ class ReferenceTable:
     def at(self, k: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Desired positions, velocities and accelerations at instant k, each (N, 2)."""
         i = self.index
+        if self.shared:
+            shape = (i.shape[0], 2)
+            return tuple(
+                self.xp.broadcast_to(x[k, 0], shape) for x in (self.pos, self.vel, self.acc)
+            )
         return self.pos[k, i], self.vel[k, i], self.acc[k, i]
 
 
@@ -85,9 +102,13 @@ class BatchComputedTorque:
     """:class:`~controllers.ctc.ComputedTorque` for N arms, each with its own model,
     gains, limits and reference.
 
-    ``law(k, q, qd)`` is :meth:`finish` of the reference errors and model terms it computes
-    itself; :class:`_SharedTerms` computes those once for the laws of several kinds and
-    calls their :meth:`finish` on slices."""
+    ``law.step(k, q, qd, state)`` is :meth:`finish` of the reference errors and model terms
+    it computes itself, and returns the torques and the law's next state (:meth:`initial`
+    at the start of a run; None for the laws without one); ``law(k, q, qd)`` does the
+    same keeping the state itself. :class:`_SharedTerms` computes the errors and terms
+    once for the laws of several kinds and calls their :meth:`finish` on slices."""
+
+    xp: Any = np  # the array namespace of the arithmetic (see the module's docstring)
 
     def __init__(self, controllers: Sequence[ComputedTorque], times: np.ndarray) -> None:
         self.reference = ReferenceTable([c.reference for c in controllers], times)
@@ -95,6 +116,19 @@ class BatchComputedTorque:
         self.kp = np.array([c.kp for c in controllers])
         self.kd = np.array([c.kd for c in controllers])
         self.limit = np.array([c.torque_limit for c in controllers])
+        self.state = self.initial()
+
+    def initial(self) -> Any:
+        """The law's state at the start of a run (None: it has none)."""
+        return None
+
+    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+        tau, self.state = self.step(k, q, qd, self.state)
+        return tau
+
+    def step(self, k: int, q, qd, state: Any) -> tuple[Any, Any]:
+        """The torques at instant k and the next state."""
+        return self.finish(k, *self.errors(k, q, qd), self.terms(q, qd), state)
 
     def errors(self, k: int, q: np.ndarray, qd: np.ndarray):
         """Desired accelerations, errors and error rates at instant k, each (N, 2)."""
@@ -103,25 +137,23 @@ class BatchComputedTorque:
 
     def terms(self, q: np.ndarray, qd: np.ndarray) -> tuple[np.ndarray, ...]:
         """The model's ``(M11, M12, M22, H1 + G1, H2 + G2)`` at (q, qd), each (N,)."""
-        return terms(self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=np.cos, sin=np.sin)
+        xp = self.xp
+        return terms(self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=xp.cos, sin=xp.sin)
 
-    @staticmethod
-    def unsaturated(m: tuple[np.ndarray, ...], v: np.ndarray) -> np.ndarray:
+    def unsaturated(self, m: tuple[np.ndarray, ...], v: np.ndarray) -> np.ndarray:
         """``M^(q) v + H^ + G^`` from the model terms ``m`` (the scalar ``unsaturated``)."""
         m11, m12, m22, b1, b2 = m
         v1, v2 = v[:, 0], v[:, 1]
-        return np.stack([m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2], axis=1)
+        return self.xp.stack([m11 * v1 + m12 * v2 + b1, m12 * v1 + m22 * v2 + b2], axis=1)
 
     def torque(self, m: tuple[np.ndarray, ...], v: np.ndarray) -> np.ndarray:
         """:meth:`unsaturated`, saturated."""
-        return np.clip(self.unsaturated(m, v), -self.limit, self.limit)
+        return self.xp.clip(self.unsaturated(m, v), -self.limit, self.limit)
 
-    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
-        return self.finish(k, *self.errors(k, q, qd), self.terms(q, qd))
-
-    def finish(self, k: int, a, e, de, m) -> np.ndarray:
-        """The torques from the desired accelerations, errors and model terms."""
-        return self.torque(m, a + self.kd * de + self.kp * e)
+    def finish(self, k: int, a, e, de, m, state: Any) -> tuple[Any, Any]:
+        """The torques from the desired accelerations, errors and model terms, and the
+        next state."""
+        return self.torque(m, a + self.kd * de + self.kp * e), state
 
 
 class BatchFuzzyComputedTorque(BatchComputedTorque):
@@ -134,10 +166,10 @@ class BatchFuzzyComputedTorque(BatchComputedTorque):
         self.add = controllers[0].mode == "add"
         self.ke, self.kde, self.ku = _fuzzy_scalings(controllers)
 
-    def finish(self, k: int, a, e, de, m) -> np.ndarray:
+    def finish(self, k: int, a, e, de, m, state: Any) -> tuple[Any, Any]:
         v = a + (self.kp * e + self.kd * de) if self.add else a
-        u = self.engine.evaluate_batch(self.ke * e, self.kde * de)
-        return self.torque(m, v + self.ku * u)
+        u = _evaluate(self.engine, self.ke * e, self.kde * de, self.xp)
+        return self.torque(m, v + self.ku * u), state
 
 
 class BatchPDGravity(BatchComputedTorque):
@@ -147,12 +179,13 @@ class BatchPDGravity(BatchComputedTorque):
         super().__init__(controllers, times)
         self.scale = np.array([c.scale for c in controllers])
 
-    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    def step(self, k: int, q, qd, state: Any) -> tuple[Any, Any]:
+        xp = self.xp
         _, e, de = self.errors(k, q, qd)
-        zero = np.zeros(len(q))
-        _, _, _, g1, g2 = terms(self.model, q[:, 0], q[:, 1], zero, zero, cos=np.cos, sin=np.sin)
-        tau = self.scale * (self.kp * e + self.kd * de) + np.stack([g1, g2], axis=1)
-        return np.clip(tau, -self.limit, self.limit)
+        zero = xp.zeros_like(q[:, 0])
+        _, _, _, g1, g2 = terms(self.model, q[:, 0], q[:, 1], zero, zero, cos=xp.cos, sin=xp.sin)
+        tau = self.scale * (self.kp * e + self.kd * de) + xp.stack([g1, g2], axis=1)
+        return xp.clip(tau, -self.limit, self.limit), state
 
 
 class BatchIntegralComputedTorque(BatchComputedTorque):
@@ -160,18 +193,20 @@ class BatchIntegralComputedTorque(BatchComputedTorque):
     are this law's state, (N, 2), empty at the start of a run."""
 
     def __init__(self, controllers: Sequence[IntegralComputedTorque], times: np.ndarray) -> None:
-        super().__init__(controllers, times)
         self.ki = np.array([c.ki for c in controllers])
         self.dt = np.array([[c.control_dt] for c in controllers])
-        self.z = np.zeros((len(controllers), 2))
+        super().__init__(controllers, times)
 
-    def finish(self, k: int, a, e, de, m) -> np.ndarray:
-        v = a + self.kd * de + self.kp * e + self.ki * self.z
+    def initial(self) -> Any:
+        return self.xp.zeros((len(self.ki), 2))
+
+    def finish(self, k: int, a, e, de, m, state: Any) -> tuple[Any, Any]:
+        xp, z = self.xp, state
+        v = a + self.kd * de + self.kp * e + self.ki * z
         raw = self.unsaturated(m, v)
-        tau = np.clip(raw, -self.limit, self.limit)
+        tau = xp.clip(raw, -self.limit, self.limit)
         free = (tau == raw) | ((e > 0) != (raw > 0))  # anti-windup, as the scalar law
-        self.z = np.where(free, self.z + e * self.dt, self.z)
-        return tau
+        return tau, xp.where(free, z + e * self.dt, z)
 
 
 class _SharedTerms:
@@ -193,16 +228,25 @@ class _SharedTerms:
             for (law, _), lo, hi in zip(parts, bounds[:-1], bounds[1:], strict=True)
         ]
 
+        self.state = self.initial()
+
+    xp: Any = np
     errors = BatchComputedTorque.errors
     terms = BatchComputedTorque.terms
+    __call__ = BatchComputedTorque.__call__
 
-    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    def initial(self) -> Any:
+        return tuple(law.initial() for _, law in self.parts)
+
+    def step(self, k: int, q, qd, state: Any) -> tuple[Any, Any]:
         a, e, de = self.errors(k, q, qd)
         m = self.terms(q, qd)
-        tau = np.empty_like(q)
-        for sl, law in self.parts:
-            tau[sl] = law.finish(k, a[sl], e[sl], de[sl], tuple(x[sl] for x in m))
-        return tau
+        out, states = [], []
+        for (sl, law), part in zip(self.parts, state, strict=True):
+            tau, part = law.finish(k, a[sl], e[sl], de[sl], tuple(x[sl] for x in m), part)
+            out.append(tau)
+            states.append(part)
+        return self.xp.concatenate(out, axis=0), tuple(states)
 
 
 class BatchFuzzyPD(BatchComputedTorque):
@@ -214,10 +258,51 @@ class BatchFuzzyPD(BatchComputedTorque):
         self.scale = np.array([c.scale for c in controllers])
         self.ke, self.kde, self.ku = _fuzzy_scalings(controllers)
 
-    def __call__(self, k: int, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    def step(self, k: int, q, qd, state: Any) -> tuple[Any, Any]:
         _, e, de = self.errors(k, q, qd)
-        u = self.engine.evaluate_batch(self.ke * e, self.kde * de)
-        return np.clip(self.scale * (self.ku * u), -self.limit, self.limit)
+        u = _evaluate(self.engine, self.ke * e, self.kde * de, self.xp)
+        return self.xp.clip(self.scale * (self.ku * u), -self.limit, self.limit), state
+
+
+def _evaluate(engine: Any, e, de, xp: Any):
+    """The fuzzy term: the engine's numpy batch path (compiled kernels where available),
+    or its array-namespace form (``evaluate_xp``) on another backend."""
+    if xp is np:
+        return engine.evaluate_batch(e, de)
+    return engine.evaluate_xp(e, de, xp)
+
+
+def on_namespace(law: Any, xp: Any) -> Any:
+    """A copy of a batch law whose arithmetic runs on the array namespace ``xp`` (e.g.
+    ``jax.numpy``): its arrays become ``xp`` arrays, its state starts afresh. Only the
+    laws written for it (see the module's docstring) can be moved; any other raises
+    TypeError."""
+    if not isinstance(law, (BatchComputedTorque, _SharedTerms)):
+        raise TypeError(f"{type(law).__name__} runs on numpy only")
+    return _moved(law, xp)
+
+
+def _moved(obj: Any, xp: Any) -> Any:
+    import copy
+
+    if isinstance(obj, np.ndarray):
+        return xp.asarray(obj)
+    if isinstance(obj, (list, tuple)):
+        return type(obj)(_moved(x, xp) for x in obj)
+    if isinstance(obj, slice | int | float | bool | type(None)):
+        return obj
+    if isinstance(obj, _Models):
+        return _Models(*(xp.asarray(getattr(obj, f)) for f in "m1 m2 l1 l2 g".split()))
+    if isinstance(obj, (ReferenceTable, BatchComputedTorque, _SharedTerms)):
+        new = copy.copy(obj)
+        for name, value in vars(obj).items():
+            if name not in ("engine", "index", "state"):
+                setattr(new, name, _moved(value, xp))
+        new.xp = xp
+        if hasattr(new, "initial"):
+            new.state = new.initial()
+        return new
+    return obj
 
 
 class _ArmByArm:

@@ -45,6 +45,7 @@ from typing import Any
 import numpy as np
 import skfuzzy
 
+from twolink.controllers.fuzzy import kernels
 from twolink.controllers.fuzzy.engine import MamdaniEngine, _partition_peaks
 from twolink.controllers.fuzzy.table import bilinear
 
@@ -124,16 +125,24 @@ class ContinuousEngine:
         e, de = np.broadcast_arrays(np.asarray(e, dtype=float), np.asarray(de, dtype=float))
         if np.isnan(e).any() or np.isnan(de).any():
             raise ValueError("fuzzy engine inputs contain NaN")
-        # _cell's arithmetic on arrays (clip, the cell, the fraction across it) and
-        # bilinear's, in the same order: equal to evaluate_floats to the bit
-        lo_e, lo_d = self._peaks_e, self._peaks_d
-        i, s = _cells(lo_e, e)
-        j, t = _cells(lo_d, de)
-        n_de = lo_d.size
+        if e.size > kernels.MIN_INPUTS and kernels.available():
+            flat_e = np.ascontiguousarray(e, dtype=float).ravel()
+            flat_d = np.ascontiguousarray(de, dtype=float).ravel()
+            return kernels.continuous(self, flat_e, flat_d).reshape(e.shape)
+        return self.evaluate_xp(e, de, np)
+
+    def evaluate_xp(self, e: Any, de: Any, xp: Any) -> Any:
+        """The output on the array namespace ``xp`` (numpy, or jax.numpy on the
+        accelerator backend): ``_cell``'s arithmetic on arrays (clip, the cell, the
+        fraction across it) and ``bilinear``'s, in the same order, so equal to
+        :meth:`evaluate_floats` to the bit on numpy. Inputs must be free of NaN."""
+        i, s = _cells(xp.asarray(self._peaks_e), e, xp)
+        j, t = _cells(xp.asarray(self._peaks_d), de, xp)
+        n_de = self._peaks_d.size
         k = i * n_de + j
-        v = self._ravel
-        v00, v01 = v.take(k), v.take(k + 1)
-        v10, v11 = v.take(k + n_de), v.take(k + n_de + 1)
+        v = xp.asarray(self._ravel)
+        v00, v01 = v[k], v[k + 1]
+        v10, v11 = v[k + n_de], v[k + n_de + 1]
         lo = v00 + t * (v01 - v00)
         hi = v10 + t * (v11 - v10)
         return lo + s * (hi - lo)
@@ -152,12 +161,12 @@ class ContinuousEngine:
         return out
 
 
-def _cells(peaks: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _cells(peaks: Any, x: Any, xp: Any = np) -> tuple[Any, Any]:
     """:func:`_cell` for arrays, the same arithmetic."""
-    x = np.clip(x, peaks[0], peaks[-1])
-    i = np.minimum(np.searchsorted(peaks, x, side="right") - 1, peaks.size - 2)
-    lo = peaks.take(i)
-    return i, (x - lo) / (peaks.take(i + 1) - lo)
+    x = xp.clip(x, peaks[0], peaks[-1])
+    i = xp.minimum(xp.searchsorted(peaks, x, side="right") - 1, peaks.shape[0] - 2)
+    lo = peaks[i]
+    return i, (x - lo) / (peaks[i + 1] - lo)
 
 
 def _cell(peaks: tuple[float, ...], x: float) -> tuple[int, float]:

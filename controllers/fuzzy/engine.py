@@ -40,6 +40,7 @@ from typing import Any, Literal
 import numpy as np
 import skfuzzy
 
+from twolink.controllers.fuzzy import kernels
 from twolink.controllers.fuzzy.membership import FuzzyVariable
 from twolink.controllers.fuzzy.rulebase import Rule, RuleBase
 
@@ -76,21 +77,20 @@ def _partition_peaks(var: FuzzyVariable) -> tuple[float, ...] | None:
     return tuple(float(p) for p in peaks)
 
 
-def _partition_rows(x: np.ndarray, peaks: np.ndarray) -> np.ndarray:
+def _partition_rows(x: np.ndarray, peaks: np.ndarray, xp: Any = np) -> np.ndarray:
     """Memberships (n_terms, N) of a triangular partition with these peaks, as ``_small``
     computes them: on [p_i, p_i+1], 1 - t for term i and t for term i + 1. Equal to the
     sampled triangles read back by interpolation up to rounding (the partition's
     samples are exact, ``_partition_peaks``), and many times cheaper than interpolating
-    every term."""
-    x = np.clip(x, peaks[0], peaks[-1])
-    i = np.minimum(np.searchsorted(peaks, x, side="right") - 1, peaks.size - 2)
+    every term. ``xp``: the array namespace (numpy, or jax.numpy for the accelerator
+    backend)."""
+    peaks = xp.asarray(peaks)
+    x = xp.clip(x, peaks[0], peaks[-1])
+    i = xp.minimum(xp.searchsorted(peaks, x, side="right") - 1, peaks.shape[0] - 2)
     lo = peaks[i]
     t = (x - lo) / (peaks[i + 1] - lo)
-    rows = np.zeros((peaks.size, x.size))
-    cols = np.arange(x.size)
-    rows[i, cols] = 1.0 - t
-    rows[i + 1, cols] = t
-    return rows
+    term = xp.arange(peaks.shape[0])[:, None]
+    return xp.where(term == i, 1.0 - t, xp.where(term == i + 1, t, 0.0))
 
 
 def _crossings(
@@ -304,11 +304,44 @@ class MamdaniEngine:
         if flat_e.size <= _SMALL_N and self._plan.pair_table is not None:
             out_small = self._small(flat_e.tolist(), flat_de.tolist())
             return np.array(out_small, dtype=float).reshape(e_arr.shape)
+        if self._plan.pair_table is not None and kernels.available():
+            # _small compiled (controllers/fuzzy/kernels.py): equal to it to the bit
+            if np.isnan(flat_e).any() or np.isnan(flat_de).any():
+                raise ValueError("fuzzy engine inputs contain NaN")
+            return kernels.mamdani(self, flat_e, flat_de).reshape(e_arr.shape)
         out = np.empty(flat_e.size)
         for s in range(0, flat_e.size, _CHUNK):
             sl = slice(s, s + _CHUNK)
             out[sl] = self._batch(flat_e[sl], flat_de[sl])
         return out.reshape(e_arr.shape)
+
+    def evaluate_xp(self, e: Any, de: Any, xp: Any) -> Any:
+        """The closed-form path (triangular partitions, centroid) on the array namespace
+        ``xp`` (jax.numpy on the accelerator backend, :mod:`twolink.simulation.mjx`): the
+        numpy batch path's functions (``_partition_rows``, ``_centroid_rows``), with the
+        clip levels as a max per output term. Inputs must be free of NaN (not checked:
+        a compiled loop cannot raise)."""
+        plan = self._plan
+        if plan.pair_table is None:
+            raise TypeError(
+                "this fuzzy engine has no closed form (it needs triangular partitions and "
+                "the centroid), so it runs on numpy only"
+            )
+        shape = e.shape
+        e, de = xp.reshape(e, (-1,)), xp.reshape(de, (-1,))
+        a = _partition_rows(e, plan.peaks_e_array, xp)[plan.rule_e]
+        b = _partition_rows(de, plan.peaks_de_array, xp)[plan.rule_de]
+        firing = xp.minimum(a, b) if self.and_method == "min" else a * b
+        zero = xp.zeros_like(e)
+        groups = dict(zip(plan.used_u.tolist(), np.split(plan.order, plan.starts[1:]), strict=True))
+        cuts = xp.stack(
+            [
+                xp.max(firing[groups[t]], axis=0) if t in groups else zero
+                for t in range(len(self.u.labels))
+            ]
+        )
+        out = self._centroid_rows(cuts, plan.pair_span, xp)
+        return xp.reshape(xp.where(xp.max(cuts, axis=0) > 0.0, out, self.no_fire_output), shape)
 
     def evaluate_floats(self, es: Sequence[float], ds: Sequence[float]) -> list[float]:
         """``engine(e, de)`` for a few plain floats, returning floats: the control loop's call.
@@ -410,7 +443,9 @@ class MamdaniEngine:
         """Closed-form centroid from clip levels (N, n_terms); see ``_centroid_rows``."""
         return self._centroid_rows(np.ascontiguousarray(cuts.T))
 
-    def _centroid_rows(self, cuts: np.ndarray, pairs: slice = slice(None)) -> np.ndarray:
+    def _centroid_rows(
+        self, cuts: np.ndarray, pairs: slice = slice(None), xp: Any = np
+    ) -> np.ndarray:
         """Closed-form skfuzzy centroid for a triangular output partition (see docs/fuzzy.md).
 
         ``cuts`` is (n_terms, N). Between neighbouring output peaks p < q, in
@@ -423,13 +458,13 @@ class MamdaniEngine:
         Only the peak pairs in ``pairs`` are summed: the others must have both cuts 0 (a
         pair with a = b = 0 adds exactly 0 to both sums).
         """
-        peaks = self._plan.peaks_u
-        grid = self.u.grid
+        peaks = xp.asarray(self._plan.peaks_u)
+        grid = xp.asarray(self.u.grid)
         p, q = peaks[:-1, None][pairs], peaks[1:, None][pairs]
         h = q - p
         a, b = cuts[:-1][pairs], cuts[1:][pairs]
         aa, bb = a * a, b * b
-        c = np.minimum(np.minimum(a, b), 0.5)  # the value of A at s
+        c = xp.minimum(xp.minimum(a, b), 0.5)  # the value of A at s
         cc = c - c * c
         area = a - 0.5 * aa + b - 0.5 * bb - cc
         mom = 0.5 * (a - aa + b - cc) + (aa * a - bb * b) / 6.0
@@ -437,22 +472,27 @@ class MamdaniEngine:
         # exactly 0.5), else where the lower clip level meets the other term's edge.
         mid = c == 0.5
         a_low = a <= b
-        s = np.where(mid, 0.5, np.where(a_low, a, 1.0 - b))
-        k = np.where(mid, (a > 0.5).astype(float) + (b > 0.5), np.where(a_low, b > a, 1.0))
-        xs = np.minimum(p + s * h, q)
-        idx = np.searchsorted(grid, xs, side="left")
+        s = xp.where(mid, 0.5, xp.where(a_low, a, 1.0 - b))
+        one = xp.ones_like(a)
+        k = xp.where(
+            mid,
+            xp.where(a > 0.5, one, 0.0) + xp.where(b > 0.5, one, 0.0),
+            xp.where(a_low, xp.where(b > a, one, 0.0), one),
+        )
+        xs = xp.minimum(p + s * h, q)
+        idx = xp.searchsorted(grid, xs, side="left")
         gr = grid[idx]
-        gl = np.where(gr == xs, gr, grid[np.maximum(idx - 1, 0)])
+        gl = xp.where(gr == xs, gr, grid[xp.maximum(idx - 1, 0)])
         tl, tr = (gl - p) / h, (gr - p) / h
         for tk in (1.0 - a, b):  # the two terms' crossing points are grid points too
-            np.maximum(tl, tk, out=tl, where=tk <= s)
-            np.minimum(tr, tk, out=tr, where=tk >= s)
+            tl = xp.where(tk <= s, xp.maximum(tl, tk), tl)
+            tr = xp.where(tk >= s, xp.minimum(tr, tk), tr)
         extra = 0.5 * k * (s - tl) * (tr - s)
-        area += extra
-        mom += extra * (tl + s + tr) / 3.0
-        total_area = (h * area).sum(axis=0)
-        total_mom = (h * (p * area + h * mom)).sum(axis=0)
-        return total_mom / np.maximum(total_area, _EPS)
+        area = area + extra
+        mom = mom + extra * (tl + s + tr) / 3.0
+        total_area = xp.sum(h * area, axis=0)
+        total_mom = xp.sum(h * (p * area + h * mom), axis=0)
+        return total_mom / xp.maximum(total_area, _EPS)
 
     def _augmented(self, cuts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """skfuzzy's upsampled universe and aggregated output on it, rows sorted."""

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from twolink.controllers.fuzzy import kernels
 from twolink.controllers.fuzzy.engine import MamdaniEngine
 
 __all__ = ["FuzzyTable", "TableBound", "table_bound"]
@@ -96,19 +97,31 @@ class FuzzyTable:
         de = np.asarray(de, dtype=float)
         if e.shape != de.shape:
             e, de = np.broadcast_arrays(e, de)
-        n = self.points
-        fe = (np.clip(e, self.e_lo, self.e_hi) - self.e_lo) * self.e_scale
-        fd = (np.clip(de, self.d_lo, self.d_hi) - self.d_lo) * self.d_scale
-        if np.isnan(fe).any() or np.isnan(fd).any():
+        if e.size > kernels.MIN_INPUTS and kernels.available():
+            if np.isnan(e).any() or np.isnan(de).any():
+                raise ValueError("fuzzy engine inputs contain NaN")
+            flat_e = np.ascontiguousarray(e, dtype=float).ravel()
+            flat_d = np.ascontiguousarray(de, dtype=float).ravel()
+            return kernels.table(self, flat_e, flat_d).reshape(e.shape)
+        if np.isnan(e).any() or np.isnan(de).any():
             raise ValueError("fuzzy engine inputs contain NaN")
-        i = np.minimum(fe.astype(np.intp), n - 2)
-        j = np.minimum(fd.astype(np.intp), n - 2)
+        return self.evaluate_xp(e, de, np)
+
+    def evaluate_xp(self, e: Any, de: Any, xp: Any) -> Any:
+        """The bilinear lookup on the array namespace ``xp`` (numpy, or jax.numpy on the
+        accelerator backend): a few array operations, :meth:`evaluate_floats`' arithmetic
+        in the same order. Inputs must be free of NaN (not checked here)."""
+        n = self.points
+        fe = (xp.clip(e, self.e_lo, self.e_hi) - self.e_lo) * self.e_scale
+        fd = (xp.clip(de, self.d_lo, self.d_hi) - self.d_lo) * self.d_scale
+        i = xp.minimum(fe.astype(int), n - 2)
+        j = xp.minimum(fd.astype(int), n - 2)
         s = fe - i
         t = fd - j
         k = i * n + j
-        v = self.values.ravel()
-        v00, v01 = v.take(k), v.take(k + 1)
-        v10, v11 = v.take(k + n), v.take(k + n + 1)
+        v = xp.asarray(self.values).reshape(-1)
+        v00, v01 = v[k], v[k + 1]
+        v10, v11 = v[k + n], v[k + n + 1]
         lo = v00 + t * (v01 - v00)
         hi = v10 + t * (v11 - v10)
         return lo + s * (hi - lo)
