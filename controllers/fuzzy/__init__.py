@@ -9,11 +9,11 @@ scikit-fuzzy, rule bases as data, and the project's standard engines.
 Everything public is importable from ``controllers.fuzzy`` itself.
 """
 
+from twolink.controllers.fuzzy.coverage import uncovered_fraction
 from twolink.controllers.fuzzy.engine import (
     MamdaniEngine,
     fired_rule_labels,
     rule_label,
-    uncovered_fraction,
 )
 from twolink.controllers.fuzzy.membership import (
     LABELS_7,

@@ -31,6 +31,7 @@ __all__ = [
     "coverage",
     "grid_uncovered_fraction",
     "surface_jumps",
+    "uncovered_fraction",
 ]
 
 
@@ -246,3 +247,12 @@ def surface_jumps(engine: Any, grid: int = 201) -> tuple[Jump, ...]:
         for b in range(coarse.shape[1])
     ]
     return tuple(sorted(jumps, key=lambda j: -j.size_finer))
+
+
+def uncovered_fraction(engine: MamdaniEngine, n: int = 201, threshold: float = 0.0) -> float:
+    """The share of the (e, de) input box where no rule fires (total firing <= threshold),
+    on an n x n grid: where the engine falls back to ``no_fire_output``."""
+    e_lo, e_hi = engine.e.universe[0], engine.e.universe[-1]
+    d_lo, d_hi = engine.de.universe[0], engine.de.universe[-1]
+    e, de = np.meshgrid(np.linspace(e_lo, e_hi, n), np.linspace(d_lo, d_hi, n))
+    return float(np.mean(engine.firing(e, de).sum(axis=-1) <= threshold))

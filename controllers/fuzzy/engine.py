@@ -316,11 +316,9 @@ class MamdaniEngine:
         return out.reshape(e_arr.shape)
 
     def evaluate_xp(self, e: Any, de: Any, xp: Any) -> Any:
-        """The closed-form path (triangular partitions, centroid) on the array namespace
-        ``xp`` (jax.numpy on the accelerator backend, :mod:`twolink.simulation.mjx`): the
-        numpy batch path's functions (``_partition_rows``, ``_centroid_rows``), with the
-        clip levels as a max per output term. Inputs must be free of NaN (not checked:
-        a compiled loop cannot raise)."""
+        """The closed form (triangular partitions, centroid) on the array namespace ``xp``
+        (jax.numpy on the accelerator backend): the numpy path's ``_partition_rows`` and
+        ``_centroid_rows``. Inputs must be free of NaN (a compiled loop cannot raise)."""
         plan = self._plan
         if plan.pair_table is None:
             raise TypeError(
@@ -332,14 +330,11 @@ class MamdaniEngine:
         a = _partition_rows(e, plan.peaks_e_array, xp)[plan.rule_e]
         b = _partition_rows(de, plan.peaks_de_array, xp)[plan.rule_de]
         firing = xp.minimum(a, b) if self.and_method == "min" else a * b
-        zero = xp.zeros_like(e)
         groups = dict(zip(plan.used_u.tolist(), np.split(plan.order, plan.starts[1:]), strict=True))
-        cuts = xp.stack(
-            [
-                xp.max(firing[groups[t]], axis=0) if t in groups else zero
-                for t in range(len(self.u.labels))
-            ]
-        )
+        zero = xp.zeros_like(e)
+        cut = [xp.max(firing[groups[t]], axis=0) if t in groups else zero for t in
+               range(len(self.u.labels))]  # fmt: skip
+        cuts = xp.stack(cut)
         out = self._centroid_rows(cuts, plan.pair_span, xp)
         return xp.reshape(xp.where(xp.max(cuts, axis=0) > 0.0, out, self.no_fire_output), shape)
 
@@ -682,15 +677,6 @@ def _trap_area(x1: np.ndarray, x2: np.ndarray, y1: np.ndarray, y2: np.ndarray) -
 def _trap_moment(x1: np.ndarray, x2: np.ndarray, y1: np.ndarray, y2: np.ndarray) -> np.ndarray:
     """First moment (integral of x y dx) under the segment from (x1, y1) to (x2, y2)."""
     return (x2 - x1) * (y1 * (2.0 * x1 + x2) + y2 * (x1 + 2.0 * x2)) / 6.0
-
-
-def uncovered_fraction(engine: MamdaniEngine, n: int = 201, threshold: float = 0.0) -> float:
-    """The share of the (e, de) input box where no rule fires (total firing <= threshold),
-    on an n x n grid: where the engine falls back to ``no_fire_output``."""
-    e_lo, e_hi = engine.e.universe[0], engine.e.universe[-1]
-    d_lo, d_hi = engine.de.universe[0], engine.de.universe[-1]
-    e, de = np.meshgrid(np.linspace(e_lo, e_hi, n), np.linspace(d_lo, d_hi, n))
-    return float(np.mean(engine.firing(e, de).sum(axis=-1) <= threshold))
 
 
 def rule_label(rule: Rule) -> str:

@@ -609,6 +609,15 @@ def reproduce(
 @click.option("--fresh", is_flag=True, help="Discard chunks already in --out.")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
 @click.option("--progress/--no-progress", default=True, show_default=True)
+@click.option(
+    "--backend", type=click.Choice(["cpu", "mjx"]), default="cpu", show_default=True,
+    help="MuJoCo on the CPU, or MJX (MuJoCo in JAX, on a GPU where JAX has one; pip install "
+    '"twolink[mjx]"), every chunk in this process.',
+)  # fmt: skip
+@click.option(
+    "--precision", type=click.Choice(["float64", "float32"]), default="float64",
+    show_default=True, help="MJX's floating point (float32: its error in docs/batch.md).",
+)  # fmt: skip
 @set_option("the sweep file", "overrides.duration=3")
 def sweep_command(
     sweep_file: Path,
@@ -620,6 +629,8 @@ def sweep_command(
     fresh: bool,
     no_plots: bool,
     progress: bool,
+    backend: str,
+    precision: str,
     settings: tuple[str, ...],
 ) -> None:
     """Run a Monte Carlo sweep file (or a shipped one by its name, as sweeps/robustness):
@@ -645,6 +656,11 @@ def sweep_command(
         _fail_input(str(exc))
     if scheduler and executor not in (None, "dask"):
         _fail_input(f"--scheduler needs --executor dask, not {executor}")
+    if backend == "cpu" and precision != "float64":
+        _fail_input("--precision is MJX's (--backend mjx); the CPU engine runs in float64")
+    if backend == "mjx" and (executor or workers or scheduler):
+        _fail_input("--backend mjx runs in this process: leave out --executor/--workers")
+    engine = backend if precision == "float64" else f"{backend}-{precision}"
     out = out or Path("results") / "sweeps" / plan.name
     try:
         check_output_folder(out)
@@ -662,6 +678,7 @@ def sweep_command(
                 progress=progress,
                 plots=not no_plots,
                 fresh=fresh,
+                backend=engine,
             )
     except (SweepOutputError, OutputBusy, ForeignOutput) as exc:
         _fail_input(str(exc))

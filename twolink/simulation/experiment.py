@@ -172,22 +172,28 @@ def start_motor_q(s: Scenario) -> tuple[float, float] | None:
     return (float(phi[0]), float(phi[1]))
 
 
+# The batch engines: MuJoCo on the CPU; MJX (MuJoCo in JAX) in float64 or float32.
+BACKENDS = ("cpu", "mjx", "mjx-float32")
 BATCH_RECORD_BYTES = 256 * 2**20  # one batch's records (and noise): peak RSS < 1 GB
 
 
 def run_scenarios(
-    scenarios: Sequence[Scenario], controllers: Sequence[Controller] | None = None
+    scenarios: Sequence[Scenario],
+    controllers: Sequence[Controller] | None = None,
+    backend: str = "cpu",
 ) -> list[Trajectory | Exception]:
     """Every trajectory of :func:`iter_scenarios`, in order (all of them in memory: for
     many arms, iterate instead)."""
     results: list[Trajectory | Exception] = [ValueError("not run")] * len(scenarios)
-    for i, traj in iter_scenarios(scenarios, controllers):
+    for i, traj in iter_scenarios(scenarios, controllers, backend):
         results[i] = traj
     return results
 
 
 def iter_scenarios(
-    scenarios: Sequence[Scenario], controllers: Sequence[Controller] | None = None
+    scenarios: Sequence[Scenario],
+    controllers: Sequence[Controller] | None = None,
+    backend: str = "cpu",
 ) -> Iterator[tuple[int, Trajectory | Exception]]:
     """Simulate many scenarios on the batch engine (:mod:`twolink.simulation.batch`), yielding
     ``(i, trajectory)`` as each batch ends: arm i is ``scenarios[i]`` under
@@ -196,9 +202,14 @@ def iter_scenarios(
     whose records stay under :data:`BATCH_RECORD_BYTES`, and a trajectory is made only
     when yielded, so memory stays bounded whatever the number of scenarios. An arm that
     cannot be built (MuJoCo refuses it) yields its exception; the others still run.
+    ``backend``: "cpu" (MuJoCo, :mod:`twolink.simulation.batch`), or "mjx" / "mjx-float32"
+    (MuJoCo's accelerator backend, :mod:`twolink.simulation.mjx_engine`, in float64 /
+    float32).
     """
     from twolink.simulation.batch import record_bytes
 
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
     controllers = controllers or [build_controller(s) for s in scenarios]
     groups: dict[tuple[float, float, Sensor], list[int]] = {}
     for i, s in enumerate(scenarios):
@@ -209,7 +220,9 @@ def iter_scenarios(
         for start in range(0, len(members), size):
             batch = members[start : start + size]
             yield from _trajectories(
-                *_simulate_batch(scenarios, controllers, batch, timestep, control_dt, sensor)
+                *_simulate_batch(
+                    scenarios, controllers, batch, timestep, control_dt, sensor, backend
+                )
             )
 
 
@@ -220,6 +233,7 @@ def _simulate_batch(
     timestep: float,
     control_dt: float,
     sensor: Sensor,
+    backend: str = "cpu",
 ) -> tuple[list[tuple[int, Exception]], list[int], Any]:
     """One batch of :func:`iter_scenarios`: the arms MuJoCo refuses with their errors, and
     the arms simulated with their records (a :class:`twolink.simulation.batch.BatchResult`)."""
@@ -232,6 +246,10 @@ def _simulate_batch(
             arms[i] = _arm(scenarios[i])
         except Exception as exc:  # this arm's error, not the batch's
             errors.append((i, exc))
+    if backend != "cpu":
+        return errors, *_simulate_batch_mjx(
+            scenarios, controllers, arms, timestep, control_dt, sensor, backend, errors
+        )
     try:
         plant = BatchPlant(list(arms.values()), timestep) if arms else None
     except ValueError:  # find the arms MuJoCo refuses; run the rest
@@ -257,6 +275,44 @@ def _simulate_batch(
         sensor=sensor,
     )
     return errors, batch, run
+
+
+def _simulate_batch_mjx(
+    scenarios: Sequence[Scenario],
+    controllers: Sequence[Controller],
+    arms: dict[int, Any],
+    timestep: float,
+    control_dt: float,
+    sensor: Sensor,
+    backend: str,
+    errors: list[tuple[int, Exception]],
+) -> tuple[list[int], Any]:
+    """:func:`_simulate_batch` on MJX (the arms MuJoCo refuses are added to ``errors``)."""
+    from twolink.simulation.batch import BatchPlant
+    from twolink.simulation.mjx_engine import simulate_batch_mjx
+
+    for i in list(arms):
+        try:
+            BatchPlant([arms[i]], timestep)
+        except ValueError as exc:
+            del arms[i]
+            errors.append((i, exc))
+    batch = list(arms)
+    if not batch:
+        return [], None
+    run = simulate_batch_mjx(
+        [arms[i] for i in batch],
+        timestep,
+        [controllers[i] for i in batch],
+        [scenarios[i].duration for i in batch],
+        control_dt,
+        q0=np.array([scenarios[i].q0 for i in batch]),
+        qd0=np.array([scenarios[i].qd0 for i in batch]),
+        noise=[measurement_noise(scenarios[i]) for i in batch],
+        sensor=sensor,
+        precision="float32" if backend == "mjx-float32" else "float64",
+    )
+    return batch, run
 
 
 def _trajectories(

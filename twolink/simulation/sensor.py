@@ -176,6 +176,33 @@ def _estimate(x, previous, z1, z2, coefficients, control_dt):
     return y, b1 * rate - a1 * y + z2, b2 * rate - a2 * y
 
 
+# The batch reading, step by step, written once for every array backend: the numpy batch
+# engine's reader below and the accelerator backend (twolink.simulation.mjx_engine) call
+# these with their namespace ``xp``; ``reader`` is a SensorReader (its quantum, rate
+# estimate and control period) and the rate state (previous angle, z1, z2) is passed in
+# and returned, so that a compiled loop can carry it.
+
+
+def measured_angles(reader: SensorReader, x: Any, xp: Any) -> Any:
+    """The encoder's angles from the (noisy) true ones: rounded to the nearest count."""
+    if reader.quantum:
+        return xp.round(x / reader.quantum) * reader.quantum
+    return x
+
+
+def initial_rate_state(reader: SensorReader, x: Any, xp: Any) -> Any:
+    """The rate estimate's state before the first reading ``x``: at rest there."""
+    return None if reader.exact else (x, xp.zeros_like(x), xp.zeros_like(x))
+
+
+def measured_rates(reader: SensorReader, x: Any, qd: Any, state: Any) -> tuple[Any, Any]:
+    """The rates the controller sees and the estimate's next state."""
+    if reader.exact:
+        return qd, state
+    rate, z1, z2 = _estimate(x, *state, reader.coefficients, reader.dt)
+    return rate, (x, z1, z2)
+
+
 class SensorReader:
     """A sensor's state over one run: ``reader(k, q, qd)`` is what the controller sees at
     control instant k. Single-arm (``batch=False``): q, qd are pairs of floats and so is
@@ -201,15 +228,10 @@ class SensorReader:
     def __call__(self, k: int, q, qd):
         if not self.batch:
             return self._pair(k, q, qd)
-        x = q if self.noise is None else q + self.noise[k]
-        if self.quantum:
-            x = np.round(x / self.quantum) * self.quantum
-        rate = qd
-        if not self.exact:
-            if self.state is None:
-                self.state = (x, np.zeros_like(x), np.zeros_like(x))
-            rate, z1, z2 = _estimate(x, *self.state, self.coefficients, self.dt)
-            self.state = (x, z1, z2)
+        x = measured_angles(self, q if self.noise is None else q + self.noise[k], np)
+        if self.state is None:
+            self.state = initial_rate_state(self, x, np)
+        rate, self.state = measured_rates(self, x, qd, self.state)
         return self._delay(x, rate)
 
     def _pair(self, k: int, q, qd):

@@ -34,7 +34,7 @@ from twolink.foundation.io import (
     refuse_links,
 )
 from twolink.simulation.config import scenario_from_dict
-from twolink.simulation.experiment import build_controller, iter_scenarios, measure
+from twolink.simulation.experiment import BACKENDS, build_controller, iter_scenarios, measure
 from twolink.simulation.outcome import classify
 from twolink.simulation.vocabulary import joint_values
 from twolink.sweep.plan import FORMAT_VERSION, SweepPlan, gains
@@ -94,7 +94,7 @@ def _error_text(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}"
 
 
-def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
+def run_chunk(plan: SweepPlan, chunk: int, backend: str = "cpu") -> ChunkResult:
     """Compute every (sample, controller) of one chunk, as one batch of arms.
 
     The controllers are built once per chunk, and once per swept ``wn`` (they are modelled
@@ -102,8 +102,16 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
     sample's joints, ``with_joints``); every (sample, controller) is one arm of the batch engine
     (:func:`twolink.simulation.experiment.iter_scenarios`). A sample that raises or diverges gives
     rows with status "error" or "diverged" and the message; it never stops the chunk.
+    ``backend``: iter_scenarios'.
     """
     start = time.perf_counter()
+    rows, arms = _chunk_arms(plan, chunk)
+    _measure_arms(rows, arms, backend)
+    return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
+
+
+def _chunk_arms(plan: SweepPlan, chunk: int) -> tuple[list[Any], list[tuple[int, Any, Any]]]:
+    """A chunk's rows (an error now, or a placeholder) and the arms that will fill them."""
     controllers: dict[Any, Any] = {}  # (name, gains) -> the controller or its build error
 
     def controller_of(name: str, values: dict[str, float]) -> Any:
@@ -137,20 +145,47 @@ def run_chunk(plan: SweepPlan, chunk: int) -> ChunkResult:
                     controller = controller.with_joints(s.plant.flexibility)
                 arms.append((len(rows), s, controller))
                 rows.append((i, name, head))
-    # Measured as each batch ends: one trajectory at a time is ever held.
-    runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms])
+    return rows, arms
+
+
+def _measure_arms(rows: list[Any], arms: list[tuple[int, Any, Any]], backend: str) -> None:
+    """Simulate the arms and fill their rows, measured as each batch ends: one trajectory
+    at a time is ever held."""
+    runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms], backend)
     for k, traj in runs:
         r, s, controller = arms[k]
         i, name, head = rows[r]
         rows[r] = _measured_row(i, name, head, s, traj, controller)
-    return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
 
 
-def run_chunks(plan: SweepPlan, chunks: list[int], threads: int = 1) -> list[ChunkResult]:
+def run_chunks(
+    plan: SweepPlan, chunks: list[int], threads: int = 1, backend: str = "cpu"
+) -> list[ChunkResult]:
     """:func:`run_chunk` of several chunks, ``threads`` at a time in threads of this process
     (the in-process executor's task): MuJoCo releases the GIL while it steps, so one
     process steps several batches on several cores. Each chunk is its own batch, as on a
-    pool, so its rows do not depend on the executor or the number of threads."""
+    pool, so its rows do not depend on the executor or the number of threads.
+
+    On the accelerator backend (``backend`` "mjx", "mjx-float32") the arms of all the
+    chunks form one batch (batches of at most ``BATCH_RECORD_BYTES`` of records): the
+    device's width is the parallelism, and the loop is compiled once for them all; each
+    chunk still gets its own rows, and a share of the time by its rows."""
+    if backend != "cpu":
+        start = time.perf_counter()
+        parts = [_chunk_arms(plan, c) for c in chunks]
+        rows = [r for part_rows, _ in parts for r in part_rows]
+        arms, offset = [], 0
+        for part_rows, part_arms in parts:
+            arms += [(offset + r, s, c) for r, s, c in part_arms]
+            offset += len(part_rows)
+        _measure_arms(rows, arms, backend)
+        share = (time.perf_counter() - start) / max(1, len(rows))
+        out, offset = [], 0
+        for chunk, (part_rows, _) in zip(chunks, parts, strict=True):
+            n = len(part_rows)
+            out.append(ChunkResult(chunk, tuple(rows[offset : offset + n]), share * n, os.getpid()))
+            offset += n
+        return out
     if threads <= 1 or len(chunks) == 1:
         return [run_chunk(plan, c) for c in chunks]
     with futures.ThreadPoolExecutor(min(threads, len(chunks))) as pool:
@@ -393,6 +428,7 @@ def run_sweep(
     fresh: bool = False,
     pool: SweepExecutor | None = None,
     replace_other: bool = False,
+    backend: str = "cpu",
 ) -> SweepOutcome:
     """Compute the missing chunks of a sweep, then write its table, summary and plots.
 
@@ -417,6 +453,12 @@ def run_sweep(
     replace_other : bool
         Discard a different sweep's chunks (keep this sweep's): for a study's sweep
         folder inside the study's own output folder, whose sweep file changed.
+    backend : str
+        The batch engine: "cpu" (MuJoCo), "mjx" or "mjx-float32" (MuJoCo's accelerator
+        backend, :mod:`twolink.simulation.mjx_engine`; ``pip install "twolink[mjx]"``).
+        On MJX every missing chunk runs in this process as one batch (the executor's
+        options are unused), and its rows are the CPU engine's to rounding (float64;
+        docs/batch.md for float32).
 
     Returns
     -------
@@ -434,6 +476,14 @@ def run_sweep(
 
     start = time.perf_counter()
     out = Path(out)
+    if backend not in BACKENDS:
+        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    if backend != "cpu":  # one batch in this process: the device is the parallelism
+        from twolink.simulation.mjx_engine import available
+
+        if not available():
+            raise ValueError(f'backend {backend!r} needs MJX and JAX: pip install "twolink[mjx]"')
+        executor, workers, scheduler, pool = "inprocess", 1, None, None
     if executor is None:
         executor = "dask" if scheduler else plan.execution.executor
     workers = workers or plan.execution.workers
@@ -452,6 +502,7 @@ def run_sweep(
             start,
             pool,
             replace_other,
+            backend,
         )
 
 
@@ -467,6 +518,7 @@ def _run_sweep(
     start: float,
     pool: SweepExecutor | None,
     replace_other: bool = False,
+    backend: str = "cpu",
 ) -> SweepOutcome:
     """:func:`run_sweep` once its options are checked and its folder is held."""
     from tqdm import tqdm
@@ -498,7 +550,7 @@ def _run_sweep(
                     ex = pool or open_executor(executor, workers, scheduler)
                     n_workers = ex.workers
                     try:
-                        _drive(plan, out, ex, missing, frames, computed, bar, stops)
+                        _drive(plan, out, ex, missing, frames, computed, bar, stops, backend)
                     except BaseException:
                         if pool is None:  # a lent pool is its owner's to stop
                             with interrupts_held():
@@ -567,11 +619,14 @@ def _drive(
     computed: list[tuple[int, float]],
     bar: Any,
     stops: _StopSignals,
+    backend: str = "cpu",
 ) -> None:
     """Keep a bounded window of tasks in flight; write each chunk as it finishes. A task is
     one chunk on a pool (the unit of resuming and of spreading over workers); in-process,
     as many chunks as the executor has threads, stepped at once."""
     group = ex.workers if ex.name == "inprocess" else 1
+    if backend != "cpu":  # every chunk in one batch (run_chunks)
+        group = len(missing)
     todo = iter([missing[i : i + group] for i in range(0, len(missing), group)])
     # Enough queued work that no worker waits on the client, little to cancel on Ctrl-C.
     window = 1 if ex.name == "inprocess" else 2 * ex.workers
@@ -582,7 +637,7 @@ def _drive(
             chunks = next(todo, None)
             if chunks is None:
                 return
-            pending.add(ex.submit(run_chunks, plan, chunks, group))
+            pending.add(ex.submit(run_chunks, plan, chunks, group, backend))
 
     fill()
     while pending:

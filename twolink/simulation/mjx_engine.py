@@ -1,0 +1,252 @@
+"""The batch engine on MuJoCo's accelerator backend, MJX (MuJoCo in JAX): the same runs as
+:func:`twolink.simulation.batch.simulate_batch`, on a GPU where JAX has one, else on the
+CPU (slowly; what CI checks it on).
+
+``pip install "twolink[mjx]"`` installs it. Each arm is its own single-arm MjModel, put on
+the device and stacked along a batch axis (the arms differ in masses, lengths, gravity and
+payload, never in structure), and ``mjx.step`` runs vmapped over them; the control loop is
+one ``jax.lax.scan`` over the control instants, compiled once per batch shape. The batch
+laws (CTC, CTC-I, PD-G, the fuzzy CTCs through the exact closed-form engine, the lookup
+table or the continuous inference, fuzzy-PD) and the sensor are the numpy engine's own
+code, run on ``jax.numpy`` (``controllers/batch.py``, :mod:`twolink.simulation.sensor`).
+The bounds, the per-arm durations, the freezing of stopped arms and the records are the
+CPU engine's, so the result is a :class:`~twolink.simulation.batch.BatchResult` that
+measures and writes as any other.
+
+Precision: float64 by default (JAX's ``jax_enable_x64``), so that a run agrees with the CPU
+engine to rounding (tests/test_mjx.py holds a robustness sweep's metrics to 1e-6
+relative); ``precision="float32"`` halves memory and is several times faster on a GPU,
+at the error stated in docs/batch.md ("The accelerator backend").
+
+Not on this backend (a ValueError says so): flexible joints and their laws, controllers
+without a batch form written for it (custom ones, arm by arm on the CPU engine), the
+Mamdani engine's general path (non-triangular terms, bisector or mean of maximum).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from twolink.controllers.base import Controller
+from twolink.simulation.batch import Arm, BatchPlant, BatchResult
+from twolink.simulation.sensor import (
+    Sensor,
+    initial_rate_state,
+    measured_angles,
+    measured_rates,
+)
+from twolink.simulation.sim import (
+    STATUS_DIVERGED,
+    STATUS_OK,
+    Bounds,
+    control_steps,
+    state_message,
+    torque_message,
+)
+
+__all__ = ["PRECISIONS", "available", "simulate_batch_mjx"]
+
+PRECISIONS = ("float64", "float32")
+
+
+def available() -> bool:
+    """Whether MJX and JAX are installed."""
+    try:
+        import jax  # noqa: F401
+        from mujoco import mjx  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def _jax():
+    try:
+        import jax
+        from mujoco import mjx
+    except ImportError as exc:
+        raise ValueError(
+            f'the mjx backend needs MJX and JAX: pip install "twolink[mjx]" (missing: {exc.name})'
+        ) from None
+    jax.config.update("jax_enable_x64", True)
+    return jax, jax.numpy, mjx
+
+
+def _stack(trees: list[Any], jnp: Any, jax: Any) -> Any:
+    return jax.tree_util.tree_map(lambda *x: jnp.stack(x), *trees)
+
+
+def simulate_batch_mjx(
+    arms: Sequence[Arm],
+    timestep: float,
+    controllers: Sequence[Controller],
+    durations: Sequence[float],
+    control_dt: float = 1e-3,
+    q0: np.ndarray | None = None,
+    qd0: np.ndarray | None = None,
+    bounds: Bounds | None = None,
+    noise: Sequence[np.ndarray | None] | None = None,
+    sensor: Sensor | None = None,
+    precision: str = "float64",
+) -> BatchResult:
+    """:func:`twolink.simulation.batch.simulate_batch` on MJX, for rigid arms: arm i is
+    ``arms[i]`` (a MuJoCo model of its own, step ``timestep``) under ``controllers[i]``
+    for ``durations[i]`` s; the other arguments are simulate_batch's."""
+    from twolink.controllers.batch import batch_laws, on_namespace
+    from twolink.simulation.batch import _stack_noise
+
+    if precision not in PRECISIONS:
+        raise ValueError(f"precision must be one of {list(PRECISIONS)}, got {precision!r}")
+    jax, jnp, mjx = _jax()
+    n_arms = len(arms)
+    if len(controllers) != n_arms or len(durations) != n_arms:
+        raise ValueError(f"need one controller and one duration per arm ({n_arms})")
+    if any(a.flexibility is not None for a in arms):
+        raise ValueError("the mjx backend runs rigid arms only (no [plant.flexibility])")
+    dtype = jnp.float64 if precision == "float64" else jnp.float32
+    plants = [BatchPlant([a], timestep) for a in arms]
+    dt = plants[0].dt
+    steps = np.array([control_steps(d, control_dt, dt)[0] for d in durations])
+    substeps = control_steps(durations[0], control_dt, dt)[1]
+    n_max = int(steps.max())
+    q0 = np.zeros((n_arms, 2)) if q0 is None else np.asarray(q0, dtype=float)
+    qd0 = np.zeros((n_arms, 2)) if qd0 is None else np.asarray(qd0, dtype=float)
+    noisy = noise is not None and any(n is not None for n in noise)
+    noise_all = _stack_noise(noise, steps, n_max) if noisy else None
+    times = np.arange(n_max + 1) * control_dt
+    for c in controllers:
+        c.reset()
+    laws = []
+    for idx, law in batch_laws(controllers, times):
+        try:
+            laws.append((idx, on_namespace(law, jnp)))
+        except TypeError as exc:
+            raise ValueError(f"the mjx backend cannot run this controller: {exc}") from None
+    reader = None
+    if sensor is not None and not sensor.ideal:
+        reader = sensor.reader(control_dt, None, batch=True)
+        if sensor.delay_samples:
+            raise ValueError("the mjx backend has no sensor delay (delay_samples = 0)")
+
+    def cast(tree: Any) -> Any:
+        def leaf(x: Any) -> Any:
+            if hasattr(x, "dtype") and jnp.issubdtype(x.dtype, jnp.floating):
+                return jnp.asarray(x, dtype)
+            return x
+
+        return jax.tree_util.tree_map(leaf, tree)
+
+    models, datas = [], []
+    for p, a, b in zip(plants, q0, qd0, strict=True):
+        p.reset(a[None], b[None])
+        models.append(mjx.put_model(p.model))
+        datas.append(mjx.put_data(p.model, p.data))
+    if any(
+        jax.tree_util.tree_structure(m) != jax.tree_util.tree_structure(models[0]) for m in models
+    ):
+        raise ValueError("the mjx backend needs arms of one structure")
+    model = cast(_stack(models, jnp, jax))
+    data = cast(_stack(datas, jnp, jax))
+    qa, va = plants[0].q_index[0], plants[0].v_index[0]  # a single arm's addresses
+    fa = plants[0].force_index[0]
+    bounds = bounds or Bounds()
+    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
+    step_arms = jax.vmap(mjx.step)
+    steps_j = jnp.asarray(steps)
+    noise_j = None if noise_all is None else jnp.asarray(noise_all, dtype)
+
+    def body(carry: Any, k: Any) -> tuple[Any, Any]:
+        data, states, rate_state, active, length, code = carry
+        q, qd = data.qpos[:, qa], data.qvel[:, va]
+        inside = jnp.all(jnp.abs(q) < qmax, axis=1) & jnp.all(jnp.abs(qd) < wmax, axis=1)
+        escaped = active & ~inside
+        length = jnp.where(escaped, jnp.maximum(k, 1), length)
+        code = jnp.where(escaped, 1, code)
+        active = active & ~escaped
+        zero = jnp.zeros_like(q)
+        seen_q = jnp.where(escaped[:, None], zero, q)
+        seen_qd = jnp.where(escaped[:, None], zero, qd)
+        rates = seen_qd
+        if reader is not None:
+            x = seen_q if noise_j is None else seen_q + noise_j[k]
+            x = measured_angles(reader, x, jnp)
+            first = initial_rate_state(reader, x, jnp)
+            if first is not None:
+                rate_state = jax.tree_util.tree_map(
+                    lambda a, b: jnp.where(k == 0, a, b), first, rate_state
+                )
+            rates, rate_state = measured_rates(reader, x, seen_qd, rate_state)
+            seen_q = x
+        elif noise_j is not None:
+            seen_q = seen_q + noise_j[k]
+        tau = jnp.zeros_like(q)
+        new_states = []
+        for (idx, law), state in zip(laws, states, strict=True):
+            part, state = law.step(k, seen_q[idx], rates[idx], state)
+            tau = tau.at[idx].set(part)
+            new_states.append(state)
+        stopped_value = jnp.where(k == 0, jnp.nan, 0.0)
+        tau = jnp.where(active[:, None], tau, stopped_value)
+        runaway = active & ~jnp.all(jnp.abs(tau) < tmax, axis=1)
+        code = jnp.where(runaway, 2, code)
+        done = active & (runaway | (steps_j == k))
+        length = jnp.where(done, k + 1, length)
+        active = active & ~done
+        record = (q, qd, tau)
+        applied = jnp.where(active[:, None], tau, 0.0)
+        keep = active[:, None]
+        qpos = jnp.where(keep, data.qpos, 0.0)
+        qvel = jnp.where(keep, data.qvel, 0.0)
+        force = jnp.zeros_like(data.qfrc_applied).at[:, fa].set(applied)
+        data = data.replace(qpos=qpos, qvel=qvel, qfrc_applied=force)
+        for _ in range(substeps):
+            data = step_arms(model, data)
+        return (data, tuple(new_states), rate_state, active, length, code), record
+
+    q_start = data.qpos[:, qa]
+    rate_state0 = None
+    if reader is not None:
+        rate_state0 = initial_rate_state(reader, jnp.zeros_like(q_start), jnp)
+    carry0 = (
+        data,
+        tuple(law.initial() for _, law in laws),
+        rate_state0,
+        jnp.ones(n_arms, bool),
+        jnp.zeros(n_arms, jnp.int64 if precision == "float64" else jnp.int32),
+        jnp.zeros(n_arms, jnp.int32),
+    )
+    run = jax.jit(lambda c: jax.lax.scan(body, c, jnp.arange(n_max + 1)))
+    (_, _, _, _, length, code), (rec_q, rec_qd, rec_tau) = run(carry0)
+    rec_q, rec_qd, rec_tau = (np.asarray(x, dtype=float) for x in (rec_q, rec_qd, rec_tau))
+    length, code = np.asarray(length), np.asarray(code)
+    status, message = [STATUS_OK] * n_arms, [""] * n_arms
+    for i in np.flatnonzero(code):
+        k = int(length[i]) - 1 if code[i] == 2 else (int(length[i]) if length[i] > 1 else 0)
+        if code[i] == 1 and length[i] == 1:
+            k = _first_escape(rec_q[:, i], rec_qd[:, i], qmax, wmax)
+        status[i] = STATUS_DIVERGED
+        t = float(times[k])
+        if code[i] == 1:
+            message[i] = state_message(t, *rec_q[k, i], *rec_qd[k, i])
+        else:
+            message[i] = torque_message(t, *rec_tau[k, i])
+    return BatchResult(
+        times,
+        rec_q,
+        rec_qd,
+        rec_tau,
+        None,
+        length,
+        status,
+        message,
+        controllers,
+        np.zeros(n_arms, bool),
+    )
+
+
+def _first_escape(q: np.ndarray, qd: np.ndarray, qmax: float, wmax: float) -> int:
+    """The first instant an arm's recorded state is outside the bounds."""
+    inside = (np.abs(q) < qmax).all(axis=1) & (np.abs(qd) < wmax).all(axis=1)
+    return int(np.argmin(inside))
