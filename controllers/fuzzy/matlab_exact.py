@@ -132,68 +132,76 @@ def _mesh(fis, m: int) -> np.ndarray:
     return fis._cache[key]
 
 
-def _bisect(func, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Bracket ends (a, b) around the sign change of ``func`` on [lo, hi], narrowed to
-    adjacent floats: ``func(a)`` keeps the sign of ``func(lo)``."""
-    s_lo = func(lo) > 0
-    a, b = lo.copy(), hi.copy()
-    for _ in range(_BISECT):
-        mid = 0.5 * (a + b)
-        same = (func(mid) > 0) == s_lo
-        a = np.where(same, mid, a)
-        b = np.where(same, b, mid)
-    return a, b
-
-
 def _kinks(fis, m, sub: np.ndarray, w: np.ndarray, cons: np.ndarray) -> list[np.ndarray]:
-    """Per input row, the kinks of mu between the sub-samples ``sub``."""
+    """Per input row, the kinks of mu between the sub-samples ``sub``: where a clipped
+    consequent meets its clip level (min implication) and where the largest rule changes
+    (max aggregation), all bisected together (each output function evaluated once per
+    step for every problem)."""
     var = fis.outputs[m]
     n = w.shape[0]
     live = [r for r, k in enumerate(cons) if k]
-    found: list[list[np.ndarray]] = [[] for _ in range(n)]
     if not live:
         return [np.empty(0) for _ in range(n)]
-    fs = _consequents(var, sub, cons)
-    F = np.stack([fs[r] for r in live])  # (R', S)
-    W = w[:, live]  # (n, R')
+    used = sorted({abs(int(cons[r])) for r in live})
+    column = {k: j for j, k in enumerate(used)}
+    rule_mf = np.array([column.get(abs(int(k)), 0) for k in cons])
+    rule_not = np.asarray(cons) < 0
+
+    def table(y: np.ndarray) -> np.ndarray:  # every used consequent at y: (U, N)
+        return np.stack([var.mfs[k - 1](y) for k in used])
+
+    def pick(t: np.ndarray, r: np.ndarray) -> np.ndarray:
+        f = t[rule_mf[r], np.arange(r.size)]
+        return np.where(rule_not[r], 1.0 - f, f)
+
+    T = table(sub)  # (U, S)
     rule_f = np.array(live)
-
-    def consequent(r_idx: np.ndarray, y: np.ndarray) -> np.ndarray:
-        out = np.empty_like(y)
-        for r in np.unique(r_idx):
-            sel = r_idx == r
-            k = int(cons[r])
-            f = var.mfs[abs(k) - 1](y[sel])
-            out[sel] = f if k > 0 else 1.0 - f
-        return out
-
-    if fis.imp_method == "min":  # where a consequent meets its clip level
+    F = np.where(rule_not[rule_f, None], 1.0 - T[rule_mf[rule_f]], T[rule_mf[rule_f]])  # (R', S)
+    W = w[:, live]  # (n, R')
+    rows, lo, hi, r1, r2, clip = [], [], [], [], [], []
+    if fis.imp_method == "min":  # a consequent meets its clip level
         d = F[None, :, :] - W[:, :, None] > 0  # (n, R', S)
         i, r, j = np.nonzero(d[:, :, :-1] != d[:, :, 1:])
-        if i.size:
-            rr = rule_f[r]
-            level = w[i, rr]
-            a, b = _bisect(lambda y: consequent(rr, y) - level, sub[j], sub[j + 1])
-            # the end inside the clipped part: there mu equals the clip level exactly
-            root = np.where(consequent(rr, a) >= level, a, b)
-            for row, v in zip(i.tolist(), root.tolist(), strict=True):
-                found[row].append(v)
-    if fis.agg_method == "max" and len(live) > 1:  # where the largest rule changes
-        G = _imp(fis.imp_method, W[:, :, None], F[None, :, :])  # (n, R', S)
-        top = G.argmax(axis=1)  # (n, S)
+        rows += [i]
+        lo += [sub[j]]
+        hi += [sub[j + 1]]
+        r1 += [rule_f[r]]
+        r2 += [rule_f[r]]
+        clip += [np.ones(i.size, bool)]
+    if fis.agg_method == "max" and len(live) > 1:  # the largest rule changes
+        top = _imp(fis.imp_method, W[:, :, None], F[None, :, :]).argmax(axis=1)  # (n, S)
         i, j = np.nonzero(top[:, :-1] != top[:, 1:])
-        if i.size:
-            r1, r2 = rule_f[top[i, j]], rule_f[top[i, j + 1]]
-            w1, w2 = w[i, r1], w[i, r2]
+        rows += [i]
+        lo += [sub[j]]
+        hi += [sub[j + 1]]
+        r1 += [rule_f[top[i, j]]]
+        r2 += [rule_f[top[i, j + 1]]]
+        clip += [np.zeros(i.size, bool)]
+    if not rows:  # prod implication, sum or probor aggregation: no kinks of their own
+        return [np.empty(0) for _ in range(n)]
+    i, a, b = np.concatenate(rows), np.concatenate(lo), np.concatenate(hi)
+    ra, rb, clip = np.concatenate(r1), np.concatenate(r2), np.concatenate(clip)
+    if not i.size:
+        return [np.empty(0) for _ in range(n)]
+    w1, w2 = w[i, ra], w[i, rb]
 
-            def diff(y: np.ndarray) -> np.ndarray:
-                g1 = _imp(fis.imp_method, w1, consequent(r1, y))
-                return g1 - _imp(fis.imp_method, w2, consequent(r2, y))
+    def h(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        t = table(y)
+        f1 = pick(t, ra)
+        g1, g2 = _imp(fis.imp_method, w1, f1), _imp(fis.imp_method, w2, pick(t, rb))
+        return np.where(clip, f1 - w1, g1 - g2), f1
 
-            a, b = _bisect(diff, sub[j], sub[j + 1])
-            for row, v in zip(i.tolist(), a.tolist(), strict=True):
-                found[row].append(v)
-    return [np.array(f) for f in found]
+    s_lo = h(a)[0] > 0
+    for _ in range(_BISECT):
+        mid = 0.5 * (a + b)
+        same = (h(mid)[0] > 0) == s_lo
+        a = np.where(same, mid, a)
+        b = np.where(same, b, mid)
+    # a clip crossing: the end inside the clipped part, where mu equals the level exactly
+    root = np.where(clip & (h(a)[1] < w1), b, a)
+    order = np.argsort(i, kind="stable")
+    split = np.searchsorted(i[order], np.arange(n + 1))
+    return [root[order[split[k] : split[k + 1]]] for k in range(n)]
 
 
 def _pieces(fis, m: int, w: np.ndarray, cons: np.ndarray) -> np.ndarray:
