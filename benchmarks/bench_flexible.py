@@ -16,6 +16,7 @@ stable; docs/control.md), J = 0.05 kg m^2; ωn = 10 rad/s; a septic 1 rad move i
 
 from __future__ import annotations
 
+import math
 import time
 
 import mujoco
@@ -34,10 +35,14 @@ KP, KD = 100.0, 20.0
 BATCH_SIZES = (1, 100, 1000)
 BATCH_DURATION = 1.0
 LAWS = {
-    "ctc (rigid law)": lambda p, ref, f: ComputedTorque(p, ref, KP, KD),
-    "motor_pd": lambda p, ref, f: MotorPD(p, ref, KP, KD, joints=f),
-    "composite": lambda p, ref, f: CompositeControl(p, ref, KP, KD, joints=f),
-    "flexible_fl": lambda p, ref, f: FlexibleFeedbackLinearisation(p, ref, KP, KD, joints=f),
+    "ctc (rigid law)": lambda p, ref, f: ComputedTorque(p, ref, KP, KD, torque_limit=math.inf),
+    "motor_pd": lambda p, ref, f: MotorPD(p, ref, KP, KD, joints=f, torque_limit=math.inf),
+    "composite": lambda p, ref, f: CompositeControl(
+        p, ref, KP, KD, joints=f, torque_limit=math.inf
+    ),
+    "flexible_fl": lambda p, ref, f: FlexibleFeedbackLinearisation(
+        p, ref, KP, KD, joints=f, torque_limit=math.inf
+    ),
 }
 
 

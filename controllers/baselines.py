@@ -25,10 +25,10 @@ from twolink.arm.params import ArmParams
 from twolink.controllers.base import integrate_unless_winding_up, pair, saturate
 from twolink.controllers.ctc import ComputedTorque
 
-# Integral gain [1/s^3]: s^3 + Kd s^2 + Kp s + Ki is Hurwitz for Ki < Kd Kp (9.6 with the
-# default Kp = 4, Kd = 2.4); 2 puts the integral pole near s = -0.6, slower than the PD
-# poles (-1.2 +- 1.6j), so the PD transient is kept and the offset removed in seconds.
-DEFAULT_KI = 2.0
+# Integral gain [1/s^3], the shipped design's (runs/paper/base.toml): ki = 0.25 ωn³ at
+# ωn = 15 rad/s. s^3 + Kd s^2 + Kp s + Ki is Hurwitz for Ki < Kd Kp (6750 with the default
+# Kp = 225, Kd = 30); docs/control.md says why a quarter of ωn³.
+DEFAULT_KI = 843.75
 
 
 def straight_inertia(model: ArmParams) -> tuple[float, float]:
@@ -121,20 +121,24 @@ class FuzzyPD(ComputedTorque):
     ----------
     engine : Mamdani engine
         ``engine(e, de) -> u`` on normalised universes (the same rule base for both joints).
-    ke, kde, ku : float
-        Scalings as in :class:`~controllers.fuzzy_ctc.FuzzyComputedTorque`.
-    (``kp``/``kd`` are not used; other parameters as ComputedTorque)
+    ke, kde, ku : float or None
+        Scalings as in :class:`~controllers.fuzzy_ctc.FuzzyComputedTorque`; ``None`` (the
+        default): tied to ``kp`` and the torque limits, as a scenario's ``"auto"``.
+    (``kp`` sets the scaling only; ``kd`` is not used; other parameters as ComputedTorque)
     """
 
     engine: Any = None
-    ke: float = 1.0
-    kde: float = 1.0
-    ku: float = 4.0
+    ke: float | None = None
+    kde: float | None = None
+    ku: float | None = None
 
     def __post_init__(self) -> None:
+        from twolink.controllers.fuzzy_ctc import fill_scaling
+
         super().__post_init__()
         if self.engine is None:
             raise ValueError("FuzzyPD needs an engine")
+        fill_scaling(self)
         self.scale = straight_inertia(self.model)
 
     def __call__(self, t: float, q: Sequence[float], qd: Sequence[float]) -> tuple[float, float]:

@@ -9,7 +9,6 @@ e'' + Kd e' + Kp e = 0.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -18,10 +17,14 @@ from twolink.arm.params import ArmParams
 from twolink.controllers.base import pair, saturate
 from twolink.foundation.references import ArmReference
 
-# Default gains: natural frequency 2 rad/s, damping ratio 0.6 (Mp ~ 9.5 %, Ts ~ 3.3 s),
-# on the seconds time scale of the paper's responses. See docs/control.md.
-DEFAULT_KP = 4.0
-DEFAULT_KD = 2.4
+# Defaults: the shipped design, runs/paper/base.toml's [controller] (the gain study's
+# rule, docs/control.md "Choosing the gains"): ωn = 15 rad/s, ζ = 1, and the paper's
+# 60 / 15 N·m actuators. Every controller builds on this class, so any two built with
+# their defaults compare fairly (docs/control.md "Defaults"; tests/test_defaults.py
+# checks these against base.toml).
+DEFAULT_KP = 225.0  # 1/s²: ωn²
+DEFAULT_KD = 30.0  # 1/s: 2 ζ ωn
+DEFAULT_TORQUE_LIMIT = (60.0, 15.0)  # N·m per joint
 
 
 @dataclass
@@ -38,13 +41,16 @@ class ComputedTorque:
         Proportional [1/s^2] and derivative [1/s] gains, per joint, >= 0.
     torque_limit : float or pair of float
         Actuator saturation [N m] per joint; ``inf`` for none.
+
+    The defaults are the shipped design (:data:`DEFAULT_KP`, :data:`DEFAULT_KD`,
+    :data:`DEFAULT_TORQUE_LIMIT`), as for every controller.
     """
 
     model: ArmParams
     reference: ArmReference
     kp: float | Sequence[float] = DEFAULT_KP
     kd: float | Sequence[float] = DEFAULT_KD
-    torque_limit: float | Sequence[float] = math.inf
+    torque_limit: float | Sequence[float] = DEFAULT_TORQUE_LIMIT
 
     def __post_init__(self) -> None:
         self.kp = pair("kp", self.kp)

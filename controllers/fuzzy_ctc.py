@@ -26,7 +26,7 @@ import numpy as np
 from twolink.arm.dynamics import gravity, mass_matrix
 from twolink.arm.params import ArmParams
 from twolink.controllers.base import pair
-from twolink.controllers.ctc import ComputedTorque
+from twolink.controllers.ctc import DEFAULT_KD, DEFAULT_KP, DEFAULT_TORQUE_LIMIT, ComputedTorque
 from twolink.foundation.references import ArmReference
 
 MODES = ("add", "replace")
@@ -89,6 +89,18 @@ def auto_fuzzy_scaling(
     return ke, kde, ku
 
 
+def fill_scaling(controller: Any, authority: float = 1.0) -> None:
+    """Fill a controller's ``ke``, ``kde``, ``ku`` left ``None`` as a scenario's ``"auto"``
+    does: :func:`auto_fuzzy_scaling` of its gains with the span :func:`linear_span` of its
+    torque limits (the values given are kept and the others follow from them)."""
+    given = {name: getattr(controller, name) for name in ("ke", "kde", "ku")}
+    if all(v is not None for v in given.values()):
+        return
+    span = linear_span(controller.model, controller.kp, controller.torque_limit)
+    ke, kde, ku = auto_fuzzy_scaling(controller.kp, span, authority, **given)
+    controller.ke, controller.kde, controller.ku = ke, kde, ku
+
+
 @dataclass
 class FuzzyComputedTorque(ComputedTorque):
     """Computed torque with a fuzzy PD correction per joint.
@@ -98,25 +110,28 @@ class FuzzyComputedTorque(ComputedTorque):
     engine : Mamdani engine
         ``engine(e, de) -> u`` on normalised universes, vectorised; the same rule base
         serves both joints.
-    ke, kde : float
+    ke, kde : float or None
         Input scaling: the engine sees ``ke * e`` [1/rad] and ``kde * de`` [s/rad].
-    ku : float
-        Output scaling [rad/s^2]: the correction is ``ku * u``.
+    ku : float or None
+        Output scaling [rad/s^2]: the correction is ``ku * u``. ``None`` (the default, for
+        each of the three): tied to ``kp`` and the torque limits as a scenario's
+        ``"auto"`` (:func:`fill_scaling`), so the defaults are the shipped design's.
     mode : {"add", "replace"}
         Whether the fuzzy term adds to the PD term or replaces it.
     (other parameters as :class:`~controllers.ctc.ComputedTorque`)
     """
 
     engine: Any = None
-    ke: float = 1.0
-    kde: float = 1.0
-    ku: float = 4.0
+    ke: float | None = None
+    kde: float | None = None
+    ku: float | None = None
     mode: str = "add"
 
     def __post_init__(self) -> None:
         super().__post_init__()
         if self.engine is None:
             raise ValueError("FuzzyComputedTorque needs an engine")
+        fill_scaling(self)
         for name in ("ke", "kde", "ku"):
             value = getattr(self, name)
             if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
@@ -131,9 +146,9 @@ class FuzzyComputedTorque(ComputedTorque):
         reference: ArmReference,
         rule_base: str = "designed",
         *,
-        kp: float | Sequence[float] = 225.0,
-        kd: float | Sequence[float] = 30.0,
-        torque_limit: float | Sequence[float] = (60.0, 15.0),
+        kp: float | Sequence[float] = DEFAULT_KP,
+        kd: float | Sequence[float] = DEFAULT_KD,
+        torque_limit: float | Sequence[float] = DEFAULT_TORQUE_LIMIT,
         authority: float = 1.0,
         inference: str = "mamdani",
         **kwargs: Any,
@@ -143,8 +158,9 @@ class FuzzyComputedTorque(ComputedTorque):
         bracket, scaled by the gains (:func:`auto_fuzzy_scaling` with the span
         :func:`linear_span` of the torque limits; docs/fuzzy.md, "Scaling").
         ``inference="continuous"`` infers the same rules continuously (our extension:
-        docs/fuzzy.md, "The relay"). The defaults are the shipped gains (ωn = 15 rad/s,
-        ζ = 1) and the paper's 60 / 15 N·m limits.
+        docs/fuzzy.md, "The relay"). The defaults are the shipped design's, as every
+        controller's (:class:`ComputedTorque`: ωn = 15 rad/s, ζ = 1, the paper's
+        60 / 15 N·m limits).
 
         >>> from twolink import ArmParams, ArmReference, FuzzyComputedTorque, Step
         >>> arm, ref = ArmParams(), ArmReference(Step(final=1.0), Step(final=0.0))

@@ -3,6 +3,8 @@ anti-windup, the fuzzy PD term alone (controllers/baselines.py)."""
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 from scipy import optimize
@@ -31,14 +33,16 @@ REF = ArmReference(Step(0.0, TARGET[0]), Step(0.0, TARGET[1]))
 
 def test_pd_gravity_reaches_a_set_point_with_an_exact_gravity_model():
     p = ArmParams(m1=1.2, m2=0.9)
-    traj = simulate(Plant.build(p), PDGravity(p, REF, kp=KP, kd=KD), 30.0)
+    traj = simulate(Plant.build(p), PDGravity(p, REF, kp=KP, kd=KD, torque_limit=math.inf), 30.0)
     assert np.abs(traj.e[-1]).max() < 1e-4
     assert np.abs(traj.qd[-1]).max() < 1e-4
 
 
 def test_pd_gravity_with_wrong_gravity_settles_where_d_kp_e_equals_the_mismatch():
     plant_p, model_p = ArmParams(m1=1.2, m2=0.9), ArmParams(m1=1.2, m2=0.9, g=9.81 * 0.8)
-    traj = simulate(Plant.build(plant_p), PDGravity(model_p, REF, kp=KP, kd=KD), 40.0)
+    traj = simulate(
+        Plant.build(plant_p), PDGravity(model_p, REF, kp=KP, kd=KD, torque_limit=math.inf), 40.0
+    )
     d = np.array(straight_inertia(model_p))
 
     def residual(e):  # at rest: D Kp e + G^(q) = G(q), q = target - e
@@ -64,7 +68,9 @@ def test_integral_ctc_with_an_exact_model_follows_its_third_order_closed_form():
     p = ArmParams(m1=1.3, m2=0.8, l1=0.9, l2=0.7)
     errors = {}
     for dt in (1e-3, 5e-4, 2.5e-4):
-        c = IntegralComputedTorque(p, REF, kp=KP, kd=KD, ki=KI, control_dt=dt)
+        c = IntegralComputedTorque(
+            p, REF, kp=KP, kd=KD, ki=KI, control_dt=dt, torque_limit=math.inf
+        )
         traj = simulate(Plant.build(p, timestep=dt), c, 6.0, control_dt=dt)
         every = round(0.05 / dt)
         t = traj.t[::every]
@@ -81,9 +87,15 @@ def test_integral_action_removes_a_constant_gravity_mismatch_that_ctc_keeps():
     # with or without integral action (docs/control.md): a gain problem, not this law's.
     kp, kd, ki = 25.0, 10.0, 12.5
     plant_p, model_p = ArmParams(m2=1.2, g=9.81 * 1.1), ArmParams()
-    ctc = simulate(Plant.build(plant_p), ComputedTorque(model_p, REF, kp=kp, kd=kd), 30.0)
+    ctc = simulate(
+        Plant.build(plant_p),
+        ComputedTorque(model_p, REF, kp=kp, kd=kd, torque_limit=math.inf),
+        30.0,
+    )
     ictc = simulate(
-        Plant.build(plant_p), IntegralComputedTorque(model_p, REF, kp=kp, kd=kd, ki=ki), 30.0
+        Plant.build(plant_p),
+        IntegralComputedTorque(model_p, REF, kp=kp, kd=kd, ki=ki, torque_limit=math.inf),
+        30.0,
     )
     assert np.abs(ctc.e[-1]).max() > 0.02
     assert np.abs(ictc.e[-1]).max() < 1e-6
@@ -107,7 +119,9 @@ def test_anti_windup_holds_the_integrator_while_the_actuator_is_saturated():
 def test_fuzzy_pd_is_the_scaled_engine_output_and_nothing_else():
     p = ArmParams()
     engine = paper_fuzzy_pd()
-    c = FuzzyPD(p, REF, engine=engine, ke=1.5, kde=0.7, ku=3.0)
+    c = FuzzyPD(
+        p, REF, engine=engine, ke=1.5, kde=0.7, ku=3.0, kp=4.0, kd=2.4, torque_limit=math.inf
+    )
     q, qd = (0.3, 0.1), (0.2, -0.4)
     e, de = TARGET - q, -np.array(qd)
     u = engine(1.5 * e, 0.7 * de)

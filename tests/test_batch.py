@@ -274,7 +274,10 @@ def test_custom_controllers_run_arm_by_arm():
             return (20.0 - 5.0 * qd[0], 5.0 - 2.0 * qd[1])
 
     c1, c2 = Damped(), Damped()
-    laws = batch_laws([c1, ComputedTorque(s.arm, s.reference), c2], np.arange(3) * 1e-3)
+    laws = batch_laws(
+        [c1, ComputedTorque(s.arm, s.reference, kp=4.0, kd=2.4, torque_limit=math.inf), c2],
+        np.arange(3) * 1e-3,
+    )
     assert len(laws) == 2
     bp = BatchPlant([Arm(s.arm)] * 2, s.timestep)
     batch = simulate_batch(bp, [c1, c2], [0.5, 0.3], s.control_dt)

@@ -119,6 +119,7 @@ def test_version_and_short_help():
     listed = result.output.split("Commands:")[1].strip().splitlines()
     commands = (
         "calibrate",
+        "compare",
         "coverage",
         "design",
         "fis",

@@ -33,7 +33,13 @@ def closed_form_error(t, e0):
 
 def ctc_step_error(dt, steps=(1.0, 0.5)):
     p = ArmParams(m1=1.3, m2=0.8, l1=0.9, l2=0.7)
-    ctc = ComputedTorque(p, ArmReference(Step(0.0, steps[0]), Step(0.0, steps[1])), kp=KP, kd=KD)
+    ctc = ComputedTorque(
+        p,
+        ArmReference(Step(0.0, steps[0]), Step(0.0, steps[1])),
+        kp=KP,
+        kd=KD,
+        torque_limit=math.inf,
+    )
     traj = simulate(Plant.build(p, timestep=dt), ctc, 6.0, control_dt=dt)
     expected = np.stack([closed_form_error(traj.t, s) for s in steps], axis=1)
     return np.abs(traj.e - expected).max(axis=0)
@@ -58,7 +64,11 @@ def test_wrong_gravity_model_gives_the_predicted_steady_state_error():
     model_p = ArmParams(m1=1.2, m2=0.9, g=9.81 * 0.8)
     target = np.array([0.8, -0.4])
     ref = ArmReference(Step(0.0, target[0]), Step(0.0, target[1]))
-    traj = simulate(Plant.build(plant_p), ComputedTorque(model_p, ref, kp=KP, kd=KD), 25.0)
+    traj = simulate(
+        Plant.build(plant_p),
+        ComputedTorque(model_p, ref, kp=KP, kd=KD, torque_limit=math.inf),
+        25.0,
+    )
     e = np.zeros(2)
     for _ in range(100):  # fixed point: converges fast as e is small
         q = target - e
@@ -71,7 +81,9 @@ def test_wrong_gravity_model_gives_the_predicted_steady_state_error():
 def test_ramp_is_tracked_with_feedforward_and_zero_final_error():
     p = ArmParams()
     ref = ArmReference(Ramp(0.0, 1.0, 2.0), Ramp(0.0, -0.5, 3.0))
-    traj = simulate(Plant.build(p), ComputedTorque(p, ref), 10.0)
+    traj = simulate(
+        Plant.build(p), ComputedTorque(p, ref, kp=4.0, kd=2.4, torque_limit=math.inf), 10.0
+    )
     # From rest the error starts at zero, the ramp's corners kick it, then it decays.
     assert np.abs(traj.e[-1]).max() < 1e-4
     assert np.abs(traj.e).max() < 0.3
@@ -102,7 +114,7 @@ def test_divergence_stops_the_run_and_keeps_what_was_computed():
     p = ArmParams()
     ref = ArmReference(Step(0.0, 1.0), Step(0.0, 0.0))
     # A controller whose model thinks the arm is 100x lighter and gains are huge: blows up.
-    ctc = ComputedTorque(ArmParams(m1=0.01, m2=0.01), ref, kp=1e6, kd=0.0)
+    ctc = ComputedTorque(ArmParams(m1=0.01, m2=0.01), ref, kp=1e6, kd=0.0, torque_limit=math.inf)
     traj = simulate(Plant.build(p), ctc, 5.0)
     assert traj.status == "diverged" and "out of bounds" in traj.message
     assert 0 < len(traj.t) < 5001

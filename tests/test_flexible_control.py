@@ -87,11 +87,13 @@ def test_error_polynomial_has_ctcs_poles_and_the_fast_pair():
     assert np.allclose(np.sort_complex(roots), np.sort_complex(expected), rtol=1e-6)
     assert error_polynomial(kp, kd) == (16.0, 32.0, 24.0, 8.0)  # (s + 2)^4
     # the controller's fast pair is at the spring's mode, or at the loop's ωn if slower
-    c = FlexibleFeedbackLinearisation(ARM, move(), kp, kd, joints=Flexibility.realistic())
+    c = FlexibleFeedbackLinearisation(
+        ARM, move(), kp, kd, joints=Flexibility.realistic(), torque_limit=math.inf
+    )
     for poly, wf in zip(c.error_polynomials(), spring_frequency(ARM, c.joints), strict=True):
         assert poly == error_polynomial(kp, kd, (wf, 0.7)) and wf > 100
     soft = Flexibility.from_damping_ratio((1.0, 1.0), (0.4, 0.08), 0.02)
-    c = FlexibleFeedbackLinearisation(ARM, move(), 900.0, 60.0, joints=soft)
+    c = FlexibleFeedbackLinearisation(ARM, move(), 900.0, 60.0, joints=soft, torque_limit=math.inf)
     assert c.error_polynomials()[0] == error_polynomial(900.0, 60.0, (30.0, 0.7))
 
 
@@ -338,7 +340,14 @@ def test_feedback_linearisation_gives_the_designed_fourth_order_error_dynamics(z
     deviation = []
     for dt in (1e-3, 5e-4):
         c = FlexibleFeedbackLinearisation(
-            ARM, ref, KP, KD, joints=flex, control_dt=dt, fast_damping=DESIGNS[design]
+            ARM,
+            ref,
+            KP,
+            KD,
+            joints=flex,
+            control_dt=dt,
+            fast_damping=DESIGNS[design],
+            torque_limit=math.inf,
         )
         traj = simulate(Plant.build(ARM, flex, timestep=dt), c, 2.5, control_dt=dt)
         assert traj.ok
@@ -365,21 +374,23 @@ def test_feedback_linearisation_at_a_low_bandwidth_on_stiff_joints():
     ref = ArmReference(Septic(0.0, 1.0, 1.5), Septic(0.0, 0.5, 1.5))
     e0 = _initial_error(ARM, flex, ref, np.zeros(2))
     for dt, tol in ((1e-3, 1e-3), (5e-4, 3e-4)):
-        c = FlexibleFeedbackLinearisation(ARM, ref, 4.0, 4.0, joints=flex, control_dt=dt)
+        c = FlexibleFeedbackLinearisation(
+            ARM, ref, 4.0, 4.0, joints=flex, control_dt=dt, torque_limit=math.inf
+        )
         traj = simulate(Plant.build(ARM, flex, timestep=dt), c, 3.0, control_dt=dt)
         k = np.arange(0, len(traj.t), round(1e-2 / dt))
         closed = closed_form(c, e0, traj.t[k])
         assert traj.ok and np.abs(traj.e[k] - closed).max() < tol
         assert 0.01 < np.abs(closed).max() < 0.02  # the drop from relaxed springs
     # From rest holding itself up, it tracks the move within 1e-3 rad.
-    c = FlexibleFeedbackLinearisation(ARM, ref, 4.0, 4.0, joints=flex)
+    c = FlexibleFeedbackLinearisation(ARM, ref, 4.0, 4.0, joints=flex, torque_limit=math.inf)
     traj = simulate(Plant.build(ARM, flex), c, 3.0, motor_q0=holding(flex))
     assert traj.ok and np.abs(traj.e).max() < 1e-3
     # The squared design: its closed form swings joint 2 by 4 rad from relaxed springs
     # (ë(0) = M⁻¹ G recovered at 2 rad/s), and the sampled law leaves even that.
     squared = [
         FlexibleFeedbackLinearisation(
-            ARM, ref, 4.0, 4.0, joints=flex, control_dt=dt, fast_damping=None
+            ARM, ref, 4.0, 4.0, joints=flex, control_dt=dt, fast_damping=None, torque_limit=math.inf
         )
         for dt in (1e-3, 5e-4)
     ]
@@ -397,7 +408,9 @@ def test_feedback_linearisation_at_a_low_bandwidth_on_stiff_joints():
 @pytest.mark.parametrize("zeta", [0.0, 0.02, 0.05])
 def test_feedback_linearisation_tracks_the_septic_move_on_the_soft_arm_within_1e_3(zeta):
     flex = Flexibility.from_damping_ratio(SOFT.k, SOFT.j, zeta)
-    c = FlexibleFeedbackLinearisation(ARM, move("septic"), KP, KD, joints=flex)
+    c = FlexibleFeedbackLinearisation(
+        ARM, move("septic"), KP, KD, joints=flex, torque_limit=math.inf
+    )
     traj = simulate(Plant.build(ARM, flex), c, 4.0, motor_q0=holding(flex))
     assert traj.ok and np.abs(traj.e).max() < 1e-3
     assert np.abs(traj.e[-1]).max() < 1e-8
@@ -413,7 +426,13 @@ def test_the_quintics_jerk_steps_cause_the_error_their_closed_form_predicts(desi
     # arm) the jump is taken up by the fast pair and φ ≈ t e^(−ωn t) / ωp², whose peak is
     # 1 / (e ωn ωp²): 8.0e-5 and 5.4e-5 (6.0e-4 and 2.0e-4 rad), 2.8 and 4.2 times less.
     c = FlexibleFeedbackLinearisation(
-        ARM, move("quintic"), KP, KD, joints=SOFT, fast_damping=DESIGNS[design]
+        ARM,
+        move("quintic"),
+        KP,
+        KD,
+        joints=SOFT,
+        fast_damping=DESIGNS[design],
+        torque_limit=math.inf,
     )
     traj = simulate(Plant.build(ARM, SOFT), c, 4.0, motor_q0=holding(SOFT))
     peaks = {}
@@ -449,7 +468,7 @@ def test_feedback_linearisation_refuses_a_reference_without_derivatives():
 
     ref = ArmReference(Bare(), Step(0.0, 0.5))
     with pytest.raises(ValueError, match="jerk and snap.*joint1"):
-        FlexibleFeedbackLinearisation(ARM, ref, KP, KD, joints=SOFT)
+        FlexibleFeedbackLinearisation(ARM, ref, KP, KD, joints=SOFT, torque_limit=math.inf)
 
 
 # ----------------------------------------------------------------------------- motor PD
@@ -473,6 +492,7 @@ def test_motor_pd_converges_to_the_set_point_on_random_arms_above_its_stiffness_
             tuple(kp),
             tuple(2 * np.sqrt(kp)),
             joints=flex,
+            torque_limit=math.inf,
         )
         bound = c.stiffness_bound()
         assert bound.met and bound.margin == pytest.approx(1.5)
@@ -540,7 +560,7 @@ def test_composite_control_approaches_rigid_ctc_as_the_joints_stiffen():
     deviation = []
     for k in (1e2, 1e3, 1e4):
         flex = Flexibility.from_damping_ratio((k, k), (0.05, 0.05), 0.02)
-        c = CompositeControl(ARM, move("septic"), KP, KD, joints=flex)
+        c = CompositeControl(ARM, move("septic"), KP, KD, joints=flex, torque_limit=math.inf)
         traj = simulate(Plant.build(ARM, flex), c, 3.0, q0=tuple(q0), motor_q0=holding(flex, q0))
         assert traj.ok
         closed = np.array([[(expm(a * t) @ [-q, 0.0])[0] for q in q0] for t in traj.t[::10]])
@@ -607,7 +627,7 @@ def test_rigid_ctc_is_unstable_at_light_joint_damping_and_the_linearisation_says
         push = tuple(np.array(holding(flex, (1.0, 0.5))) + 1e-4)
         traj = simulate(
             Plant.build(ARM, flex),
-            ComputedTorque(ARM, ref, kp, kd),
+            ComputedTorque(ARM, ref, kp, kd, torque_limit=math.inf),
             3.0,
             q0=(1.0, 0.5),
             motor_q0=push,
@@ -622,10 +642,12 @@ def test_the_soft_arm_under_each_controller():
     # in 2 s at ωn = 10, from rest holding itself up.
     results = {}
     for name, c in {
-        "ctc": ComputedTorque(ARM, move(), KP, KD),
-        "motor_pd": MotorPD(ARM, move(), KP, KD, joints=SOFT),
-        "composite": CompositeControl(ARM, move(), KP, KD, joints=SOFT),
-        "flexible_fl": FlexibleFeedbackLinearisation(ARM, move(), KP, KD, joints=SOFT),
+        "ctc": ComputedTorque(ARM, move(), KP, KD, torque_limit=math.inf),
+        "motor_pd": MotorPD(ARM, move(), KP, KD, joints=SOFT, torque_limit=math.inf),
+        "composite": CompositeControl(ARM, move(), KP, KD, joints=SOFT, torque_limit=math.inf),
+        "flexible_fl": FlexibleFeedbackLinearisation(
+            ARM, move(), KP, KD, joints=SOFT, torque_limit=math.inf
+        ),
     }.items():
         traj = simulate(Plant.build(ARM, SOFT), c, 4.0, motor_q0=holding(SOFT))
         results[name] = (traj.status, np.abs(traj.e).max())
@@ -699,11 +721,11 @@ def test_custom_motor_reading_controllers_run_arm_by_arm():
 def test_a_motor_reading_controller_needs_a_flexible_plant():
     with pytest.raises(ConfigError, match="controller.kind: 'motor_pd' reads the motors"):
         load_scenario("runs/paper/theta1_step.toml", {"controller": {"kind": "motor_pd"}})
-    c = MotorPD(ARM, move(), KP, KD, joints=SOFT)
+    c = MotorPD(ARM, move(), KP, KD, joints=SOFT, torque_limit=math.inf)
     with pytest.raises(ValueError, match="rigid"):
         simulate(Plant.build(ARM), c, 0.1)
     with pytest.raises(ValueError, match="needs their model"):
-        MotorPD(ARM, move(), KP, KD)
+        MotorPD(ARM, move(), KP, KD, torque_limit=math.inf)
 
 
 def test_a_sweep_gives_each_sample_its_own_joints(tmp_path):

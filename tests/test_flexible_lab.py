@@ -16,6 +16,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -130,11 +132,11 @@ def test_bad_arguments():
     ref = law.reference
     with pytest.raises(ValueError, match="resolution_rad"):
         ObservedIntegralFlexibleFeedbackLinearisation(
-            arm, ref, 100, 20, joints=joints, resolution_rad=0.0
+            arm, ref, 100, 20, joints=joints, resolution_rad=0.0, torque_limit=math.inf
         )
     with pytest.raises(ValueError, match="process_noise"):
         ObservedIntegralFlexibleFeedbackLinearisation(
-            arm, ref, 100, 20, joints=joints, process_noise=(1.0, -1.0)
+            arm, ref, 100, 20, joints=joints, process_noise=(1.0, -1.0), torque_limit=math.inf
         )
 
 

@@ -168,7 +168,9 @@ def test_anti_windup_holds_the_integrator_while_saturated_the_errors_way():
     tau = c(2.0, (2.0, 1.5), rest, high, rest)
     assert tau == (-1.0, -1.0) and c.z == (0.0, 0.0)
     # unsaturated: it integrates the error, forward Euler
-    free = IntegralFlexibleFeedbackLinearisation(ARM, REF, KP, KD, joints=REALISTIC)
+    free = IntegralFlexibleFeedbackLinearisation(
+        ARM, REF, KP, KD, joints=REALISTIC, torque_limit=math.inf
+    )
     q = (0.999, 0.5005)
     free(2.0, q, rest, tuple(holding_motor_q(ARM, REALISTIC, q).tolist()), rest)
     assert free.z == pytest.approx(((1.0 - q[0]) * dt, (0.5 - q[1]) * dt), rel=1e-9)
@@ -186,7 +188,7 @@ def test_bad_gains_are_refused():
         with pytest.raises(ValueError, match="integral_fraction"):
             control(IntegralFlexibleFeedbackLinearisation, SOFT, integral_fraction=bad)
     with pytest.raises(ValueError, match="needs their model"):
-        IntegralFlexibleFeedbackLinearisation(ARM, REF, KP, KD)
+        IntegralFlexibleFeedbackLinearisation(ARM, REF, KP, KD, torque_limit=math.inf)
 
 
 def test_batch_form_equals_the_single_arm_path():

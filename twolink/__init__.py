@@ -63,6 +63,10 @@ _EXPORTS = {
     "design_rule_base": "twolink.api",
     "run_sweep": "twolink.api",
     "reproduce": "twolink.studies.reproduce",
+    # two controllers on one scenario, judged plant by plant (twolink compare)
+    "compare": "twolink.studies.compare",
+    "Comparison": "twolink.studies.compare",
+    "paired_claims": "twolink.studies.claims",
     # figures of finished results (matplotlib, headless)
     "run_figures": "twolink.figures.plots",
     "response_figure": "twolink.figures.plots",

@@ -297,3 +297,58 @@ def control_surface_figure(engines: dict[str, Any], n: int = 121) -> Figure:
         fig.colorbar(im, ax=ax, label="u (normalised)")
     fig.suptitle("Control surfaces (black line: edge of the region where some rule fires)")
     return fig
+
+
+def comparison_figure(
+    t: np.ndarray,
+    qa: np.ndarray,
+    qb: np.ndarray,
+    reference: np.ndarray,
+    joints: tuple[int, ...],
+    names: tuple[str, str],
+    title: str,
+    window: float | None = None,
+) -> Figure:
+    """Two controllers on many plants (``twolink compare``): per moving joint, every
+    plant's θ under each (thin) with the median over plants (bold: B solid, A dashed on
+    top, so that equal medians both show) and the reference (black dashed); below, the
+    difference panel, θ_A − θ_B plant by plant with its median and the 5-95 % band: the
+    paired difference the table judges. The two upper panels show the first ``window``
+    seconds (the transient); the bottom one the difference over the whole run. ``qa``,
+    ``qb``: (plants, time, 2); ``reference``: (time, 2)."""
+    a, b = names
+    window = float(t[-1]) if window is None else min(window, float(t[-1]))
+    fig, axes = plt.subplots(3, len(joints), figsize=(6.5 * len(joints), 8.0), squeeze=False,
+                             height_ratios=(2, 1.2, 1), layout="constrained")  # fmt: skip
+    colours = {a: "tab:green", b: "tab:red"}
+    for col, j in enumerate(joints):
+        ax, ax_d, ax_all = axes[:, col]
+        for name, q, style in ((b, qb, "-"), (a, qa, "--")):
+            ax.plot(t, q[:, :, j - 1].T, color=colours[name], lw=0.5, alpha=0.15)
+            ax.plot(t, np.nanmedian(q[:, :, j - 1], axis=0), style, color=colours[name],
+                    lw=1.8, label=f"{name}: median of {len(q)} plants")  # fmt: skip
+        ax.plot(t, reference[:, j - 1], "k:", lw=1.2, label="reference")
+        ax.set_ylabel(f"θ{j} [rad]")
+        ax.set_title(f"θ{j}, the first {window:.3g} s", fontsize=10)
+        d = qa[:, :, j - 1] - qb[:, :, j - 1]
+        low, high = np.nanpercentile(d, [5, 95], axis=0)
+        for axis, span in ((ax_d, window), (ax_all, float(t[-1]))):
+            shown = t <= span
+            axis.plot(t[shown], d[:, shown].T, color="0.5", lw=0.5, alpha=0.2)
+            axis.fill_between(t[shown], low[shown], high[shown], color="tab:purple", alpha=0.25,
+                              label="5-95 % of plants")  # fmt: skip
+            axis.plot(t[shown], np.nanmedian(d[:, shown], axis=0), color="tab:purple", lw=1.5,
+                      label="median")  # fmt: skip
+            axis.axhline(0.0, color="k", lw=0.8)
+            axis.set_ylabel(f"{a} − {b} [rad]")
+        ax.set_xlim(0.0, window)
+        ax_d.set_xlim(0.0, window)
+        ax_d.set_title(f"θ{j}: {a} − {b}, plant by plant", fontsize=10)
+        ax_all.set_title(f"the same over the whole run ({t[-1]:.3g} s)", fontsize=10)
+        ax_all.set_xlabel("t [s]")
+        for axis in (ax, ax_d, ax_all):
+            axis.grid(alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+        ax_d.legend(loc="best", fontsize=8)
+    fig.suptitle(title)
+    return fig

@@ -693,9 +693,11 @@ def sweep_command(
     click.echo(done_line())
 
 
+from twolink.interface.cli_compare import compare_command  # noqa: E402
 from twolink.interface.cli_fuzzy import coverage_command, fis_command  # noqa: E402
 from twolink.interface.cli_studies import regimes_command  # noqa: E402
 
+main.add_command(compare_command)
 main.add_command(coverage_command)
 main.add_command(fis_command)
 main.add_command(regimes_command)

@@ -1,0 +1,278 @@
+"""Two controllers on one scenario in one call (``twolink compare``, ``twolink.compare``):
+the paired table with its verdicts, an overlay figure with a difference panel, and one
+rerun recording (docs/compare.md).
+
+The plants are the shipped robustness sweep's (``sweeps/robustness``'s ``[parameters]``:
+masses and lengths off by drawn factors, gravity, a payload the controllers do not know
+about); the scenario is run as it stands (its reference, duration and sensor). ``A`` is
+judged against ``B``, plant by plant, with :func:`twolink.studies.claims.paired_claims`:
+"better" means A's metric is lower than B's beyond the practical tolerance, on enough
+plants to pass the sign test with Holm's correction. The sweep this runs is written as a
+file (``compare.toml``) so that ``twolink sweep`` can rerun it.
+"""
+
+from __future__ import annotations
+
+import tempfile
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from twolink.foundation.io import atomic_write_text, toml_table, toml_value
+from twolink.foundation.shipped import locate, runs_dir
+from twolink.simulation.config import CONTROLLER_KINDS, ConfigError, read_toml, scenario_from_dict
+
+__all__ = ["Comparison", "compare", "controller_table", "format_claims"]
+
+PLANTS = runs_dir() / "sweeps" / "robustness.toml"  # whose [parameters] draw the plants
+FIGURE_EVERY = 10  # the figure's time grid: every 10th sample (100 Hz of the 1 kHz loop)
+SHOWN = {  # the paired table's columns as printed, in this order (others are in the CSV)
+    "joint": "joint",
+    "metric": "metric",
+    "n": "n",
+    "better": "better",
+    "worse": "worse",
+    "equal": "equal",
+    "proposed_median": "median A",
+    "baseline_median": "median B",
+    "estimate": "A − B",
+    "ci_low": "95 % low",
+    "ci_high": "95 % high",
+    "p_adjusted": "p (Holm)",
+    "verdict": "verdict",
+}
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """What :func:`compare` found: ``claims`` (the paired table, one row per joint and
+    metric: docs/statistics.md), ``results`` (the sweep's table, one row per plant and
+    controller), how many plants each met the spec on, the figure and, where written,
+    the folder. ``str()`` prints the table with its header."""
+
+    scenario: str
+    a: str
+    b: str
+    plants: int
+    claims: pd.DataFrame
+    results: pd.DataFrame
+    met_spec: dict[str, int]
+    figure: Any = field(repr=False)
+    folder: Path | None = None
+
+    def __str__(self) -> str:
+        head = (
+            f"{self.a} against {self.b} on {self.plants} plants, {self.scenario} "
+            f"(better: {self.a} lower beyond the tolerance; docs/statistics.md)"
+        )
+        met = ", ".join(f"{n} {self.met_spec[n]}" for n in (self.a, self.b))
+        return f"{head}\n{format_claims(self.claims)}\nmet the spec: {met} of {self.plants}"
+
+    def _repr_html_(self) -> str:
+        return self.claims.to_html(index=False)
+
+
+def controller_table(name: str) -> dict[str, Any]:
+    """The ``[controller]`` overrides a name stands for: a controller of the shipped
+    reproduction (``CTC``, ``FCM-CTC``, ``PD-G``, ``CTC-I``, ``CTC-paper``, ``fuzzy-PD``,
+    ``FCM-CTC-continuous``) or a controller kind (``ctc``, ``fcm_ctc``, ...)."""
+    from twolink.studies.manifest import DEFAULT_MANIFEST
+
+    shipped = read_toml(DEFAULT_MANIFEST).get("controllers", {})
+    if name in shipped:
+        return dict(shipped[name])
+    if name in CONTROLLER_KINDS:
+        return {"kind": name}
+    raise ConfigError(
+        f"controller {name!r}: not a shipped controller ({', '.join(shipped)}) nor a kind "
+        f"({', '.join(CONTROLLER_KINDS)})"
+    )
+
+
+def sweep_text(
+    scenario: Path, a: str, b: str, plants: int, seed: int, overrides: dict | None = None
+) -> str:
+    """The sweep :func:`compare` runs, as a file ``twolink sweep`` reads."""
+    parameters = read_toml(PLANTS)["parameters"]
+    lines = [
+        f"# twolink compare: {a} against {b} on the robustness sweep's plants",
+        f"name = {toml_value('compare')}",
+        f"scenario = {toml_value(str(scenario.resolve()))}",
+        f"samples = {plants}",
+        f"seed = {seed}",
+        "",
+    ]
+    toml_table(lines, "parameters", parameters)
+    if overrides:  # keys of the scenario, as --set gives them
+        lines.append("")
+        toml_table(lines, "overrides", overrides)
+    for name in (a, b):
+        lines.append("")
+        toml_table(lines, f'controllers."{name}"', controller_table(name))
+    return "\n".join(lines) + "\n"
+
+
+def compare(
+    scenario: str | Path,
+    a: str,
+    b: str,
+    plants: int = 50,
+    *,
+    out: str | Path | None = None,
+    seed: int = 0,
+    workers: int | None = 1,
+    metrics: Sequence[str] | None = None,
+    overrides: dict[str, Any] | None = None,
+    trace: bool = True,
+    progress: bool = False,
+) -> Comparison:
+    """Judge controller ``a`` against ``b`` on ``scenario`` (a file or a shipped name,
+    ``theta1_step``) over ``plants`` drawn plants: the paired table with verdicts
+    (:func:`twolink.studies.claims.paired_claims`), an overlay figure of every plant with
+    the difference panel, and (with ``out`` and ``trace``) one rerun recording of the two
+    on the nominal plant. With ``out`` it writes there (``claims.csv``, ``compare.png``,
+    ``compare.rrd``, ``compare.toml`` and the sweep in ``sweep/``), refusing a folder it
+    did not write (docs/reliability.md); without, nothing is written. ``workers``: 1 runs
+    in this process, None on all cores. ``overrides``: keys of the scenario changed for
+    both (``{"controller": {"kp": 9.0, "kd": 6.0}}``, as ``--set`` gives them)."""
+    from twolink import sweep
+    from twolink.foundation.io import owned_output
+    from twolink.studies.claims import CLAIM_METRICS, paired_claims
+    from twolink.studies.claims_studies import reference_values
+
+    if a == b:
+        raise ConfigError(f"compare: give two different controllers, got {a!r} twice")
+    if plants < 1:
+        raise ConfigError(f"compare: plants must be >= 1, got {plants}")
+    path = locate(scenario)
+    read_toml(path)  # a missing or broken scenario is named here, before anything runs
+    text = sweep_text(path, a, b, plants, seed, overrides)
+    with tempfile.TemporaryDirectory(prefix="twolink-compare-") as tmp:
+        folder = Path(out) if out is not None else Path(tmp)
+        holder = owned_output(folder, "compare", str(path.resolve())) if out else _nothing()
+        with holder:
+            atomic_write_text(folder / "compare.toml", text)
+            plan = sweep.load_sweep(folder / "compare.toml")
+            executor = "inprocess" if workers == 1 else "process"
+            outcome = sweep.run_sweep(
+                plan, folder / "sweep", executor=executor, workers=workers, plots=False,
+                progress=progress, replace_other=True,
+            )  # fmt: skip
+            nominal = plan.nominal_scenario()
+            table = paired_claims(
+                outcome.results, a, b, tuple(metrics or CLAIM_METRICS), plan.joints,
+                reference_values(nominal, plan.joints),
+            )  # fmt: skip
+            runs = _plant_runs(plan, (a, b))
+            figure = _figure(runs, plan, nominal, a, b)
+            met = {n: int(outcome.summary[n]["met_spec"]) for n in (a, b)}
+            if out is not None:
+                _write(folder, table, figure, runs, plan, a, b, trace)
+    return Comparison(
+        str(scenario), a, b, plants, table, outcome.results, met, figure,
+        Path(out) if out is not None else None,
+    )  # fmt: skip
+
+
+class _nothing:
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, *exc: Any) -> None:
+        return None
+
+
+def _plant_runs(plan: Any, names: Sequence[str]) -> dict[str, Any]:
+    """Every plant's trajectory under each controller (as the sweep ran them), on the
+    figure's grid, and the nominal plant's whole trajectories for the recording."""
+    from twolink.simulation.experiment import build_controller, iter_scenarios
+
+    arms, labels = [], []
+    for name in names:
+        controller = build_controller(scenario_from_dict(plan.controller_data(name), plan.file))
+        arms.append((plan.nominal_scenario(), controller))
+        labels.append((name, None))
+        for i in range(plan.samples):
+            values, noise_seed = plan.draw(i)
+            s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
+            arms.append((s, controller))
+            labels.append((name, i))
+    angles: dict[str, list[np.ndarray]] = {n: [] for n in names}
+    nominal: dict[str, Any] = {}
+    t = None
+    for k, traj in iter_scenarios([s for s, _ in arms], [c for _, c in arms]):
+        name, i = labels[k]
+        if isinstance(traj, Exception):
+            continue
+        if i is None:
+            nominal[name] = traj
+            continue
+        grid = traj.t[::FIGURE_EVERY]
+        t = grid if t is None or len(grid) > len(t) else t
+        angles[name].append(traj.q[::FIGURE_EVERY])
+    s = plan.nominal_scenario()
+    reference = s.reference.sample(t)[0] if t is not None else None
+    return {"t": t, "angles": angles, "nominal": nominal, "reference": reference, "start": s.q0}
+
+
+def _padded(series: list[np.ndarray], n: int) -> np.ndarray:
+    """(plants, n, 2): runs cut short (diverged) are NaN past their end."""
+    out = np.full((len(series), n, 2), np.nan)
+    for k, q in enumerate(series):
+        out[k, : len(q)] = q[:n]
+    return out
+
+
+def _figure(runs: dict[str, Any], plan: Any, nominal: Any, a: str, b: str) -> Any:
+    from twolink.figures.plots import comparison_figure
+
+    t = runs["t"]
+    qa, qb = (_padded(runs["angles"][n], len(t)) for n in (a, b))
+    reference = runs["reference"]
+    title = f"{nominal.name}: {a} against {b} on {plan.samples} plants"
+    return comparison_figure(
+        t, qa, qb, reference, plan.joints, (a, b), title, window(runs, t, plan.joints)
+    )
+
+
+def window(runs: dict[str, Any], t: np.ndarray, joints: Sequence[int]) -> float:
+    """The transient the figure's upper panels show: until the moving joints of every
+    plant stay within 2 % of their step of the reference, under both controllers, plus
+    half of that again (at least 1 s; the whole run where some plant never settles)."""
+    cols = [j - 1 for j in joints]
+    settled = 0.0
+    for q in runs["angles"].values():
+        for angles in q:
+            ref = runs["reference"][: len(angles), cols]
+            step = np.maximum(np.abs(ref[-1] - np.asarray(runs["start"])[cols]), 1e-9)
+            outside = np.abs(angles[:, cols] - ref) > 0.02 * step
+            last = np.nonzero(outside.any(axis=1))[0]
+            settled = max(settled, float(t[last[-1]]) if last.size else 0.0)
+    return max(1.0, 1.5 * settled)
+
+
+def _write(folder, table, figure, runs, plan, a, b, trace) -> None:
+    from twolink.figures.plots import save_figure
+
+    atomic_write_text(folder / "claims.csv", table.to_csv(index=False))
+    atomic_write_text(folder / "claims.md", format_claims(table) + "\n")
+    save_figure(figure, folder / "compare.png")
+    if trace and len(runs["nominal"]) == 2:
+        from twolink.tracing.comparison import ExperimentRuns, write_comparison
+
+        name = plan.nominal_scenario().name
+        experiments = [
+            ExperimentRuns(f"joint{j}", f"θ{j}: {name}", j, {n: runs["nominal"][n] for n in (a, b)})
+            for j in plan.joints
+        ]
+        write_comparison(folder / "compare.rrd", experiments, pair=(a, b))
+
+
+def format_claims(table: pd.DataFrame) -> str:
+    """The paired table as text: the columns of :data:`SHOWN` that it has."""
+    shown = table[[c for c in SHOWN if c in table.columns]].rename(columns=SHOWN)
+    return shown.to_string(index=False, float_format=lambda v: f"{v:.4g}", na_rep="—")
