@@ -14,7 +14,6 @@ from pathlib import Path
 
 import click
 
-from twolink.arm.params import ArmParams, Flexibility
 from twolink.foundation.executors import EXECUTORS, open_executor
 from twolink.foundation.interrupts import (
     CTRL_C_RECEIVED,
@@ -23,7 +22,7 @@ from twolink.foundation.interrupts import (
     resend_dropped_ctrl_c,
 )
 from twolink.foundation.io import ForeignOutput, OutputBusy, WriteFailed
-from twolink.foundation.shipped import NotAClone, install_target, locate, models_dir
+from twolink.foundation.shipped import NotAClone, install_target, locate
 from twolink.interface.cli_output import (
     done_line,
     format_metrics,
@@ -140,44 +139,6 @@ def validate(samples: int, seed: int) -> None:
     click.echo(format_table(checks))
     if not all(c.passed for c in checks):
         sys.exit(1)
-
-
-@main.command(short_help="Write the arm's MJCF files.")
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=None,
-    help="Folder for the MJCF files [default: results/models].",
-)
-@click.option(
-    "--install",
-    is_flag=True,
-    help="Regenerate the repository's models/ folder instead (a test keeps it in sync).",
-)
-def models(out: Path | None, install: bool) -> None:
-    """Write the MJCF files of the default arm (rigid, flexible, scene) from ArmParams.
-
-    \b
-    Examples:
-      twolink models                 # into results/models
-      twolink models --install       # regenerate the repository's models/
-    """
-    from twolink.arm.plant import model_xml, scene_xml
-    from twolink.foundation.io import atomic_write_text
-
-    if install and out is not None:
-        _fail_input("--install writes the repository's models/; it takes no --out")
-    out = install_target(models_dir()) if install else out or Path("results/models")
-    if not install:
-        own_output(out, "models")
-    files = {
-        "twolink.xml": model_xml(ArmParams()),
-        "twolink_flexible.xml": model_xml(ArmParams(), Flexibility()),
-        "scene.xml": scene_xml("twolink.xml"),
-    }
-    for name, text in files.items():
-        atomic_write_text(out / name, text)
-        click.echo(out / name)
 
 
 @main.command(short_help="Run one scenario file.")
@@ -695,9 +656,11 @@ def sweep_command(
 
 from twolink.interface.cli_compare import compare_command  # noqa: E402
 from twolink.interface.cli_fuzzy import coverage_command, fis_command  # noqa: E402
+from twolink.interface.cli_models import models  # noqa: E402
 from twolink.interface.cli_studies import regimes_command  # noqa: E402
 
 main.add_command(compare_command)
+main.add_command(models)
 main.add_command(coverage_command)
 main.add_command(fis_command)
 main.add_command(regimes_command)
