@@ -545,6 +545,9 @@ def reproduce(
     click.echo(done_line())
 
 
+BACKEND_HELP = 'MuJoCo on the CPU (default), or MJX (MuJoCo in JAX; pip install "twolink[mjx]").'
+
+
 @main.command("sweep", short_help="Run a Monte Carlo sweep file.")
 @click.argument("sweep_file", type=click.Path(path_type=Path))
 @click.option(
@@ -570,15 +573,9 @@ def reproduce(
 @click.option("--fresh", is_flag=True, help="Discard chunks already in --out.")
 @click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
 @click.option("--progress/--no-progress", default=True, show_default=True)
-@click.option(
-    "--backend", type=click.Choice(["cpu", "mjx"]), default="cpu", show_default=True,
-    help="MuJoCo on the CPU, or MJX (MuJoCo in JAX, on a GPU where JAX has one; pip install "
-    '"twolink[mjx]"), every chunk in this process.',
-)  # fmt: skip
-@click.option(
-    "--precision", type=click.Choice(["float64", "float32"]), default="float64",
-    show_default=True, help="MJX's floating point (float32: its error in docs/batch.md).",
-)  # fmt: skip
+@click.option("--backend", type=click.Choice(["cpu", "mjx"]), default="cpu", help=BACKEND_HELP)
+@click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64",
+              help="MJX's floating point (float32: its error in docs/batch.md).")  # fmt: skip
 @set_option("the sweep file", "overrides.duration=3")
 def sweep_command(
     sweep_file: Path,
@@ -619,8 +616,6 @@ def sweep_command(
         _fail_input(f"--scheduler needs --executor dask, not {executor}")
     if backend == "cpu" and precision != "float64":
         _fail_input("--precision is MJX's (--backend mjx); the CPU engine runs in float64")
-    if backend == "mjx" and (executor or workers or scheduler):
-        _fail_input("--backend mjx runs in this process: leave out --executor/--workers")
     engine = backend if precision == "float64" else f"{backend}-{precision}"
     out = out or Path("results") / "sweeps" / plan.name
     try:
