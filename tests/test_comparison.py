@@ -1,6 +1,7 @@
 """The reproduction's combined recording (twolink.tracing.comparison): a tab per
-experiment with two views (angles, the pair's errors), one entity per view holding every
-controller's curve, light for the viewer."""
+experiment with three views (angles, the pair's errors, the pair's difference), one entity
+per view holding every controller's curve, light for the viewer; the tabs ordered so that
+it opens where the pair differ most."""
 
 from collections import Counter
 from pathlib import Path
@@ -11,10 +12,12 @@ import pytest
 from rerun.chunk import RrdReader
 
 from twolink.simulation.sim import Trajectory
+from twolink.simulation.vocabulary import CONTROLLER_STYLES, rgb
 from twolink.tracing import read_recording
 from twolink.tracing.comparison import (
-    PALETTE,
     ExperimentRuns,
+    order_experiments,
+    pair_difference,
     read_comparison,
     write_comparison,
 )
@@ -87,20 +90,20 @@ def legend(path: Path) -> dict[str, tuple[list[str], list[tuple[int, int, int]]]
     return out
 
 
-def test_two_views_per_experiment_one_entity_each_in_two_chunks_the_first_tab_first(written):
+def test_three_views_per_experiment_one_entity_each_in_two_chunks_the_first_tab_first(written):
     """The viewer spends about a frame on every few chunks it loads, and shows nothing
-    until the layout and the first tab's curves are in: two views per experiment (no
+    until the layout and the first tab's curves are in: three views per experiment (no
     torque view, no view of the far baselines), each one entity (its legend, then its
     curves), the first experiment's first."""
     path, _ = written
     chunks = recording_chunks(path)
     per_entity = Counter(ch.entity_path.strip("/") for ch in chunks)
-    views = ("angle", "error")
+    views = ("angle", "error", "difference")
     prefixes = ("rigid/table2", "flexible/table3")
     assert set(per_entity) == {f"{p}/{v}" for p in prefixes for v in views}
     assert set(per_entity.values()) == {2}
     order = [ch.entity_path.strip("/") for ch in chunks]
-    assert order[:4] == [f"rigid/table2/{v}" for v in views for _ in range(2)]
+    assert order[:6] == [f"rigid/table2/{v}" for v in views for _ in range(2)]
     assert [ch.is_static for ch in chunks[:2]] == [True, False]
 
 
@@ -114,13 +117,19 @@ def test_the_legend_names_every_controller_the_pair_first_in_its_colour(written)
     assert lines["rigid/table2/angle"][0] == [*pair, "CTC-I", "PD-G", "reference"]
     assert lines["rigid/table2/error"][0] == pair
     assert lines["flexible/table3/angle"][0] == ["FCM-CTC", "CTC", "reference"]
+    assert lines["rigid/table2/difference"][0] == ["FCM-CTC − CTC", "FCM-CTC-continuous − CTC"]
+    assert lines["flexible/table3/difference"][0] == ["FCM-CTC − CTC"]
     colour = {}
     for names, colours in lines.values():
         for name, c in zip(names, colours, strict=True):
             assert colour.setdefault(name, c) == c, name
     assert colour["reference"] == REFERENCE_COLOR
-    assert colour["FCM-CTC"] == PALETTE[0] and colour["CTC"] == PALETTE[1]
-    assert len(set(colour.values())) == len(colour)
+    for name in ("FCM-CTC", "CTC", "FCM-CTC-continuous", "CTC-I", "PD-G"):  # the figures'
+        assert colour[name] == rgb(CONTROLLER_STYLES[name][0]), name
+    # a difference takes its FCM variant's colour; the controllers' colours are their own
+    assert colour["FCM-CTC-continuous − CTC"] == colour["FCM-CTC-continuous"]
+    own = {n: c for n, c in colour.items() if "−" not in n}
+    assert len(set(own.values())) == len(own)
 
 
 def test_every_curve_reads_back_at_the_kept_samples_a_short_run_ends_in_nan(written):
@@ -154,8 +163,18 @@ def test_every_curve_reads_back_at_the_kept_samples_a_short_run_ends_in_nan(writ
         frame["rigid/table2/angle/reference"].dropna().to_numpy(),
         rigid.runs["CTC"].q_ref[idx, 0],
     )
+    for e in experiments:  # each FCM variant less the baseline, at the kept samples
+        j = e.joint - 1
+        for name in ("FCM-CTC", "FCM-CTC-continuous"):
+            if name not in e.runs:
+                continue
+            got = frame[f"{e.prefix}/difference/{name} − CTC"].dropna()
+            keep = idx if e is rigid else sample_indices(N, 20)  # rigid: CTC-I's end too
+            diff = e.runs[name].q[:, j] - e.runs["CTC"].q[:, j]
+            np.testing.assert_array_equal(got.to_numpy(), diff[keep])
     assert not any("torque" in c or "baselines" in c or "fuzzy-PD" in c for c in frame)
-    assert len(frame.columns) == 6 + 3 + 3 + 2  # angles, errors; rigid, flexible
+    # angles, errors, differences; rigid then flexible
+    assert len(frame.columns) == 6 + 3 + 2 + 3 + 2 + 1
     pd_testing.assert_frame_equal(read_recording(path), frame)
 
 
@@ -190,6 +209,9 @@ def test_each_tab_has_its_views_their_legends_bottom_right(written):
     assert titles["rigid/table2/angle"].endswith("(fuzzy-PD leaves it: not shown)")
     assert titles["flexible/table3/angle"].endswith("the baselines on their scale")
     assert titles["flexible/table3/error"] == "error θ₂d − θ₂ [rad]"
+    assert titles["rigid/table2/difference"] == (
+        "difference θ₁ [rad]: largest |FCM-CTC − CTC| 0.001 rad"
+    )
 
 
 def test_time_is_the_only_timeline_and_the_layout_leaves_the_time_panel_alone(written):
@@ -216,3 +238,63 @@ def test_runs_of_one_experiment_share_a_time_grid(tmp_path):
 
 
 TRAJ = ("t", "q", "qd", "q_ref", "qd_ref", "qdd_ref", "tau", "motor_q")
+
+
+def tab_order(path: Path) -> tuple[list[str], str]:
+    """The tab bar's titles in order, and the title of the tab the recording opens on."""
+    reader = RrdReader(path)
+    (bp,) = reader.blueprints()
+    fields: dict[str, dict] = {}
+    for ch in reader.stream(store=bp):
+        batch = ch.to_record_batch()
+        for name in batch.schema.names:
+            if name.startswith("ContainerBlueprint:"):
+                fields.setdefault(ch.entity_path.strip("/"), {})[name.split(":")[1]] = batch.column(
+                    name
+                ).to_pylist()[-1]
+    (tabs,) = [f for f in fields.values() if "active_tab" in f]
+    title = {k: f.get("display_name", [None])[0] for k, f in fields.items()}
+    return [title[c] for c in tabs["contents"]], title[tabs["active_tab"][0]]
+
+
+def test_it_opens_on_the_experiment_where_the_pair_differ_most_its_variant_first(tmp_path):
+    """The rigid quintic moves first in the manifest, where the pair coincide; the raw
+    steps, where they differ, open the recording: the largest difference first, then its
+    variant's other tabs in their order, then the other variants."""
+    experiments = [
+        experiment("rigid/table2", 1, {"CTC": 0.0, "FCM-CTC": 0.0}),
+        experiment("rigid/table3", 2, {"CTC": 1e-17, "FCM-CTC": 0.0}),
+        experiment("raw/table2", 1, {"CTC": 0.05, "FCM-CTC": 0.0}),
+        experiment("raw/table3", 2, {"CTC": 0.1, "FCM-CTC": 0.0}),
+        experiment("raw/table4", 1, {"CTC": 0.02, "FCM-CTC": 0.0}),
+        experiment("flexible/table2", 1, {"CTC": 0.01, "FCM-CTC": 0.0}),
+    ]
+    assert pair_difference(experiments[3]) == pytest.approx(0.1)
+    assert pair_difference(experiments[0]) == 0.0
+    write_comparison(tmp_path / "r.rrd", experiments)
+    order, opened = tab_order(tmp_path / "r.rrd")
+    assert order == [
+        "raw: table3",
+        "raw: table2",
+        "raw: table4",
+        "flexible: table2",
+        "rigid: table2",
+        "rigid: table3",
+    ]
+    assert opened == order[0]
+    assert [e.title for e in order_experiments(experiments)] == order
+    # and its curves are the first the viewer loads
+    assert recording_chunks(tmp_path / "r.rrd")[0].entity_path.strip("/") == "raw/table3/angle"
+
+
+def test_where_the_pair_never_differ_the_given_order_stays(tmp_path):
+    experiments = [
+        experiment("rigid/table2", 1, {"CTC": 0.0, "FCM-CTC": 0.0}),
+        experiment("flexible/table2", 1, {"CTC": 0.0, "FCM-CTC": 0.0}),
+        experiment("rigid/table3", 1, {"CTC": 0.0}),  # no pair: no difference view
+    ]
+    assert order_experiments(experiments) == [experiments[0], experiments[2], experiments[1]]
+    write_comparison(tmp_path / "r.rrd", experiments)
+    assert tab_order(tmp_path / "r.rrd")[1] == "rigid: table2"
+    entities = {ch.entity_path.strip("/") for ch in recording_chunks(tmp_path / "r.rrd")}
+    assert "rigid/table3/difference" not in entities and "rigid/table2/difference" in entities

@@ -322,9 +322,11 @@ def test_the_combined_recording_has_a_tab_per_experiment_with_the_pair_side_by_s
     """reproduction.rrd compares (issue 31): per experiment the pair (and FCM variants) on
     a fitted scale with the baselines that stay on it, and their errors; a baseline that
     leaves the scale is left out (named in the view's title); small enough to open (at
-    most 20 MB) and light for the viewer (two views per experiment, an entity each, two
-    chunks each). The fuzzy runs' phase planes with the fired rules are in each run's
-    trace.rrd."""
+    most 20 MB) and light for the viewer (three views per experiment, an entity each, two
+    chunks each: angles, errors, the pair's difference). It opens on the experiment where
+    the pair differ most, a raw step, whose curves come first; the README's figure is that
+    experiment's. The fuzzy runs' phase planes with the fired rules and their centres,
+    named by their kept rules, are in each run's trace.rrd."""
     from collections import Counter
 
     from rerun.chunk import RrdReader
@@ -335,8 +337,13 @@ def test_the_combined_recording_has_a_tab_per_experiment_with_the_pair_side_by_s
     assert path.stat().st_size < 20e6
     chunks = Counter(ch.entity_path for ch in RrdReader(path).store().stream())
     chunks.pop("/__properties", None)
-    assert {e.rsplit("/", 1)[1] for e in chunks} == {"angle", "error"}
+    assert {e.rsplit("/", 1)[1] for e in chunks} == {"angle", "error", "difference"}
     assert set(chunks.values()) == {2}
+    first = next(iter(chunks)).strip("/")
+    assert first.startswith("raw/") and first.endswith("/angle"), first
+    from twolink.studies.hero import HERO_FIGURE
+
+    assert (reproduction.out / HERO_FIGURE).stat().st_size > 10_000
     curves = set(read_comparison(path).columns)
     for name in ("FCM-CTC", "CTC", "FCM-CTC-continuous"):
         for leaf in ("angle", "error"):
@@ -347,6 +354,11 @@ def test_the_combined_recording_has_a_tab_per_experiment_with_the_pair_side_by_s
     entities = {ch.entity_path for ch in RrdReader(trace).stream()}
     run = "/rigid/table2/FCM-CTC/phase"
     assert f"{run}/centres" in entities and f"{run}/joint1/fired_rule" in entities
+    assert f"{run}/axes/names" in entities
+    store = RrdReader(trace).store()
+    (centres,) = [ch for ch in store.stream() if ch.entity_path == f"{run}/centres"]
+    labels = centres.to_record_batch().column("Points2D:labels")[0].as_py()
+    assert labels and all("→" in label for label in labels), labels  # "PS,NM→NS", not c1
 
 
 def test_the_design_section_shows_the_design_held_out_and_the_downward_step(reproduction):

@@ -571,3 +571,150 @@ def test_read_recording_returns_every_series_at_the_kept_samples(tmp_path, run):
     assert one.index.name == frame.index.name == "time_s"
     for column in shared:
         np.testing.assert_allclose(one[column].to_numpy(), frame[column].to_numpy(), atol=1e-12)
+
+
+def test_every_controller_has_a_colour_and_a_dash_no_other_shares():
+    """One style table (twolink.simulation.vocabulary): no two controllers share a colour
+    (a recording has no dashes to tell them apart) nor a dash; every kind's label has a
+    style; names the table does not know get colours nobody else in the figure has. The
+    issue's case: PD-G and FCM-CTC-continuous were both blue and dashed."""
+    from twolink.simulation.vocabulary import (
+        CONTROLLER_LABELS,
+        CONTROLLER_STYLES,
+        STYLE_ALIASES,
+        controller_styles,
+    )
+
+    colours = [c for c, _ in CONTROLLER_STYLES.values()]
+    dashes = [repr(d) for _, d in CONTROLLER_STYLES.values()]
+    assert len(set(colours)) == len(colours)
+    assert len(set(dashes)) == len(dashes)
+    for label in CONTROLLER_LABELS.values():
+        assert STYLE_ALIASES.get(label, label) in CONTROLLER_STYLES, label
+    assert set(STYLE_ALIASES.values()) <= set(CONTROLLER_STYLES)
+    names = ["CTC", "new law", "FCM-CTC", "another", "PD+G"]
+    styles = controller_styles(names)
+    assert len({c for c, _ in styles.values()}) == len(names)
+    assert styles["PD+G"] == CONTROLLER_STYLES["PD-G"]
+    assert CONTROLLER_STYLES["PD-G"] != CONTROLLER_STYLES["FCM-CTC-continuous"]
+
+
+def test_the_response_figure_and_the_recording_draw_each_controller_in_its_style(tmp_path):
+    """The figure's lines take the table's colour and dash (FCM-CTC dashed over CTC), and
+    the combined recording the same colours: one table, in one place."""
+    from matplotlib.colors import to_rgb
+
+    from twolink.figures.plots import response_figure
+    from twolink.simulation.vocabulary import CONTROLLER_STYLES
+    from twolink.tracing.comparison import ExperimentRuns, read_comparison, write_comparison
+
+    t = np.arange(2001) * 1e-3
+    ref = np.stack([np.minimum(t, 1.0), np.zeros_like(t)], axis=1)
+    zeros = np.zeros_like(ref)
+    names = ["FCM-CTC", "CTC", "FCM-CTC-continuous", "PD-G", "CTC-I"]
+    trajs = {}
+    for k, name in enumerate(names):
+        q = ref * (1 + 0.01 * k)
+        trajs[name] = Trajectory(t, q, zeros, ref, zeros, zeros, zeros, np.empty((0, 2)))
+    fig = response_figure(trajs, 1, "styles")
+    lines = {ln.get_label(): ln for ln in fig.axes[0].get_lines()}
+    drawn = set()
+    for name in names:
+        colour, dash = CONTROLLER_STYLES[name]
+        line = lines[name]
+        assert np.allclose(to_rgb(line.get_color()), to_rgb(colour)), name
+        if isinstance(dash, str):
+            assert line.get_linestyle() == dash, name
+        drawn.add(to_rgb(line.get_color()))
+    assert len(drawn) == len(names)
+    assert lines["FCM-CTC"].get_linestyle() == "--" and lines["CTC"].get_linestyle() == "-"
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    path = tmp_path / "r.rrd"
+    write_comparison(path, [ExperimentRuns("raw/table2", "raw: table2", 1, trajs)])
+    assert "raw/table2/difference/FCM-CTC − CTC" in read_comparison(path)
+    from rerun.chunk import RrdReader
+
+    for ch in RrdReader(path).store().stream():
+        if ch.is_static and ch.entity_path.strip("/") == "raw/table2/angle":
+            batch = ch.to_record_batch()
+            labels = batch.column("SeriesLines:names")[0].as_py()
+            packed = batch.column("SeriesLines:colors")[0].as_py()
+            for name, c in zip(labels, packed, strict=True):
+                if name in CONTROLLER_STYLES:
+                    want = tuple(round(255 * v) for v in to_rgb(CONTROLLER_STYLES[name][0]))
+                    assert ((c >> 24) & 255, (c >> 16) & 255, (c >> 8) & 255) == want, name
+
+
+@pytest.mark.parametrize(
+    ("scale", "names"),
+    [
+        ((1.0, 1.0), ("e [rad] →", "ė [rad/s] ↓")),
+        ((2.0, 0.5), ("ke·e →", "kde·ė ↓")),
+    ],
+)
+def test_the_phase_plane_has_axes_with_names_units_and_round_ticks(tmp_path, run, scale, names):
+    """The axes cross at the origin and span every path and centre; each is named with
+    its unit at its positive end (the viewer's y axis points down: ė ↓); ticks at round
+    values, labelled, within the axes."""
+    s, traj = run
+    centres = np.array([[-0.5, 0.0], [0.3, 0.25]])
+    out = tmp_path / "trace.rrd"
+    extras = {"centres": centres, "phase_scale": scale, "centre_labels": ["NB,Z→PB", "Z,Z→Z"]}
+    tracing.write_recording(out, [("fcm", traj, s.arm, extras)])
+    _, static = read_back(out)
+    strips = values(static[entity("fcm", "phase", "axes")], "LineStrips2D:strips", 2)
+    (x0, y0), (x1, _), (_, ya), (_, yb) = strips
+    ke, kde = scale
+    planes = np.concatenate([np.stack([ke * traj.e[:, j], kde * traj.de[:, j]], 1) for j in (0, 1)])
+    everything = np.concatenate([planes, centres])
+    assert y0 == 0 and x0 <= everything[:, 0].min() and x1 >= everything[:, 0].max()
+    assert ya <= everything[:, 1].min() and yb >= everything[:, 1].max()
+    labels = values(static[entity("fcm", "phase", "axes", "names")], "Points2D:labels").tolist()
+    assert labels == list(names)
+    scale_note = entity("fcm", "phase", "axes", "scale")
+    if scale == (1.0, 1.0):
+        assert scale_note not in static
+    else:  # a normalised plane says how, with the units of e and ė
+        (note,) = values(static[scale_note], "Points2D:labels").tolist()
+        assert note == "normalised: ke = 2/rad, kde = 0.5 s/rad"
+    ticks = static[entity("fcm", "phase", "axes", "ticks")]
+    pos = values(ticks, "Points2D:positions", 2)
+    text = values(ticks, "Points2D:labels").tolist()
+    assert len(text) >= 4 and all(float(t) != 0 for t in text)
+    along = np.where(pos[:, 1] == 0, pos[:, 0], pos[:, 1])
+    np.testing.assert_allclose(along, [float(t) for t in text], rtol=1e-6)
+    centre = static[entity("fcm", "phase", "centres")]
+    assert values(centre, "Points2D:labels").tolist() == ["NB,Z→PB", "Z,Z→Z"]
+
+
+def test_nice_ticks_are_round_and_cover_the_span():
+    from twolink.tracing.runs import nice_ticks
+
+    np.testing.assert_allclose(nice_ticks(-0.13, 1.07), [0, 0.2, 0.4, 0.6, 0.8, 1.0])
+    np.testing.assert_allclose(nice_ticks(-3.2, 7.9), [-2, 0, 2, 4, 6])
+    assert nice_ticks(1.0, 1.0).tolist() == [1.0]
+
+
+def test_the_reproduction_names_each_centre_by_the_rule_the_design_kept(tmp_path):
+    """The plan gives the fuzzy runs the centres and their kept rules' names (not c1-c5),
+    and the run's recording labels the centres with them."""
+    from types import SimpleNamespace
+
+    from twolink.controllers.fuzzy.engine import rule_label
+    from twolink.studies.manifest import load_manifest
+    from twolink.studies.reproduce import centre_rules, plan
+
+    engine = SimpleNamespace(rules=[SimpleNamespace(e="NB", de="Z", u="PB"),
+                                    SimpleNamespace(e="Z", de="PS", u="NS")])  # fmt: skip
+    result = SimpleNamespace(engine=engine, kept=np.array([1, 0, 1]))
+    assert centre_rules(result) == ["Z,PS→NS", "NB,Z→PB", "Z,PS→NS"]
+    assert rule_label(engine.rules[0]) == "NB,Z→PB"
+    manifest = load_manifest(ROOT / "runs" / "paper" / "reproduce.toml")
+    centres = [(0.1, 0.2), (0.3, 0.4), (-0.2, 0.0)]
+    specs = plan(manifest, None, centres, None, centre_rules(result))
+    for sp in specs:
+        fuzzy = sp.overrides["controller"].get("kind") in ("fcm_ctc", "fuzzy_pd")
+        assert sp.centre_labels == (tuple(centre_rules(result)) if fuzzy else ())
+        assert len(sp.centres) == (3 if fuzzy else 0)

@@ -17,7 +17,7 @@ from matplotlib.figure import Figure  # noqa: E402
 from matplotlib.layout_engine import PlaceHolderLayoutEngine  # noqa: E402
 
 from twolink.foundation.io import atomic_path  # noqa: E402
-from twolink.simulation.vocabulary import split_by_scale  # noqa: E402
+from twolink.simulation.vocabulary import controller_styles, split_by_scale  # noqa: E402
 
 if TYPE_CHECKING:
     from twolink.simulation.sim import Trajectory
@@ -102,11 +102,6 @@ def save_run_plots(out: str | Path, traj: Trajectory, title: str = "") -> list[P
     return paths
 
 
-CONTROLLER_STYLES = {"CTC": ("tab:red", "-"), "FCM-CTC": ("tab:green", "-")}
-# The other controllers (baselines) in order: colours the paper's two do not use, dashed.
-OTHER_STYLES = [(c, "--") for c in ("tab:blue", "tab:orange", "tab:purple", "tab:brown")]
-
-
 def response_figure(
     trajs: dict[str, Trajectory],
     joint: int,
@@ -138,17 +133,16 @@ def response_figure(
     for upper in (ax, ax_e):
         upper.tick_params(labelbottom=False)
     ax.plot(t_ref, ref, "k--", lw=1.2, label="reference")
-    others = iter(OTHER_STYLES * len(trajs))
-    styles = {n: CONTROLLER_STYLES.get(n) or next(others) for n in trajs}
+    # one colour and dash per controller, everywhere (twolink.simulation.vocabulary):
+    # FCM-CTC dashed over CTC solid, so both show where they coincide
+    styles = controller_styles(trajs)
     for name, traj in trajs.items():
         if name in far:
             continue
         colour, style = styles[name]
-        # the proposed controller dashed over its baseline: both show where they coincide
-        style = "--" if name == pair[0] else style
         label = name if traj.ok else f"{name} ({traj.status})"
-        ax.plot(traj.t, traj.q[:, j], style, color=colour, lw=1.5, label=label)
-        ax_e.plot(traj.t, traj.e[:, j], style, color=colour, lw=1.2)
+        ax.plot(traj.t, traj.q[:, j], linestyle=style, color=colour, lw=1.5, label=label)
+        ax_e.plot(traj.t, traj.e[:, j], linestyle=style, color=colour, lw=1.2)
     ax.set_ylim(lo, hi)
     errors = [trajs[n].e[:, j] for n in close]
     if errors:
@@ -158,7 +152,7 @@ def response_figure(
         a, b = trajs[pair[0]], trajs[pair[1]]
         n = min(len(a.t), len(b.t))
         diff = a.q[:n, j] - b.q[:n, j]
-        ax_d.plot(a.t[:n], diff, color="tab:green", lw=1.2)
+        ax_d.plot(a.t[:n], diff, color=styles[pair[0]][0], lw=1.2)
         ax_d.set_ylabel(f"Δθ{joint} [rad]")
         ax_d.text(
             0.01,
@@ -181,7 +175,7 @@ def response_figure(
             colour, style = styles[name]
             tr = trajs[name]
             label = name if tr.ok else f"{name} ({tr.status})"
-            ax_far.plot(tr.t, tr.q[:, j], style, color=colour, lw=1.2, label=label)
+            ax_far.plot(tr.t, tr.q[:, j], linestyle=style, color=colour, lw=1.2, label=label)
         ax_far.set_title("off the pair's scale (own scale)", fontsize=9)
         ax_far.grid(alpha=0.3)
         ax_far.legend(loc="best", fontsize=8)

@@ -504,9 +504,12 @@ def max_twist(traj: Trajectory) -> tuple[float, float]:
 TRACE_EVERY = 5  # recordings at 200 Hz: smooth to watch; trajectory.npz keeps every sample
 
 
-def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) -> dict[str, Any]:
+def trace_extras(
+    controller: Controller, traj: Trajectory, centres: Any = (), centre_labels: Any = ()
+) -> dict[str, Any]:
     """Phase-plane extras of a fuzzy run for its recording: the engine's normalised view,
-    the fired rule at each sample and, if given, FCM cluster centres. Empty for CTC."""
+    the fired rule at each sample and, if given, FCM cluster centres, named by
+    ``centre_labels`` (the reproduction: each centre's kept rule). Empty for CTC."""
     engine = getattr(controller, "engine", None)
     if engine is None:
         return {}
@@ -519,4 +522,6 @@ def trace_extras(controller: Controller, traj: Trajectory, centres: Any = ()) ->
     }
     if len(centres):
         extras["centres"] = np.array(centres, dtype=float)
+        if len(centre_labels):
+            extras["centre_labels"] = [str(n) for n in centre_labels]
     return extras

@@ -21,6 +21,9 @@ from typing import Any
 
 __all__ = [
     "CONTROLLER_LABELS",
+    "CONTROLLER_STYLES",
+    "controller_styles",
+    "rgb",
     "SIGNAL_UNITS",
     "TIME_COLUMN",
     "signal_column",
@@ -69,6 +72,54 @@ CONTROLLER_LABELS = {
     "flexible_fl_integral": "flexible-FL-I",
     "flexible_fl_kalman": "flexible-FL-KF",
 }
+
+
+# One colour and one dash per controller, the same in every figure (matplotlib: the hex
+# colour and the linestyle) and recording (rerun: the colour; its plots have no dashes,
+# so no two controllers share a colour either). The pair first: FCM-CTC green and dashed,
+# drawn over CTC red and solid, so both show where they coincide; FCM-CTC-continuous teal.
+# Keyed by the names the shipped manifest, the sweeps and CONTROLLER_LABELS use.
+CONTROLLER_STYLES: dict[str, tuple[str, Any]] = {
+    "FCM-CTC": ("#2ca02c", "--"),
+    "CTC": ("#d62728", "-"),
+    "FCM-CTC-continuous": ("#17becf", "-."),
+    "CTC-matched": ("#ff7f0e", (0, (3, 1, 1, 1, 1, 1))),
+    "PD-G": ("#1f77b4", ":"),
+    "CTC-I": ("#9467bd", (0, (5, 2))),
+    "CTC-paper": ("#8c564b", (0, (1, 2, 4, 2))),
+    "fuzzy-PD": ("#e377c2", (0, (8, 2, 2, 2))),
+    "fuzzy-CTC": ("#bcbd22", (0, (2, 1))),
+    "motor-PD": ("#7f7f7f", (0, (6, 1, 1, 1))),
+    "composite": ("#393b79", (0, (4, 1, 4, 1, 1, 1))),
+    "flexible-FL": ("#843c39", (0, (1, 1))),
+    "flexible-FL-I": ("#637939", (0, (7, 3))),
+    "flexible-FL-KF": ("#7b4173", (0, (3, 3))),
+}
+# The same controllers under their kinds' labels (CONTROLLER_LABELS) where those differ.
+STYLE_ALIASES = {"PD+G": "PD-G", "CTC+I": "CTC-I"}
+# For names the table does not know: colours no entry above uses, dashes in turn.
+SPARE_COLOURS = ("#e7ba52", "#5254a3", "#ad494a", "#8ca252", "#a55194", "#6b6ecf", "#d6616b")
+SPARE_DASHES = ("-", "--", "-.", ":")
+
+
+def controller_styles(names) -> dict[str, tuple[str, Any]]:
+    """``(colour, dash)`` of each controller in ``names`` (:data:`CONTROLLER_STYLES`): a
+    name the table does not know takes the next spare colour no other name here uses."""
+    out = {}
+    spare = iter(SPARE_COLOURS)
+    for k, name in enumerate(names):
+        known = CONTROLLER_STYLES.get(STYLE_ALIASES.get(name, name))
+        if known is None:
+            colour = next(spare, None) or f"C{k % 10}"
+            known = (colour, SPARE_DASHES[k % len(SPARE_DASHES)])
+        out[name] = known
+    return out
+
+
+def rgb(colour: str) -> tuple[int, int, int]:
+    """``"#2ca02c"`` as (44, 160, 44), for rerun."""
+    h = colour.lstrip("#")
+    return (int(h[0:2], 16), int(h[2:4], 16), int(h[4:6], 16))
 
 
 @dataclass(frozen=True)

@@ -33,6 +33,7 @@ from twolink.simulation.outcome import classify_run
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import joint_values
 from twolink.studies.claims_studies import raw_steps, run_claims
+from twolink.studies.hero import HERO_FIGURE, hero
 from twolink.studies.manifest import (
     DEFAULT_MANIFEST,
     Experiment,
@@ -52,6 +53,7 @@ class RunSpec:
     controller: str
     overrides: dict[str, Any]
     centres: tuple[tuple[float, float], ...] = ()  # FCM centres, for the phase-plane trace
+    centre_labels: tuple[str, ...] = ()  # each centre's kept rule ("PS,NM→NS"), its name there
 
     @property
     def folder(self) -> str:
@@ -63,12 +65,14 @@ def plan(
     rule_base: Path | None,
     centres=(),
     overrides: dict[str, Any] | None = None,
+    centre_labels=(),
 ) -> list[RunSpec]:
     """Every run of the reproduction, in report order; ``overrides`` (``--set``) are merged
     over every run's scenario and variant, under the controller's own keys. ``rule_base``
     is the designed rule base (None before the design: the paper's stands in, to
     validate the scenarios)."""
     centres = tuple(tuple(map(float, c)) for c in centres)
+    labels = tuple(str(n) for n in centre_labels)
     specs = []
     for variant in manifest.variants:
         for exp in manifest.experiments:
@@ -82,7 +86,9 @@ def plan(
                 if variant.raw_steps:
                     run = merge(run, {"reference": raw_steps(exp.scenario)})
                 fuzzy = run["controller"].get("kind", "ctc") in FUZZY_KINDS
-                specs.append(RunSpec(exp, variant, name, run, centres if fuzzy else ()))
+                specs.append(
+                    RunSpec(exp, variant, name, run, *((centres, labels) if fuzzy else ()))
+                )
     return specs
 
 
@@ -106,6 +112,7 @@ def _execute(specs: list[RunSpec], out: Path, trace: bool) -> list[dict[str, Any
             trace=trace,
             controller=controller,
             centres=spec.centres,
+            centre_labels=spec.centre_labels,
             prefix=spec.folder,
             name=spec.controller,
         )
@@ -507,7 +514,9 @@ def _reproduce(
         phase("design: the FCM rule base (reused when its inputs are unchanged)")
         result, designed = design_or_load(config, out / "design")
         rule_base = out / "design" / "rule_base.toml"
-        specs = plan(manifest, rule_base, result.clustering.centers, overrides)
+        specs = plan(
+            manifest, rule_base, result.clustering.centers, overrides, centre_rules(result)
+        )
         scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
         study = (
             pool.submit(flexible_study, manifest.flexible_study, out)
@@ -578,6 +587,9 @@ def _reproduce(
                 )
                 figures[f"{variant.name}/{exp.key}"] = name
         trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
+        shown = hero(specs, trajectories, (manifest.proposed, manifest.baseline))
+        if shown is not None:  # the README's figure: where the pair differ most
+            drawing.append(pool.submit(_response_figure, out, *shown, out / HERO_FIGURE))
         sections = oscillation_section(specs, scenarios, trajectories, rows)
         if manifest.gain_study is not None:
             sections += report_section(manifest.gain_study, out, pool)
@@ -613,6 +625,14 @@ def _reproduce(
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
     atomic_write_json(out / "metrics.json", rows)
     return Reproduction(out, rows, designed, rule_base)
+
+
+def centre_rules(result: Any) -> list[str]:
+    """Each FCM centre's name in the recordings: the rule the design kept for it
+    (``"PS,NM→NS"``, :func:`twolink.controllers.fuzzy.engine.rule_label`)."""
+    from twolink.controllers.fuzzy.engine import rule_label
+
+    return [rule_label(result.engine.rules[k]) for k in result.kept]
 
 
 def _design_figures(result: Any, out: Path) -> list[Any]:

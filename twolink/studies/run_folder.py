@@ -88,6 +88,7 @@ def write_run(
     centres: Any = (),
     prefix: str = "run",
     name: str | None = None,
+    centre_labels: Any = (),
 ) -> Path:
     """Write one run's folder: config.toml, trajectory.npz, metrics.json, PNG plots and a
     rerun recording ``trace.rrd`` (of the run under ``prefix``).
@@ -97,7 +98,8 @@ def write_run(
     earlier run stays beside the new ones and a damaged or edited run is found on reuse.
     Only the run's own files are replaced: a folder holding anything else is refused
     (:class:`~twolink.foundation.io.ForeignOutput`). ``name`` is the controller's name in
-    the outputs (default: its kind's label)."""
+    the outputs (default: its kind's label); ``centre_labels`` name the FCM ``centres`` in
+    the recording (the reproduction: each centre's kept rule)."""
     out = Path(out)
     name = name or CONTROLLER_LABELS.get(s.controller.kind, s.controller.kind)
     check_run_folder(out)
@@ -113,7 +115,11 @@ def write_run(
         if trace:
             from twolink.tracing import write_recording
 
-            extras = trace_extras(controller, traj, centres) if controller is not None else {}
+            extras = (
+                trace_extras(controller, traj, centres, centre_labels)
+                if controller is not None
+                else {}
+            )
             write_recording(
                 tmp / "trace.rrd", [(prefix, traj, s.plant_params, extras)], every=TRACE_EVERY
             )

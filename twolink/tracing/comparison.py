@@ -9,8 +9,16 @@ its static ``SeriesLines`` name and colour them (the legend lists them in this o
 
 - ``P/angle``: θ of the proposed controller, its baseline and any other FCM variant (the
   *pair*), then of the baselines that stay on their scale, then the reference;
-- ``P/error``: the pair's errors θd − θ, in a view of their own (where a 1e-5 rad
-  difference shows).
+- ``P/error``: the pair's errors θd − θ, in a view of their own;
+- ``P/difference``: each FCM variant's angle less the baseline's (FCM-CTC − CTC, ...),
+  where the pair's difference shows at any size (3e-17 rad on the rigid arm's quintic
+  moves, 0.1 rad on the raw steps); the view's title gives its largest value.
+
+The tabs (:func:`order_experiments`): the experiment where the pair differ most comes
+first, and the recording opens on it; then the rest of its variant, in the given order,
+then the other variants, the one whose pair differ most first (the raw steps, in the
+reproduction: within reach without scrolling the tab bar). Each controller has its one
+colour, the figures' (:data:`twolink.simulation.vocabulary.CONTROLLER_STYLES`).
 
 A baseline that leaves the pair's scale (fuzzy-PD's swings would flatten every other
 curve) is left out, named in the angle view's title; torques are left out too (each
@@ -22,7 +30,7 @@ grid. The same split as the response figures
 Light for the viewer: the web viewer ingests what arrives for about 10 ms per frame and
 shows the layout only once all of it is in, and without a GPU a frame takes most of a
 second; every view costs five chunks (three of the layout, two of the recording), so
-an experiment has two views, each one entity in two chunks (its legend, then its
+an experiment has three views, each one entity in two chunks (its legend, then its
 curves), the first tab's right after the layout, and the layout sets nothing the viewer
 does by itself (no y ranges, no time panel). Earlier versions wrote each curve as an entity
 of its own (``P/angle/CTC``); :func:`read_comparison` names its columns that way.
@@ -42,29 +50,23 @@ import rerun.blueprint as rrb
 
 from twolink.foundation.io import atomic_path
 from twolink.simulation.sim import Trajectory
-from twolink.simulation.vocabulary import split_by_scale
+from twolink.simulation.vocabulary import controller_styles, rgb, split_by_scale
 from twolink.tracing.files import _read_curves, recording_id
 from twolink.tracing.runs import REFERENCE_COLOR, _time_column, sample_indices
 
 if TYPE_CHECKING:
     import pandas as pd
 
-__all__ = ["COMPARISON_EVERY", "ExperimentRuns", "read_comparison", "write_comparison"]
+__all__ = [
+    "COMPARISON_EVERY",
+    "ExperimentRuns",
+    "order_experiments",
+    "pair_difference",
+    "read_comparison",
+    "write_comparison",
+]
 
 COMPARISON_EVERY = 20  # 50 Hz of the 1 kHz loop: smooth at any zoom a screen shows
-# Controller colours, as in the report's figures: the pair first (green, red, teal), then
-# the baselines.
-PALETTE = (
-    (44, 160, 44),
-    (214, 39, 40),
-    (23, 190, 207),
-    (31, 119, 180),
-    (148, 103, 189),
-    (140, 86, 75),
-    (227, 119, 194),
-    (127, 127, 127),
-    (188, 189, 34),
-)
 
 
 @dataclass(frozen=True)
@@ -124,6 +126,9 @@ def _plots(
         return _Plot(f"{e.prefix}/{leaf}", names, paint, values)
 
     errors = [e.runs[n].q_ref[:, j] - e.runs[n].q[:, j] for n in pair_like]
+    base = pair[1] if len(pair) > 1 else None
+    variants = [n for n in pair_like if base in e.runs and n != base]
+    diffs = [_difference(e.runs[n], e.runs[base], j) for n in variants]
     sub = "₁₂"[j]
     title = f"θ{sub} [rad]: {', '.join(pair_like)} and the baselines on their scale"
     if far:
@@ -132,7 +137,50 @@ def _plots(
         (plot("angle", close, [angles[n] for n in close], True), title),
         (plot("error", pair_like, errors, False), f"error θ{sub}d − θ{sub} [rad]"),
     ]
+    if variants:
+        largest = pair_difference(e, pair)
+        names = [f"{n} − {base}" for n in variants]
+        paint = [colours[n] for n in variants]
+        views.append((
+            _Plot(f"{e.prefix}/difference", names, paint, diffs),
+            f"difference θ{sub} [rad]: largest |{pair[0]} − {base}| {largest:.2g} rad",
+        ))  # fmt: skip
     return longest, views
+
+
+def _difference(a: Trajectory, b: Trajectory, j: int) -> np.ndarray:
+    """``a``'s angle less ``b``'s over the samples both have (NaN past the shorter)."""
+    n = min(len(a.t), len(b.t))
+    out = np.full(max(len(a.t), len(b.t)), np.nan)
+    out[:n] = a.q[:n, j] - b.q[:n, j]
+    return out
+
+
+def pair_difference(e: ExperimentRuns, pair: Sequence[str] = ("FCM-CTC", "CTC")) -> float:
+    """The largest ``|θ_pair[0] − θ_pair[1]|`` [rad] of the experiment's joint over the
+    samples both runs have (0 where either is missing; NaN samples skipped)."""
+    if len(pair) < 2 or not all(n in e.runs for n in pair[:2]):
+        return 0.0
+    d = np.abs(_difference(e.runs[pair[0]], e.runs[pair[1]], e.joint - 1))
+    return float(np.nanmax(d)) if np.isfinite(d).any() else 0.0
+
+
+def order_experiments(
+    experiments: Sequence[ExperimentRuns], pair: Sequence[str] = ("FCM-CTC", "CTC")
+) -> list[ExperimentRuns]:
+    """The tabs' order: the variants (a prefix's first part) by their largest pair
+    difference (:func:`pair_difference`), largest first; within a variant the experiment
+    where the pair differ most first, then the others as given. Ties keep the given
+    order, so experiments where the pair never differ stay as they came."""
+    groups: dict[str, list[ExperimentRuns]] = {}
+    for e in experiments:
+        groups.setdefault(e.prefix.split("/")[0], []).append(e)
+    size = {e.prefix: pair_difference(e, pair) for e in experiments}
+    out = []
+    for members in sorted(groups.values(), key=lambda g: -max(size[e.prefix] for e in g)):
+        top = max(members, key=lambda e: size[e.prefix])  # the first of the largest
+        out += [top, *(e for e in members if e is not top)]
+    return out
 
 
 def _grid(e: ExperimentRuns, longest: Trajectory, every: int) -> np.ndarray:
@@ -165,11 +213,13 @@ def write_comparison(
     every: int = COMPARISON_EVERY,
 ) -> Path:
     """Write the combined recording of ``experiments`` to ``path`` atomically (see the
-    module's docstring); ``pair`` names the proposed controller and its baseline."""
+    module's docstring; the tabs in :func:`order_experiments`' order, the first open);
+    ``pair`` names the proposed controller and its baseline."""
     if not experiments:
         raise ValueError("write_comparison needs at least one experiment")
+    experiments = order_experiments(experiments, pair)
     names = sorted({n for e in experiments for n in e.runs}, key=_pair_first(pair))
-    colours = {n: PALETTE[k % len(PALETTE)] for k, n in enumerate(names)}
+    colours = {n: rgb(c) for n, (c, _) in controller_styles(names).items()}
     ids = [(f"{e.prefix}/{n}", t, None, {}) for e in experiments for n, t in e.runs.items()]
     rec = rr.RecordingStream("twolink", recording_id=recording_id("twolink-comparison", ids))
     if not rec.is_enabled():

@@ -30,7 +30,9 @@ def _run_layout(prefix: str, title: str) -> rrb.Container:
     )
     log = [_path(prefix, "status")] + [_path(prefix, "phase", j, "fired_rule") for j in (j1, j2)]
     spaces = rrb.Vertical(
-        rrb.Spatial2DView(name="phase plane (e, ė)", origin=_path(prefix, "phase")),
+        rrb.Spatial2DView(
+            name="phase plane: e →, ė ↓ (units on its axes)", origin=_path(prefix, "phase")
+        ),
         rrb.Spatial3DView(name="arm", origin=_path(prefix, "arm")),
         rrb.TextLogView(name="status and fired rules", contents=log),
         row_shares=[3, 3, 2],  # room for the log of fired-rule changes

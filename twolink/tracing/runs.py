@@ -18,7 +18,16 @@ Entity paths of one run, under its prefix ``P`` (``j`` is 1 or 2)::
     P/phase/joint{j}/state   Points2D   (e_j, de_j) per sample, labelled with the fired rule
     P/phase/joint{j}/fired_rule  TextLog  the fired rule, at each change (if given)
     P/phase/centres          Points2D   static: FCM cluster centres (if given; per-joint
-                                        centres go to P/phase/joint{j}/centres)
+                                        centres go to P/phase/joint{j}/centres), each named
+                                        by its rule where the caller gives the names
+    P/phase/axes             LineStrips2D  static: the e and ė axes through the origin,
+                                        spanning every path and centre
+    P/phase/axes/names       Points2D   static: each axis's name and unit at its positive
+                                        end ("e [rad] →", "ė [rad/s] ↓": the viewer's y
+                                        axis points down)
+    P/phase/axes/scale       Points2D   static: with ``phase_scale``, the note "normalised:
+                                        ke = …/rad, kde = … s/rad", centred above the plane
+    P/phase/axes/ticks       Points2D   static: round values along both axes, labelled
     P/arm/base               Points3D   static: the shoulder
     P/arm/links              LineStrips3D  base -> elbow -> tip per sample
     P/arm/joints             Points3D   base, elbow, tip per sample
@@ -57,6 +66,8 @@ REFERENCE_COLOR = (140, 140, 140)
 MOTOR_COLOR = (44, 160, 44)
 CENTRE_COLOR = (214, 39, 40)
 ARM_COLOR = (60, 60, 60)
+AXIS_COLOR = (110, 110, 110)
+AXIS_TICKS = 5  # about this many labelled values per phase-plane axis
 
 _ID_NAMESPACE = uuid.UUID("5f0e2c8a-6d1b-4c39-9a57-2b7d3e1f4a60")
 
@@ -161,6 +172,71 @@ def _centre_points(
     if len(names) != len(sets[0][1]):
         raise ValueError(f"{len(names)} centre_labels for {len(sets[0][1])} centres")
     return [(path, pts, names) for path, pts in sets]
+
+
+def nice_ticks(lo: float, hi: float, count: int = AXIS_TICKS) -> np.ndarray:
+    """Round values (1, 2 or 5 times a power of ten apart) covering [lo, hi], about
+    ``count`` of them; [lo] alone for an empty or non-finite span."""
+    span = hi - lo
+    if not (np.isfinite(span) and span > 0):
+        return np.array([lo if np.isfinite(lo) else 0.0])
+    raw = span / (count + 1)
+    power = 10.0 ** np.floor(np.log10(raw))
+    step = next(m * power for m in (1, 2, 5, 10) if m * power >= raw * (1 - 1e-9))
+    first, last = np.ceil(lo / step), np.floor(hi / step)
+    return np.arange(first, last + 1) * step + 0.0  # + 0.0: no "-0"
+
+
+def _axis_names(phase_scale: tuple[float, float]) -> tuple[str, str, str | None]:
+    """The phase plane's axis names with their units, and for a normalised plane the
+    note that says how (drawn centred above the plane: the viewer centres a label on its
+    point, and its y axis points down)."""
+    ke, kde = phase_scale
+    if (ke, kde) == (1.0, 1.0):
+        return "e [rad] →", "ė [rad/s] ↓", None
+    note = f"normalised: ke = {ke:.3g}/rad, kde = {kde:.3g} s/rad"
+    return "ke·e →", "kde·ė ↓", note
+
+
+def _phase_axes(
+    prefix: str, planes: Sequence[np.ndarray], centres: Sequence[np.ndarray], names
+) -> list[tuple[str, Any]]:
+    """The static entities that draw the phase plane's axes: (path, archetype) pairs."""
+    pts = np.concatenate([np.asarray(p, dtype=float).reshape(-1, 2) for p in (*planes, *centres)])
+    pts = pts[np.isfinite(pts).all(axis=1)]
+    lo = np.minimum(pts.min(axis=0), 0.0) if len(pts) else np.array([-1.0, -1.0])
+    hi = np.maximum(pts.max(axis=0), 0.0) if len(pts) else np.array([1.0, 1.0])
+    pad = 0.08 * np.where(hi - lo > 0, hi - lo, 1.0)
+    lo, hi = lo - pad, hi + pad
+    axes = rr.LineStrips2D(
+        [[[lo[0], 0.0], [hi[0], 0.0]], [[0.0, lo[1]], [0.0, hi[1]]]],
+        colors=[AXIS_COLOR],
+        radii=rr.Radius.ui_points(0.75),
+    )
+    x_name, y_name, note = names
+    ends = rr.Points2D(
+        [[hi[0], 0.0], [0.0, hi[1]]],
+        labels=[x_name, y_name],
+        colors=[AXIS_COLOR],
+        radii=rr.Radius.ui_points(2.0),
+        show_labels=True,
+    )
+    tx = [t for t in nice_ticks(lo[0] + pad[0], hi[0] - pad[0]) if t != 0]
+    ty = [t for t in nice_ticks(lo[1] + pad[1], hi[1] - pad[1]) if t != 0]
+    ticks = rr.Points2D(
+        [[t, 0.0] for t in tx] + [[0.0, t] for t in ty],
+        labels=[f"{t:g}" for t in (*tx, *ty)],
+        colors=[AXIS_COLOR],
+        radii=rr.Radius.ui_points(2.5),
+        show_labels=True,
+    )
+    base = _path(prefix, "phase", "axes")
+    out = [(base, axes), (f"{base}/names", ends), (f"{base}/ticks", ticks)]
+    if note:
+        corner = rr.Points2D([[(lo[0] + hi[0]) / 2, lo[1]]], labels=[note], colors=[AXIS_COLOR],
+                             radii=rr.Radius.ui_points(1.0), show_labels=True)  # fmt: skip
+        out.append((f"{base}/scale", corner))
+    return out
 
 
 def _rules_per_joint(fired_rules: Sequence[Any] | None, n: int) -> list[list[str]] | None:
@@ -307,6 +383,12 @@ def log_run(
                     strict=True,
                 )
             rec.send_columns(state, indexes=times, columns=cols, strict=True)
+
+        planes = [np.stack([ke * e[:, j], kde * de[:, j]], axis=1) for j in range(2)]
+        for path, archetype in _phase_axes(
+            prefix, planes, [pts for _, pts, _ in centres_to_log], _axis_names((ke, kde))
+        ):
+            rec.log(path, archetype, static=True, strict=True)
 
         for path, pts, labels in centres_to_log:
             rec.log(
