@@ -718,3 +718,22 @@ def test_the_reproduction_names_each_centre_by_the_rule_the_design_kept(tmp_path
         fuzzy = sp.overrides["controller"].get("kind") in ("fcm_ctc", "fuzzy_pd")
         assert sp.centre_labels == (tuple(centre_rules(result)) if fuzzy else ())
         assert len(sp.centres) == (3 if fuzzy else 0)
+
+
+def test_the_compare_figure_and_the_sweep_figures_use_the_style_table():
+    """twolink compare's overlay and the sweep figures colour a controller as every other
+    figure does (they had their own: green and red for any pair, C0, C1, ...)."""
+    import matplotlib.pyplot as plt
+    from matplotlib.colors import to_rgb
+
+    from twolink.figures.plots import comparison_figure
+    from twolink.simulation.vocabulary import CONTROLLER_STYLES
+
+    t = np.linspace(0, 1, 11)
+    q = np.zeros((3, 11, 2))
+    fig = comparison_figure(t, q, q + 0.1, np.zeros((11, 2)), (1,), ("CTC-I", "PD-G"), "x")
+    medians = {ln.get_label().split(":")[0]: ln for ln in fig.axes[0].get_lines()}
+    for name in ("CTC-I", "PD-G"):
+        assert np.allclose(to_rgb(medians[name].get_color()), to_rgb(CONTROLLER_STYLES[name][0]))
+    assert medians["PD-G"].get_linestyle() == ":"
+    plt.close(fig)

@@ -304,22 +304,28 @@ def comparison_figure(
     window: float | None = None,
 ) -> Figure:
     """Two controllers on many plants (``twolink compare``): per moving joint, every
-    plant's θ under each (thin) with the median over plants (bold: B solid, A dashed on
-    top, so that equal medians both show) and the reference (black dashed); below, the
-    difference panel, θ_A − θ_B plant by plant with its median and the 5-95 % band: the
-    paired difference the table judges. The two upper panels show the first ``window``
-    seconds (the transient); the bottom one the difference over the whole run. ``qa``,
-    ``qb``: (plants, time, 2); ``reference``: (time, 2)."""
+    plant's θ under each (thin) with the median over plants (bold, each controller in its
+    colour and dash, :data:`~twolink.simulation.vocabulary.CONTROLLER_STYLES`; A on top,
+    dashed where the two would share a dash, so that equal medians both show) and the
+    reference (black dashed); below, the difference panel, θ_A − θ_B plant by plant with
+    its median and the 5-95 % band: the paired difference the table judges. The two
+    upper panels show the first ``window`` seconds (the transient); the bottom one the
+    difference over the whole run. ``qa``, ``qb``: (plants, time, 2); ``reference``:
+    (time, 2)."""
     a, b = names
     window = float(t[-1]) if window is None else min(window, float(t[-1]))
     fig, axes = plt.subplots(3, len(joints), figsize=(6.5 * len(joints), 8.0), squeeze=False,
                              height_ratios=(2, 1.2, 1), layout="constrained")  # fmt: skip
-    colours = {a: "tab:green", b: "tab:red"}
+    styles = controller_styles([a, b])  # each its own colour and dash, as everywhere
+    if styles[a][1] == styles[b][1]:  # A on top must not hide B's equal median
+        styles[a] = (styles[a][0], ":" if styles[b][1] == "--" else "--")
+    colours = {n: c for n, (c, _) in styles.items()}
     for col, j in enumerate(joints):
         ax, ax_d, ax_all = axes[:, col]
-        for name, q, style in ((b, qb, "-"), (a, qa, "--")):
+        for name, q in ((b, qb), (a, qa)):
+            style = styles[name][1]
             ax.plot(t, q[:, :, j - 1].T, color=colours[name], lw=0.5, alpha=0.15)
-            ax.plot(t, np.nanmedian(q[:, :, j - 1], axis=0), style, color=colours[name],
+            ax.plot(t, np.nanmedian(q[:, :, j - 1], axis=0), linestyle=style, color=colours[name],
                     lw=1.8, label=f"{name}: median of {len(q)} plants")  # fmt: skip
         ax.plot(t, reference[:, j - 1], "k:", lw=1.2, label="reference")
         ax.set_ylabel(f"θ{j} [rad]")

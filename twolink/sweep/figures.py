@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from twolink.simulation.vocabulary import metric
+from twolink.simulation.vocabulary import controller_styles, metric
 from twolink.sweep.results import SUMMARY_METRICS, rows_of, summarize, sweep_meta
 
 if TYPE_CHECKING:
@@ -39,7 +39,7 @@ def sweep_figures(results: pd.DataFrame) -> dict[str, Figure]:
     controllers = list(meta.controllers)
     grid = metric_grid(meta.joints)
     figs: dict[str, Figure] = {}
-    colours = {c: f"C{k}" for k, c in enumerate(controllers)}
+    colours = {c: colour for c, (colour, _) in controller_styles(controllers).items()}
 
     def column(name: str) -> np.ndarray:
         return results[name].to_numpy(float)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from twolink.simulation.vocabulary import metric
+from twolink.simulation.vocabulary import controller_styles, metric
 from twolink.sweep.figures import metric_grid, pyplot
 from twolink.sweep.results import SUMMARY_METRICS, load_results, met_spec, rows_of, sweep_meta
 
@@ -113,8 +113,9 @@ def flexible_study_figure(
     axes = all_axes.ravel()[: 1 + len(grid)]
     for ax in all_axes.ravel()[1 + len(grid) :]:
         ax.set_visible(False)
-    for n_c, c in enumerate(meta.controllers):
-        colour = f"C{n_c}"
+    styles = controller_styles(meta.controllers)  # each controller's colour, as everywhere
+    for c in meta.controllers:
+        colour = styles[c][0]
         rows, ok, met = rows_of(r, c), rows_of(r, c, ok_only=True), met_spec(r, c)
         masks = [_in_bin(k, lo, hi, b == len(ranges) - 1) for b, (lo, hi) in enumerate(ranges)]
         rate = [100 * (m & met).sum() / (m & rows).sum() if (m & rows).sum() else np.nan
