@@ -272,32 +272,32 @@ def _evaluate(engine: Any, e, de, xp: Any):
     return engine.evaluate_xp(e, de, xp)
 
 
-def on_namespace(law: Any, xp: Any) -> Any:
+def on_namespace(law: Any, xp: Any, dtype: Any = None) -> Any:
     """A copy of a batch law whose arithmetic runs on the array namespace ``xp`` (e.g.
     ``jax.numpy``): its arrays become ``xp`` arrays, its state starts afresh. Only the
     laws written for it (see the module's docstring) can be moved; any other raises
-    TypeError."""
+    TypeError. ``dtype``: the floating type of its arrays (default: float64)."""
     if not isinstance(law, (BatchComputedTorque, _SharedTerms)):
         raise TypeError(f"{type(law).__name__} runs on numpy only")
-    return _moved(law, xp)
+    return _moved(law, xp, dtype)
 
 
-def _moved(obj: Any, xp: Any) -> Any:
+def _moved(obj: Any, xp: Any, dtype: Any = None) -> Any:
     import copy
 
     if isinstance(obj, np.ndarray):
-        return xp.asarray(obj)
+        return xp.asarray(obj, dtype=dtype if dtype is not None and obj.dtype.kind == "f" else None)
     if isinstance(obj, (list, tuple)):
-        return type(obj)(_moved(x, xp) for x in obj)
+        return type(obj)(_moved(x, xp, dtype) for x in obj)
     if isinstance(obj, slice | int | float | bool | type(None)):
         return obj
     if isinstance(obj, _Models):
-        return _Models(*(xp.asarray(getattr(obj, f)) for f in "m1 m2 l1 l2 g".split()))
+        return _Models(*(xp.asarray(getattr(obj, f), dtype=dtype) for f in "m1 m2 l1 l2 g".split()))
     if isinstance(obj, (ReferenceTable, BatchComputedTorque, _SharedTerms)):
         new = copy.copy(obj)
         for name, value in vars(obj).items():
             if name not in ("engine", "index", "state"):
-                setattr(new, name, _moved(value, xp))
+                setattr(new, name, _moved(value, xp, dtype))
         new.xp = xp
         if hasattr(new, "initial"):
             new.state = new.initial()

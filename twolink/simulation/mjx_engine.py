@@ -47,7 +47,7 @@ from twolink.simulation.sim import (
     torque_message,
 )
 
-__all__ = ["PRECISIONS", "available", "simulate_batch_mjx"]
+__all__ = ["PRECISIONS", "available", "prepare_batch_mjx", "simulate_batch_mjx"]
 
 PRECISIONS = ("float64", "float32")
 
@@ -62,7 +62,7 @@ def available() -> bool:
     return True
 
 
-def _jax():
+def _jax(precision: str = "float64"):
     try:
         import jax
         from mujoco import mjx
@@ -70,7 +70,9 @@ def _jax():
         raise ValueError(
             f'the mjx backend needs MJX and JAX: pip install "twolink[mjx]" (missing: {exc.name})'
         ) from None
-    jax.config.update("jax_enable_x64", True)
+    # JAX's 64-bit mode is a global switch, read when a loop is traced: on for float64,
+    # off for float32 (MJX's own constants then follow in float32).
+    jax.config.update("jax_enable_x64", precision == "float64")
     return jax, jax.numpy, mjx
 
 
@@ -78,7 +80,16 @@ def _stack(trees: list[Any], jnp: Any, jax: Any) -> Any:
     return jax.tree_util.tree_map(lambda *x: jnp.stack(x), *trees)
 
 
-def simulate_batch_mjx(
+def simulate_batch_mjx(*args: Any, **kwargs: Any) -> BatchResult:
+    """:func:`twolink.simulation.batch.simulate_batch` on MJX, for rigid arms: arm i is
+    ``arms[i]`` (a MuJoCo model of its own, step ``timestep``) under ``controllers[i]``
+    for ``durations[i]`` s; the other arguments are simulate_batch's, and ``precision``.
+    The arguments of :func:`prepare_batch_mjx`."""
+    run, carry, finish = prepare_batch_mjx(*args, **kwargs)
+    return finish(run(carry))
+
+
+def prepare_batch_mjx(
     arms: Sequence[Arm],
     timestep: float,
     controllers: Sequence[Controller],
@@ -90,16 +101,16 @@ def simulate_batch_mjx(
     noise: Sequence[np.ndarray | None] | None = None,
     sensor: Sensor | None = None,
     precision: str = "float64",
-) -> BatchResult:
-    """:func:`twolink.simulation.batch.simulate_batch` on MJX, for rigid arms: arm i is
-    ``arms[i]`` (a MuJoCo model of its own, step ``timestep``) under ``controllers[i]``
-    for ``durations[i]`` s; the other arguments are simulate_batch's."""
+) -> tuple[Any, Any, Any]:
+    """The run of :func:`simulate_batch_mjx` before it starts: ``(run, carry, finish)``,
+    ``finish(run(carry))`` its BatchResult; ``run`` is compiled at its first call (the
+    benchmarks time the second)."""
     from twolink.controllers.batch import batch_laws, on_namespace
     from twolink.simulation.batch import _stack_noise
 
     if precision not in PRECISIONS:
         raise ValueError(f"precision must be one of {list(PRECISIONS)}, got {precision!r}")
-    jax, jnp, mjx = _jax()
+    jax, jnp, mjx = _jax(precision)
     n_arms = len(arms)
     if len(controllers) != n_arms or len(durations) != n_arms:
         raise ValueError(f"need one controller and one duration per arm ({n_arms})")
@@ -121,7 +132,7 @@ def simulate_batch_mjx(
     laws = []
     for idx, law in batch_laws(controllers, times):
         try:
-            laws.append((idx, on_namespace(law, jnp)))
+            laws.append((idx, on_namespace(law, jnp, dtype)))
         except TypeError as exc:
             raise ValueError(f"the mjx backend cannot run this controller: {exc}") from None
     reader = None
@@ -214,11 +225,21 @@ def simulate_batch_mjx(
         tuple(law.initial() for _, law in laws),
         rate_state0,
         jnp.ones(n_arms, bool),
-        jnp.zeros(n_arms, jnp.int64 if precision == "float64" else jnp.int32),
+        jnp.zeros(n_arms, jnp.int32),
         jnp.zeros(n_arms, jnp.int32),
     )
     run = jax.jit(lambda c: jax.lax.scan(body, c, jnp.arange(n_max + 1)))
-    (_, _, _, _, length, code), (rec_q, rec_qd, rec_tau) = run(carry0)
+
+    def finish(out: Any) -> BatchResult:
+        return _result(out, times, qmax, wmax, controllers)
+
+    return run, carry0, finish
+
+
+def _result(out: Any, times: np.ndarray, qmax: float, wmax: float, controllers: Any) -> BatchResult:
+    """The BatchResult of a finished scan: records on the host, statuses and messages."""
+    (_, _, _, _, length, code), (rec_q, rec_qd, rec_tau) = out
+    n_arms = len(controllers)
     rec_q, rec_qd, rec_tau = (np.asarray(x, dtype=float) for x in (rec_q, rec_qd, rec_tau))
     length, code = np.asarray(length), np.asarray(code)
     status, message = [STATUS_OK] * n_arms, [""] * n_arms
