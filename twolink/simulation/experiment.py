@@ -346,8 +346,9 @@ class RunMetrics:
     torque: Any
     status: str
     message: str
-    # |θ_target − θ(T)| per joint: against the target (the reference's final value), not
-    # the reference at T, so a run cut short is as far off as it is (|e(T)| for a sine)
+    # The mean |θ_target − θ| per joint over the settling window: against the target (the
+    # reference's final value), not the reference at T, so a run cut short is as far off as
+    # it is (|e| for a sine); a mean, not one sample, so a cycle is not read at one phase
     final_error: tuple[float, float] = (math.nan, math.nan)
     # Over the settling window (twolink.simulation.outcome.settling_window): the largest
     # |θ_target − θ| per joint, and the growth of the error (twolink.simulation.outcome.tail_growth)
@@ -470,8 +471,8 @@ def fuzzy_active_share(controller: Controller | None, traj: Trajectory) -> tuple
 
 
 def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:
-    """The final error, the settling window's largest error and its growth, per joint,
-    all against the target (twolink.simulation.outcome)."""
+    """The final error (the settling window's mean |error|), the window's largest error and
+    its growth, per joint, all against the target (twolink.simulation.outcome)."""
     from twolink.simulation.outcome import settling_window, tail_growth
 
     if not len(traj.t):
@@ -483,9 +484,10 @@ def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:
     tail = traj.t >= traj.t[-1] - window - 1e-12
     with np.errstate(invalid="ignore"):
         worst = np.abs(off[tail]).max(axis=0)
+        mean = np.abs(off[tail]).mean(axis=0)  # over the window, not one sample
     growth = tail_growth(traj.t, off, window)
     return {
-        "final_error": tuple(float(x) for x in np.abs(off[-1])),  # type: ignore[dict-item]
+        "final_error": tuple(float(x) for x in mean),  # type: ignore[dict-item]
         "tail_error": tuple(float(x) for x in worst),  # type: ignore[dict-item]
         "tail_growth": tuple(float(x) for x in growth),  # type: ignore[dict-item]
     }

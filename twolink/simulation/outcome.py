@@ -11,6 +11,11 @@ its error grows. A run's outcome is one of
 - ``"off target"``: it completed but misses the spec (sag, offset, overshoot, a growing
   or unstable loop, or a run that ends before its reference does: :func:`reasons` says
   which);
+- ``"undecided"``: it completed and meets every part of the spec that its record can
+  decide, but not whether its error grows: the settling window holds a turn of a swing
+  slower than the run shows (fewer than three turns), so neither an envelope nor a
+  monotone trend can be fitted (:func:`twolink.simulation.metrics.growth_rate`). Run
+  longer;
 - ``"diverged"``: the simulation left its bounds;
 - ``"error"``: building or running it raised (sweeps record these instead of stopping).
 
@@ -18,9 +23,12 @@ The settling window is the run's last ``max(0.5 s, 10 % of its duration)``
 (:func:`settling_window`). The default spec (``SuccessSpec()``): every joint within 2 % of
 the run's largest step of its target over the window (the band of the settling time; the
 held joint too, so a joint that swings away while the other moves is off target), tail
-growth at most ×1.25 (the largest error in the window's last third against the largest
-before it: a mode growing at σ ≥ 0.67 s⁻¹ over a 1 s window is caught; a decaying one, of
-any period, or one settled at an offset is not growth), and overshoot at most 20 %.
+growth at most ×1.25, and overshoot at most 20 %. The tail growth is ``e^(σ W)``, σ the
+growth rate of what persists over the window W (:func:`tail_growth`): of the envelope of
+an oscillation, or of a monotone trend (a sag toward its rest state decays, so it is no
+growth). So a run of duration T detects growth faster than
+``ln(1.25) / max(0.5 s, 0.1 T)`` (:func:`detectable_growth_rate`): 0.446 s⁻¹ for runs of
+5 s and less, 0.223 s⁻¹ at 10 s, 0.112 s⁻¹ at 20 s; slower growth is not seen.
 
 An unstable mode can still be too small to see at the end of a short run (CTC at ωn 4 on
 a realistic 2000 N·m/rad joint: +1.4 s⁻¹, yet 7e-4 rad and decaying at 3 s). So every
@@ -38,18 +46,23 @@ from typing import Any
 
 import numpy as np
 
+from twolink.simulation.metrics import GROWTH_FLOOR_RAD, growth_rate, settling_window
+
 __all__ = [
+    "GROWTH_FLOOR_RAD",
     "OUTCOMES",
     "SuccessSpec",
     "classify",
     "classify_run",
+    "detectable_growth_rate",
     "largest_step",
     "reasons",
     "reference_end",
     "settling_window",
+    "tail_growth",
 ]
 
-OUTCOMES = ("met spec", "off target", "diverged", "error")
+OUTCOMES = ("met spec", "off target", "undecided", "diverged", "error")
 
 
 @dataclass(frozen=True)
@@ -64,8 +77,9 @@ class SuccessSpec:
     max_overshoot_pct : float
         Largest overshoot of a moving joint, in percent of its step (``inf``: no bound).
     max_tail_growth : float
-        Largest growth of a joint's error over the settling window (the peak-to-peak
-        error of its last third over that of its first third).
+        Largest growth of a joint's error over the settling window, ``e^(σ W)``
+        (:func:`tail_growth`); it sets the smallest growth rate a run detects,
+        :func:`detectable_growth_rate`.
     """
 
     final_error: float = 0.02
@@ -81,17 +95,11 @@ class SuccessSpec:
             raise ValueError(f"max_tail_growth must be >= 1, got {self.max_tail_growth}")
 
 
-SETTLING_WINDOW_MIN_S = 0.5
-SETTLING_WINDOW_SHARE = 0.1
-# Below this peak-to-peak error [rad] a tail does not count as growing (numerical jitter;
-# a 17-bit encoder's count is 4.8e-5 rad).
-GROWTH_FLOOR_RAD = 1e-5
-
-
-def settling_window(duration: float) -> float:
-    """The settling window of a run of ``duration`` seconds: its last
-    ``max(0.5 s, 10 % of the run)``, capped at the run."""
-    return min(duration, max(SETTLING_WINDOW_MIN_S, SETTLING_WINDOW_SHARE * duration))
+def detectable_growth_rate(duration: float, spec: SuccessSpec = SuccessSpec()) -> float:
+    """The smallest growth rate σ [1/s] a run of ``duration`` seconds detects: its tail
+    growth ``e^(σ W)`` over its settling window W exceeds the spec's bound where
+    ``σ > ln(max_tail_growth) / W``."""
+    return math.log(spec.max_tail_growth) / settling_window(duration)
 
 
 def reference_end(reference: Any) -> float:
@@ -144,7 +152,8 @@ def classify(
         The runs' largest step [rad] (:func:`largest_step`).
     spec : SuccessSpec
     growth : array, shape (N, 2), optional
-        Tail growth of each joint (:func:`tail_growth`); NaN counts as growing.
+        Tail growth of each joint (:func:`tail_growth`); NaN (the record cannot tell) makes
+        a run that meets the rest of the spec "undecided".
     done : bool or array of bool, shape (N,)
         Whether the run's reference finished before its settling window (:func:`finished`).
     linear_growth : array, shape (N,), optional
@@ -165,10 +174,12 @@ def classify(
     with np.errstate(invalid="ignore"):
         on_target = np.all(tail_errors <= spec.final_error * step, axis=1)
         no_overshoot = np.all(~(overshoots > spec.max_overshoot_pct), axis=1)
-        steady = np.all(growth <= spec.max_tail_growth, axis=1)
+        growing = np.any(growth > spec.max_tail_growth, axis=1)
+        unknown = np.any(np.isnan(growth), axis=1) & ~growing
         if linear_growth is not None:
-            steady &= ~(np.asarray(linear_growth, dtype=float).reshape(-1) > 0)
-    met = np.where(done & on_target & no_overshoot & steady, "met spec", "off target")
+            growing |= np.asarray(linear_growth, dtype=float).reshape(-1) > 0
+    rest = done & on_target & no_overshoot & ~growing
+    met = np.where(rest, np.where(unknown, "undecided", "met spec"), "off target")
     failed = np.where(status == "error", "error", "diverged")
     return np.where(status == "ok", met, failed).astype(object)
 
@@ -221,10 +232,16 @@ def reasons(scenario: Any, metrics: Any, spec: SuccessSpec = SuccessSpec()) -> l
                 f"joint {j + 1} is up to {err:.3g} rad from its target over the last "
                 f"{window:g} s (band {band:.3g} rad)"
             )
-        if not grow <= spec.max_tail_growth:
+        if grow > spec.max_tail_growth:
             out.append(
-                f"joint {j + 1}'s error grows ×{grow:.3g} over the last {window:g} s "
-                f"(bound ×{spec.max_tail_growth:g}): not settled, maybe unstable"
+                f"joint {j + 1}'s error grows ×{grow:.3g} over the last {window:g} s, at "
+                f"{math.log(grow) / window:+.3g} s⁻¹ (bound ×{spec.max_tail_growth:g}: "
+                f"{detectable_growth_rate(scenario.duration, spec):.3g} s⁻¹): growing"
+            )
+        elif math.isnan(grow):
+            out.append(
+                f"joint {j + 1}: whether its error grows cannot be told from the last "
+                f"{window:g} s (a swing slower than the run shows): undecided, run longer"
             )
         if mp > spec.max_overshoot_pct:
             out.append(f"joint {j + 1} overshoots {mp:.3g} % (bound {spec.max_overshoot_pct:g} %)")
@@ -233,22 +250,14 @@ def reasons(scenario: Any, metrics: Any, spec: SuccessSpec = SuccessSpec()) -> l
 
 def tail_growth(t: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
     """Growth of each column of ``x`` (errors from the target, shape (N, k)) over the last
-    ``window`` s of ``t``: the largest ``|x|`` in the window's last third over the largest
-    in its first two thirds.
-
-    A decaying transient or oscillation gives <= 1 whatever its period (the earlier part
-    holds the larger swings), a steady offset or limit cycle about 1, a mode growing as
-    e^(σt) about e^(σ·window/3). 1.0 where the last third stays below
-    :data:`GROWTH_FLOOR_RAD` (settled at the target); NaN for fewer than 6 samples."""
-    x = np.abs(np.asarray(x, dtype=float))
+    ``window`` s of ``t``: ``e^(σ window)``, σ the growth rate of what persists there
+    (:func:`twolink.simulation.metrics.growth_rate`: an oscillation's envelope, or a
+    monotone trend). < 1 decaying (a sag toward rest too), ~1 settled (at the target, at
+    an offset, or in a steady limit cycle), > 1 growing; 1.0 where the error moves less
+    than :data:`GROWTH_FLOOR_RAD` over the window; NaN where the record cannot tell (a
+    swing slower than it shows) or has fewer than 6 samples in the window; inf where the
+    error is not finite."""
+    x = np.asarray(x, dtype=float)
     k = x.shape[1] if x.ndim == 2 else 1
-    x = x.reshape(len(t), k)
-    tail = t >= t[-1] - window - 1e-12 if len(t) else np.zeros(0, bool)
-    xt = x[tail]
-    if len(xt) < 6:
-        return np.full(k, np.nan)
-    split = len(xt) - len(xt) // 3
-    before, last = xt[:split].max(axis=0), xt[split:].max(axis=0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = np.where(last < GROWTH_FLOOR_RAD, 1.0, last / before)
-    return np.where(np.isnan(ratio), np.inf, ratio)
+    with np.errstate(over="ignore"):
+        return np.exp(growth_rate(t, x.reshape(len(t), k), window) * window)

@@ -8,8 +8,9 @@ A sweep over ``k`` and ``wn`` (``runs/sweeps/flexible_map.toml``) gives one run 
 - ``off target``: bounded, not settled (a slow or biased response);
 - ``unstable``: not settled, its loop linearised at the target unstable (σ > 0,
   :mod:`twolink.simulation.stability`), though the run may still end calm;
-- ``limit cycle``: not settled, with an oscillation larger than the 2 % band over the
-  run's last 30 % (a linearly unstable loop held bounded by the torque limit);
+- ``limit cycle``: not settled, with an oscillation larger than the 2 % band at the end
+  of the run (``oscillation_rad``; a linearly unstable loop held bounded by the torque
+  limit);
 - ``diverged``: the simulation left its bounds (or failed).
 
 :func:`flexible_map_table` says, per controller and bandwidth, the softest joint at which
