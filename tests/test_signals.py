@@ -12,19 +12,14 @@ import numpy as np
 import pytest
 
 from twolink.simulation.experiment import _tail
-from twolink.simulation.metrics import (
-    growth_rate,
-    oscillation_amplitude,
-    settling_window,
-    step_metrics,
-    tail_mean,
-)
+from twolink.simulation.metrics import oscillation_amplitude, step_metrics, tail_mean
 from twolink.simulation.outcome import (
     SuccessSpec,
     classify,
     detectable_growth_rate,
     tail_growth,
 )
+from twolink.simulation.swings import growth_rate, settling_window
 
 DT = 1e-3
 COUNT = 2 * math.pi / 2**17  # one count of a 17-bit encoder [rad]

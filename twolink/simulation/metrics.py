@@ -13,22 +13,24 @@ into something ``json.dump(..., allow_nan=False)`` accepts, for ``metrics.json``
 from __future__ import annotations
 
 import math
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, is_dataclass
 from typing import Any
 
 import numpy as np
 
+from twolink.simulation.swings import (
+    ending_swings,
+    envelope,
+    last,
+    settling_window,
+)
+
 __all__ = [
-    "ENDING_SWINGS",
-    "SWING_FLOOR",
     "ErrorMeasures",
     "StepMetrics",
     "TorqueMeasures",
     "error_measures",
-    "growth_rate",
-    "half_swings",
     "metrics_dict",
     "oscillation_amplitude",
     "settling_window",
@@ -37,24 +39,7 @@ __all__ = [
     "step_metrics_per_joint",
     "torque_measures",
     "to_jsonable",
-    "turning_points",
 ]
-
-# The settling window of a run: its last max(0.5 s, 10 %) (docs/metrics.md). The run's
-# outcome, ess, the final and the tail error are all read over it.
-SETTLING_WINDOW_MIN_S = 0.5
-SETTLING_WINDOW_SHARE = 0.1
-
-
-def settling_window(duration: float) -> float:
-    """The settling window of a run of ``duration`` seconds: its last
-    ``max(0.5 s, 10 % of the run)``, capped at the run."""
-    return min(duration, max(SETTLING_WINDOW_MIN_S, SETTLING_WINDOW_SHARE * duration))
-
-
-def _last(t: np.ndarray, window: float) -> np.ndarray:
-    """The samples of the last ``window`` seconds of ``t`` (a boolean mask)."""
-    return t >= t[-1] - window - 1e-12
 
 
 @dataclass(frozen=True)
@@ -205,8 +190,9 @@ def step_metrics(
       10 %, as python-control's ``step_info``), measured against the target (not the final
       value).
     - ess (steady-state error): the mean of ``|target - y|`` over the last ``ess_window``
-      seconds (default: the record's settling window, :func:`settling_window` of
-      ``t[-1] - t[0]``); ``ess_window=0`` reads the last sample alone.
+      seconds (default: the record's settling window of ``t[-1] - t[0]``,
+      :func:`twolink.simulation.swings.settling_window`); ``ess_window=0`` reads the last
+      sample alone.
 
     A metric the data do not determine is NaN, never an exception:
 
@@ -289,7 +275,7 @@ def step_metrics(
     overshoot = 100.0 * max(0.0, float(np.max((y - target) / step)))
     if ess_window is None:
         ess_window = settling_window(float(t[-1] - t[0]))
-    ess = float(np.mean(np.abs(target - y[_last(t, ess_window)])))
+    ess = float(np.mean(np.abs(target - y[last(t, ess_window)])))
 
     y_final = float(y[-1]) if final_value is None else _check_scalar("final_value", final_value)
     # Strict "<" inside the band, as python-control; Ts = the sample after the last one outside.
@@ -382,157 +368,27 @@ def error_measures(t: np.ndarray, e: np.ndarray) -> ErrorMeasures:
 
 
 OSCILLATION_WINDOW = 0.3  # the swings of the last 30 % of a run (and at least ENDING_SWINGS)
-# A turn of the error smaller than this is no swing: 1e-6 rad is 1/48 of a 17-bit
-# encoder's count (4.8e-5 rad), below what any sensor here resolves; a quantised loop's
-# micro-ripple lies under it, and an oscillation that has decayed below it has ended.
-SWING_FLOOR = 1e-6
-ENDING_SWINGS = 3  # the envelope is fitted to at least the run's last 3 (paired) swings
-FITTED_SWINGS = 6  # and to at most its last 6: three periods before the end
-# An oscillation has ended where its last turn lies further back than its last period
-# (its last three turns; twice its only half-period with two): a cycle still going would
-# have turned again (and a decaying one that stopped turning has died below SWING_FLOOR).
-# A full period, not a half: a relay's cycle rises fast and falls slowly.
-
-
-def turning_points(x: np.ndarray, floor: float = SWING_FLOOR) -> np.ndarray:
-    """Indices of the turning points of a 1-d signal, alternating maxima and minima:
-    ``scipy.signal.find_peaks`` of ``x`` and of ``-x`` with a prominence of at least
-    ``floor`` (a plateau's middle sample for a flat one, as a quantised signal has), and of
-    two maxima (minima) in a row the higher (lower)."""
-    from scipy.signal import find_peaks
-
-    x = np.asarray(x, dtype=float)
-    hi, _ = find_peaks(x, prominence=floor)
-    lo, _ = find_peaks(-x, prominence=floor)
-    idx = np.concatenate([hi, lo])
-    sign = np.concatenate([np.ones(hi.size), -np.ones(lo.size)])
-    order = np.argsort(idx, kind="stable")
-    kept: list[tuple[int, float]] = []
-    for i, k in zip(idx[order].tolist(), sign[order].tolist(), strict=True):
-        if kept and kept[-1][1] == k:  # two maxima (minima) in a row: the more extreme
-            if k * x[i] > k * x[kept[-1][0]]:
-                kept[-1] = (i, k)
-        else:
-            kept.append((i, k))
-    return _without_wiggles(x, np.array([i for i, _ in kept], dtype=int))
-
-
-# A wiggle: a swing that stays inside the swing around it (both its ends between the
-# points before and after it: the rainflow count's inner cycle) and is smaller than this
-# share of its larger neighbour: a ripple on a flank or a double peak (a relay's kick, a
-# sensor's chatter), not a swing of the oscillation. An oscillation's own swings, steady,
-# decaying or growing, each reach past the extremes around them, so none is inside.
-WIGGLE_SHARE = 0.25
-
-
-def _without_wiggles(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
-    """Alternating turning points ``idx`` of ``x`` with their wiggles removed (both ends
-    of each, which leaves the points around it alternating), smallest first, in one pass
-    over the swings as they are: a train of small swings on a drift (a cycle on a sag) is
-    the oscillation, not a wiggle of the drift, so a removal does not make its neighbour
-    one. The record's first and last samples bound the first and last swings."""
-    pts = np.array([0, *idx.tolist(), len(x) - 1])
-    if pts.size < 4:
-        return idx
-    v = x[pts]
-    h = np.abs(np.diff(v))  # h[k]: from pts[k] to pts[k + 1]
-    k = np.arange(1, pts.size - 2)  # swings between two real turning points
-    lo = np.minimum(v[k - 1], v[k + 2])
-    hi = np.maximum(v[k - 1], v[k + 2])
-    inner = (lo <= v[k]) & (v[k] <= hi) & (lo <= v[k + 1]) & (v[k + 1] <= hi)
-    small = h[k] < WIGGLE_SHARE * np.maximum(h[k - 1], h[k + 1])
-    found = k[inner & small]
-    taken: set[int] = set()
-    for j in found[np.argsort(h[found], kind="stable")].tolist():
-        if taken.isdisjoint((j - 1, j, j + 1, j + 2)):
-            taken.update((j, j + 1))
-    keep = np.array([i not in taken for i in range(1, pts.size - 1)], dtype=bool)
-    return idx[keep]
-
-
-def half_swings(
-    t: np.ndarray, x: np.ndarray, floor: float = SWING_FLOOR
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The half-swings of a 1-d signal: between consecutive turning points
-    (:func:`turning_points`), half the change, at the midpoint in time. Returns
-    ``(times, halves, turns)``, ``turns`` the turning points' times."""
-    idx = turning_points(x, floor)
-    turns = t[idx]
-    if idx.size < 2:
-        return np.empty(0), np.empty(0), turns
-    v = x[idx]
-    return 0.5 * (turns[1:] + turns[:-1]), 0.5 * np.abs(np.diff(v)), turns
-
-
-def _envelope(times: np.ndarray, halves: np.ndarray, at: float) -> tuple[float, float]:
-    """An exponential envelope ``a e^(s (t - at))`` fitted to half-swings (least squares,
-    ``scipy.optimize.curve_fit``, started from the log-linear fit): ``(a, s)``, its value
-    at ``at`` and its rate [1/s]. One half-swing gives itself and no rate (NaN)."""
-    if halves.size == 1:
-        return float(halves[0]), math.nan
-    from scipy.optimize import OptimizeWarning, curve_fit
-
-    dt = times - at
-    s0, loga = np.polyfit(dt, np.log(halves), 1)
-    a, s = math.exp(loga), float(s0)
-    try:
-        with np.errstate(over="ignore", invalid="ignore"), warnings.catch_warnings():
-            warnings.simplefilter("ignore", OptimizeWarning)  # an exact fit: no covariance
-            (a1, s1), _ = curve_fit(lambda u, a, s: a * np.exp(s * u), dt, halves, p0=(a, s))
-        if math.isfinite(a1) and math.isfinite(s1) and a1 > 0:
-            a, s = float(a1), float(s1)
-    except (RuntimeError, ValueError):  # no convergence: the log-linear fit stands
-        pass
-    return a, s
-
-
-def _ending_swings(
-    t: np.ndarray, x: np.ndarray, window: float
-) -> tuple[np.ndarray, np.ndarray] | None:
-    """The swings an oscillation at the end of the record is read from: the half-swings of
-    the last ``window`` seconds, and at least the record's last :data:`ENDING_SWINGS` + 1,
-    each consecutive two averaged (at least :data:`ENDING_SWINGS` of them, at most the last
-    :data:`FITTED_SWINGS`). None
-    where the record has no swing, or its oscillation has ended (its last turn more than
-    its last period before the end)."""
-    times, halves, turns = half_swings(t, x)
-    if not halves.size:
-        return None
-    period = turns[-1] - turns[-3] if turns.size >= 3 else 2.0 * (turns[-1] - turns[-2])
-    if t[-1] - turns[-1] > period:
-        return None
-    keep = times >= t[-1] - window
-    keep[-(ENDING_SWINGS + 1) :] = True
-    times, halves = times[keep], halves[keep]
-    if halves.size < 2:
-        return times, halves
-    # consecutive half-swings averaged: on a drift they alternate A ± the drift over a
-    # half-period, and the pair's mean is A (exact for a straight drift); the last
-    # FITTED_SWINGS of them: the envelope at the end is read where the end is
-    times, halves = 0.5 * (times[1:] + times[:-1]), 0.5 * (halves[1:] + halves[:-1])
-    return times[-FITTED_SWINGS:], halves[-FITTED_SWINGS:]
 
 
 def oscillation_amplitude(
     t: np.ndarray, e: np.ndarray, window: float = OSCILLATION_WINDOW
 ) -> float | tuple[float, ...]:
     """Amplitude of the oscillation that persists at the end of the run [rad]: an
-    exponential envelope fitted to the error's half-swings (half the change between
-    consecutive turning points, :func:`half_swings`), read at the run's last sample.
+    exponential envelope fitted to the error's swings (half the change between consecutive
+    turning points, paired; :mod:`twolink.simulation.swings`), read at the last sample.
 
-    The half-swings are those ending in the last ``window`` share of the run, and at least
-    the run's last :data:`ENDING_SWINGS` (3), so a cycle slower than the window is still
+    The swings are those ending in the last ``window`` share of the run, at least the
+    run's last three and at most its last six, so a cycle slower than the window is still
     seen (a 2.4 s cycle in a 4 s run: its window of 1.2 s holds half a period). A limit
     cycle reads its amplitude (half its peak-to-peak); a decaying transient reads what is
     left of it at the end (its envelope there, not where the window starts); a growing one
     its size at the end. A response that has stopped turning reads 0: settled (at its
     target or off it), or still drifting one way (a sag toward its rest state, a slow
     approach, a monotone runaway: no oscillation), or an oscillation that ended (its last
-    turn more than its last period before the end). A cycle whose period exceeds
-    about two thirds of the run (fewer than three turns) is not told from a drift: run
-    longer (the run's outcome is then "undecided" where its growth cannot be read,
-    :func:`growth_rate`). NaN for fewer than 3 samples in the window, or a non-finite
-    error.
+    turn more than its last period before the end). A cycle whose period exceeds about
+    two thirds of the run (fewer than three turns) is not told from a drift: run longer
+    (the run's outcome is "undecided" where its growth cannot be read). NaN for fewer than
+    3 samples in the window, or a non-finite error.
 
     Parameters
     ----------
@@ -547,13 +403,13 @@ def oscillation_amplitude(
     span = window * (t[-1] - t[0])
     columns = e.reshape(e.shape[0], -1)
     out = np.full(columns.shape[1], np.nan)
-    if _last(t, span).sum() >= 3:
+    if last(t, span).sum() >= 3:
         for j in range(columns.shape[1]):
             x = columns[:, j]
             if not np.all(np.isfinite(x)):
                 continue  # NaN, as the other measures give
-            ending = _ending_swings(t, x, span)
-            out[j] = 0.0 if ending is None else _envelope(*ending, at=float(t[-1]))[0]
+            ending = ending_swings(t, x, span)
+            out[j] = 0.0 if ending is None else envelope(*ending, at=float(t[-1]))[0]
     return _per_column(out if e.ndim > 1 else out[0])
 
 
@@ -562,84 +418,7 @@ def tail_mean(t: np.ndarray, e: np.ndarray, window: float) -> float | tuple[floa
     final error of a run over its settling window, not one sample."""
     e = _check_signal("e", e)
     t = _check_times(t, e.shape[0])
-    return _per_column(np.mean(np.abs(e[_last(t, window)]), axis=0))
-
-
-# Growth is judged of what persists above this at the end [rad]: 1 mrad, the claims'
-# practical tolerance for angles and 5 % of the 2 % band of a 1 rad move. A ripple of a
-# few encoder counts (a 17-bit count is 4.8e-5 rad), irregular at that scale, is no
-# instability; a loop with a linearisation has its growth decided there instead
-# (twolink.simulation.stability), however small its unstable mode still is.
-GROWTH_FLOOR_RAD = 1e-3
-MAX_RATE = 50.0  # 1/s: a fitted rate is capped at this (a run diverging faster is "diverged")
-
-
-def _trend_rate(tw: np.ndarray, w: np.ndarray) -> float:
-    """σ of a monotone window ``w`` (at times ``tw``, uniform), ``x = c + d e^(σ t)``: from
-    the means of its three equal thirds (the oldest samples beyond a multiple of 3 left
-    out), ``(m3 − m2)/(m2 − m1) = r = e^(σ h)``, h the thirds' length; 0 where the mode's
-    size at the end, ``|d| = |m3 − m2| / (I |1 − 1/r|)`` with I = (1 − 1/r)/ln r the mean
-    of ``e^(σ (t − T))`` over the last third, is below :data:`GROWTH_FLOOR_RAD`; NaN where
-    the thirds turn (r <= 0)."""
-    n = len(w) // 3
-    w, tw = w[len(w) - 3 * n :], tw[len(tw) - 3 * n :]
-    m1, m2, m3 = (float(np.mean(part)) for part in np.split(w, 3))
-    if m2 == m1:
-        return 0.0 if m3 == m2 else math.nan
-    r = (m3 - m2) / (m2 - m1)
-    if not r > 0:
-        return math.nan
-    u = math.log(r)  # σ h
-    if abs(u) < 1e-9:
-        return 0.0  # a straight drift
-    h = float(np.mean(tw[n : 2 * n]) - np.mean(tw[:n]))
-    mean_last = (1.0 - 1.0 / r) / u
-    size = abs((m3 - m2) / (mean_last * (1.0 - 1.0 / r)))
-    return u / h if size >= GROWTH_FLOOR_RAD else 0.0
-
-
-def growth_rate(t: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
-    """The growth rate σ [1/s] of what persists over the last ``window`` seconds of each
-    column of ``x`` (errors from the target, shape (N,) or (N, k)); ``e^(σ window)`` is
-    its growth over the window (:func:`twolink.simulation.outcome.tail_growth`).
-
-    - Settled (the error moves less than :data:`GROWTH_FLOOR_RAD` over the window): 0.
-    - Oscillating (:func:`oscillation_amplitude`'s swings reach the end): the rate of the
-      exponential envelope fitted to the half-swings of the window (and at least the last
-      three): > 0 a growing oscillation, ~0 a limit cycle, < 0 a decaying one; 0 for a
-      ripple whose envelope at the end is below :data:`GROWTH_FLOOR_RAD`.
-    - Else monotone: the window's three thirds' means m1, m2, m3 of ``x = c + d e^(σt)``
-      make a geometric progression, ``(m3 − m2)/(m2 − m1) = e^(σ window / 3)`` (exact for
-      an exponential with an offset): σ > 0 a runaway, σ < 0 a sag toward its rest state
-      (its error from the target grows, but less and less: it is settling, not growing),
-      0 for a straight drift, and for a mode whose size at the end ``|d|`` is below
-      :data:`GROWTH_FLOOR_RAD`. Where the thirds turn (the ratio is not positive: a swing
-      slower than the window, no exponential), or an oscillation shows one swing only:
-      NaN, the run too short to tell.
-
-    Capped at ±:data:`MAX_RATE`; inf where ``x`` is not finite (a run that blew up); NaN
-    for fewer than 6 samples in the window.
-    """
-    x = np.asarray(x, dtype=float)
-    columns = x.reshape(len(t), -1)
-    out = np.full(columns.shape[1], np.nan)
-    tail = _last(t, window) if len(t) else np.zeros(0, bool)
-    if tail.sum() < 6:
-        return out
-    for j in range(columns.shape[1]):
-        col = columns[:, j]
-        w = col[tail]
-        if not np.all(np.isfinite(w)):
-            out[j] = math.inf
-        elif np.ptp(w) < GROWTH_FLOOR_RAD:
-            out[j] = 0.0
-        elif (ending := _ending_swings(t, col, window)) is not None:
-            size, rate = _envelope(*ending, at=float(t[-1]))
-            # a ripple is not judged; one swing alone gives no rate (NaN: cannot tell)
-            out[j] = rate if size >= GROWTH_FLOOR_RAD else 0.0
-        else:
-            out[j] = _trend_rate(t[tail], w)
-    return np.where(np.isinf(out), out, np.clip(out, -MAX_RATE, MAX_RATE))
+    return _per_column(np.mean(np.abs(e[last(t, window)]), axis=0))
 
 
 def torque_measures(tau: np.ndarray) -> TorqueMeasures:

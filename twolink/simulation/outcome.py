@@ -14,7 +14,7 @@ its error grows. A run's outcome is one of
 - ``"undecided"``: it completed and meets every part of the spec that its record can
   decide, but not whether its error grows: the settling window holds a turn of a swing
   slower than the run shows (fewer than three turns), so neither an envelope nor a
-  monotone trend can be fitted (:func:`twolink.simulation.metrics.growth_rate`). Run
+  monotone trend can be fitted (:func:`twolink.simulation.swings.growth_rate`). Run
   longer;
 - ``"diverged"``: the simulation left its bounds;
 - ``"error"``: building or running it raised (sweeps record these instead of stopping).
@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from twolink.simulation.metrics import GROWTH_FLOOR_RAD, growth_rate, settling_window
+from twolink.simulation.swings import GROWTH_FLOOR_RAD, growth_rate, settling_window
 
 __all__ = [
     "GROWTH_FLOOR_RAD",
@@ -251,7 +251,7 @@ def reasons(scenario: Any, metrics: Any, spec: SuccessSpec = SuccessSpec()) -> l
 def tail_growth(t: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
     """Growth of each column of ``x`` (errors from the target, shape (N, k)) over the last
     ``window`` s of ``t``: ``e^(σ window)``, σ the growth rate of what persists there
-    (:func:`twolink.simulation.metrics.growth_rate`: an oscillation's envelope, or a
+    (:func:`twolink.simulation.swings.growth_rate`: an oscillation's envelope, or a
     monotone trend). < 1 decaying (a sag toward rest too), ~1 settled (at the target, at
     an offset, or in a steady limit cycle), > 1 growing; 1.0 where the error moves less
     than :data:`GROWTH_FLOOR_RAD` over the window; NaN where the record cannot tell (a
