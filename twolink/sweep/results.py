@@ -198,6 +198,7 @@ def format_summary(summary: Mapping[str, Any]) -> str:
         lines.append(
             f"{c}: {s['met_spec']}/{s['runs']} met the spec ({100 * s['success_rate']:.1f} %), "
             f"{s['off_target']} off target, {s['diverged']} diverged, {s['error']} errors"
+            + (f", {s['undecided']} undecided (run longer)" if s.get("undecided") else "")
         )
         for metric, st in s["metrics"].items():
             mean, median, p95 = (format_value(st[k], 4) for k in ("mean", "median", "p95"))
