@@ -505,3 +505,17 @@ def test_inputs_are_not_clipped_to_their_ranges_as_in_the_toolbox():
     assert np.all(np.abs(got - clipped) > 1e-3)  # the gaussians are read where x is
     with pytest.raises(ValueError, match="tipper.fis: inputs contain NaN"):
         fis.evaluate([[np.nan, 1.0]])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", FILES)
+def test_every_file_on_its_whole_grid(name):
+    """As the test above on every point of an 8 x 8 grid (4 x 4 x 4 for three inputs)."""
+    fis = read_fis(DATA / name)
+    x = grid(fis, 8 if len(fis.inputs) < 3 else 4)
+    exact, sampled = fis.evaluate(x), fis.evaluate(x, sampled=True)
+    maxlike = fis.defuzz_method in ("mom", "som", "lom")
+    for row, e, s in zip(x, exact, sampled, strict=True):
+        assert np.max(np.abs(s - sampled_ref(fis, row))) < TOL
+        want = closed_form_max(fis, row) if maxlike else Ref(fis).exact(row)
+        assert np.max(np.abs(e - want)) < TOL, (row, e, want)

@@ -10,7 +10,8 @@ for the file) and, per input, the points where a clipped consequent meets its cl
 and around each curved function's centre points spaced by its own scale (sigma, 1/a,
 ...) out to 40 scales; then, per input, finds every kink by a sign change between 4
 sub-samples of a mesh cell (the clip level against the consequent, the largest rule
-against the next) and bisects it to the last bit. On each piece between kinks mu is a
+against the next) and bisects it to the last bit; where a third rule is on top at a change
+so found, the stretch is split there and solved again. On each piece between kinks mu is a
 polynomial (trimf, trapmf, smf, zmf, pimf under min / prod, max / sum, and probor of up
 to 31 rules) or smooth, and 16-point Gauss-Legendre integrates it: exactly (to rounding)
 for the polynomials, and to about 1e-13 for the curved functions on pieces no wider than
@@ -43,6 +44,7 @@ _SCALES = np.array(
 _SUB = 4  # sub-samples per mesh cell for finding kinks
 _CHUNK = 32  # inputs per vectorised block
 _BISECT = 64
+_ROUNDS = 8  # splits of a sub-sample cell where the largest rule changes more than once
 _GOLDEN = 100
 
 
@@ -181,8 +183,45 @@ def _kinks(fis, m, sub: np.ndarray, w: np.ndarray, cons: np.ndarray) -> list[np.
         return [np.empty(0) for _ in range(n)]
     i, a, b = np.concatenate(rows), np.concatenate(lo), np.concatenate(hi)
     ra, rb, clip = np.concatenate(r1), np.concatenate(r2), np.concatenate(clip)
-    if not i.size:
+    pos = np.full(len(cons), -1)
+    pos[rule_f] = np.arange(rule_f.size)
+    roots = []
+    for _ in range(_ROUNDS):
+        if not i.size:
+            break
+        root = _solve(fis, table, pick, w, i, a, b, ra, rb, clip)
+        roots.append((i, root))
+        # a third rule on top at a change found between two sub-samples: the largest
+        # rule changed more than once there; split at the root and solve both sides
+        sw = ~clip
+        t = table(root[sw])
+        iw = i[sw]
+        fl = np.where(rule_not[rule_f, None], 1.0 - t[rule_mf[rule_f]], t[rule_mf[rule_f]])
+        g = _imp(fis.imp_method, w[iw][:, live].T, fl)  # (R', N)
+        cols = np.arange(iw.size)
+        best = g.argmax(axis=0)
+        ends = np.maximum(g[pos[ra[sw]], cols], g[pos[rb[sw]], cols])
+        more = g[best, cols] > ends * (1 + 1e-12)
+        k = np.nonzero(more)[0]
+        mid, top = root[sw][k], rule_f[best[k]]
+        i = np.concatenate([iw[k], iw[k]])
+        a = np.concatenate([a[sw][k], mid])
+        b = np.concatenate([mid, b[sw][k]])
+        ra = np.concatenate([ra[sw][k], top])
+        rb = np.concatenate([top, rb[sw][k]])
+        clip = np.zeros(i.size, bool)
+    if not roots:
         return [np.empty(0) for _ in range(n)]
+    i = np.concatenate([r[0] for r in roots])
+    root = np.concatenate([r[1] for r in roots])
+    order = np.argsort(i, kind="stable")
+    split = np.searchsorted(i[order], np.arange(n + 1))
+    return [root[order[split[k] : split[k + 1]]] for k in range(n)]
+
+
+def _solve(fis, table, pick, w, i, a, b, ra, rb, clip) -> np.ndarray:
+    """Bisect every problem to adjacent floats: a clip crossing F_ra = w_ra (``clip``)
+    or a change of the largest rule g_ra = g_rb, between ``a`` and ``b``."""
     w1, w2 = w[i, ra], w[i, rb]
 
     def h(y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -198,10 +237,7 @@ def _kinks(fis, m, sub: np.ndarray, w: np.ndarray, cons: np.ndarray) -> list[np.
         a = np.where(same, mid, a)
         b = np.where(same, b, mid)
     # a clip crossing: the end inside the clipped part, where mu equals the level exactly
-    root = np.where(clip & (h(a)[1] < w1), b, a)
-    order = np.argsort(i, kind="stable")
-    split = np.searchsorted(i[order], np.arange(n + 1))
-    return [root[order[split[k] : split[k + 1]]] for k in range(n)]
+    return np.where(clip & (h(a)[1] < w1), b, a)
 
 
 def _pieces(fis, m: int, w: np.ndarray, cons: np.ndarray) -> np.ndarray:
