@@ -127,3 +127,31 @@ def test_twolinks_own_export_keeps_the_project_engine_and_agrees_with_the_exact_
         measured[rb] = np.abs(exact - ours)[both].max()
     assert measured["paper"] < 1e-13
     assert 5e-3 < measured["designed"] < 2e-2
+
+
+def test_coverage_of_a_matlab_fis(tmp_path):
+    from click.testing import CliRunner
+
+    from twolink.interface.cli import main
+
+    gap = tmp_path / "gap.fis"
+    gap.write_text(
+        "[System]\nType='mamdani'\nNumInputs=2\nNumOutputs=1\n"
+        "[Input1]\nName='e'\nRange=[-5 5]\nNumMFs=2\n"
+        "MF1='N':'trimf',[-5 -3 -1]\nMF2='P':'trimf',[1 3 5]\n"
+        "[Input2]\nName='de'\nRange=[-5 5]\nNumMFs=1\nMF1='any':'trapmf',[-6 -5 5 6]\n"
+        "[Output1]\nName='u'\nRange=[-1 1]\nNumMFs=2\n"
+        "MF1='N':'trimf',[-1 -0.5 0]\nMF2='P':'trimf',[0 0.5 1]\n"
+        "[Rules]\n1 1, 1 (1) : 1\n2 1, 2 (1) : 1\n"
+    )
+    result = CliRunner().invoke(main, ["coverage", str(gap), "--grid", "101"])
+    assert result.exit_code == 1, result.output
+    # e in [-1, 1] of [-5, 5] fires nothing, and the ends e = ±5 (a triangle's foot):
+    # 21 + 2 of 101 grid columns
+    assert "no rule fires (total firing <= 0) on 22.77 % of the input box" in result.output
+    assert "jumps are not listed" in result.output
+    result = CliRunner().invoke(main, ["coverage", str(DATA / "mam21.fis")])
+    assert result.exit_code == 0 and " 0.00 % of the input box" in result.output
+    result = CliRunner().invoke(main, ["coverage", str(DATA / "mam22.fis")])
+    assert result.exit_code == 2
+    assert result.output.count("mam22.fis") == 1 and "2 outputs" in result.output

@@ -487,10 +487,22 @@ def read_fis(path: str | Path) -> Fis:
 # ----------------------------------------------------------------------------- the fuzzy term
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Universe:
-    universe: tuple[float, float]
+    """A normalised variable's ends and labels, as much of a
+    :class:`~controllers.fuzzy.membership.FuzzyVariable` as the table and coverage read
+    (no sampled table: it is not the project's triangular partition)."""
+
+    universe: np.ndarray  # (low, high)
     labels: tuple[str, ...]
+
+    @property
+    def grid(self) -> np.ndarray:
+        return self.universe
+
+    @property
+    def table(self) -> np.ndarray:
+        return np.empty((0, 2))
 
 
 @dataclass(frozen=True, eq=False)
@@ -525,9 +537,9 @@ class FisTerm:
         object.__setattr__(self, "_scale", tuple(scale))
         for name, var, s in zip(("e", "de", "u"), (*f.inputs, *f.outputs), scale, strict=True):
             lo, hi = var.range
-            object.__setattr__(
-                self, name, _Universe((lo / s, hi / s), tuple(mf.label for mf in var.mfs))
-            )
+            ends = np.array([lo / s, hi / s])
+            ends.setflags(write=False)
+            object.__setattr__(self, name, _Universe(ends, tuple(mf.label for mf in var.mfs)))
 
     @property
     def scaling(self) -> tuple[float, float, float]:
