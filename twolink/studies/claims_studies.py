@@ -15,6 +15,7 @@ import numpy as np
 
 from twolink.simulation.config import Scenario, read_toml
 from twolink.simulation.vocabulary import metric
+from twolink.studies.conclusions import ClaimsStudy
 from twolink.studies.manifest import Manifest
 from twolink.studies.matching import MATCHED, Matched, match_peak_torque
 
@@ -58,8 +59,8 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
     """The claims study on ``pool``: as its file says, and again in each regime of a
     ``raw_steps`` variant (the paper's own references, the variant's gains), each with the
     fair linear opponent beside the baseline (:mod:`twolink.studies.matching`). Returns the
-    report's sections and, per study and opponent, (label, claims table, plants that met
-    the spec, plants, opponent) for its conclusions."""
+    report's sections and, per study, its tables for the conclusions
+    (:class:`twolink.studies.conclusions.ClaimsStudy`)."""
     sections: list[str] = []
     tables = []
     for variant in (None, *(v for v in manifest.variants if v.raw_steps)):
@@ -128,15 +129,21 @@ def _claims_study(
     sensor = plan.nominal_scenario().sensor.describe()
     met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
     met.setdefault(MATCHED, met[manifest.baseline])  # the baseline as its own match
-    # Who wins on what: every controller of the sweep against the baseline, one pass.
-    others = [name for name in plan.controller_names if name != manifest.baseline]
+    # Who wins on what: every controller of the sweep against the baseline, and the
+    # controller with integral action against the proposed one and the opponents: one pass.
+    base, proposed = manifest.baseline, manifest.proposed
+    distinct = matched.scale != 1.0  # else the matched opponent is the baseline itself
+    integral = next((n for n, over in plan.controllers if over.get("kind") == "ctc_integral"), None)
+    pairs = [(name, base) for name in plan.controller_names if name != base]
+    pairs += [(proposed, MATCHED)] if distinct else []
+    if integral is not None:
+        pairs += [(integral, proposed)] + ([(integral, MATCHED)] if distinct else [])
     every = paired_claims_many(
-        outcome.results, [(name, manifest.baseline) for name in others],
-        report.WINNER_METRICS, plan.joints, reference_values=refs,
-    )  # fmt: skip
+        outcome.results, pairs, report.WINNER_METRICS, plan.joints, reference_values=refs
+    )
     versus = {
         name: t.drop(columns=["proposed", "opponent"]).reset_index(drop=True)
-        for name, t in every.groupby("proposed", sort=False)
+        for name, t in every[every["opponent"] == base].groupby("proposed", sort=False)
     }
     atomic_write_text(out / f"claims_all{suffix}.csv", every.to_csv(index=False))
     sections = report.winners_section(versus, manifest.baseline, met, plan.samples, regime) + (
@@ -147,10 +154,18 @@ def _claims_study(
         fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {MATCHED}", sensor
     )
     label = regime or "the claims study's quintic moves"
-    return sections, [
-        (label, table, met, plan.samples, manifest.baseline),
-        (label, fair, met, plan.samples, MATCHED),
-    ]
+    study = ClaimsStudy(
+        label=label,
+        plants=plan.samples,
+        met=met,
+        proposed=proposed,
+        baseline=base,
+        claims={base: table, MATCHED: fair},
+        same_as={} if distinct else {MATCHED: base},
+        every=every,
+        integral=integral,
+    )
+    return sections, [study]
 
 
 def matched_section(matched: Matched, manifest: Manifest) -> list[str]:

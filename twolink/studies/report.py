@@ -469,49 +469,31 @@ def _pct(x: float) -> str:
 
 
 def conclusions(rows, manifest: Manifest, studies: Sequence[Any] = ()) -> list[str]:
-    """The report's first section: at most ~15 lines, from the same numbers as the tables
-    below (each claims study's table: (label, table, met, plants), :func:`claims`'
-    counts, the runs' outcomes)."""
+    """The report's first section: at most 8 sentences
+    (:mod:`twolink.studies.conclusions`), from the same numbers as the tables below: per
+    plant variant the paper's experiments (:func:`claims`' counts, the runs' outcomes and
+    linear growth), then each claims study's tables
+    (:class:`twolink.studies.conclusions.ClaimsStudy`)."""
+    from twolink.studies.conclusions import sentences, variant_sentence
+
     p, b = manifest.proposed, manifest.baseline
-    out = ["", "## Conclusions", ""]
-    for label, table, met, plants, opponent in studies:
-        by = {}
-        for r in table.itertuples():
-            by.setdefault(r.verdict, []).append(f"θ{r.joint} {metric(r.metric).symbol}")
-        said = "; ".join(f"**{v}** on {', '.join(by[v])}" for v in VERDICT_ORDER if v in by)
-        out.append(
-            f"- **The paper's claim ({p} lowers Tp, Td, Ts, Tr, Mp, ess against {opponent}) "
-            f"on {plants} plants, {label}:** {said}. {p} met the spec on {met.get(p, 0)}, "
-            f"{opponent} on {met.get(opponent, 0)} of {plants}."
-        )
+    lines = []
     for variant in manifest.variants:
-        c = claims(rows, manifest, variant.name)
-        counts = ", ".join(
-            f"{metric(k).symbol} {ob}/{ow} of {on}" for k, (ob, ow, on, *_) in c.items()
-        )
-        met_runs = {
-            name: sum(
-                _lookup(rows, variant.name, e, name)["outcome"] == "met spec"
-                for e in manifest.experiments
-            )
+        runs = {
+            name: [_lookup(rows, variant.name, e, name) for e in manifest.experiments]
             for name in (p, b)
         }
-        unstable = sum(
-            (_lookup(rows, variant.name, e, b).get("linear_growth_1_s") or 0.0) > 0
-            for e in manifest.experiments
+        met = {name: sum(r["outcome"] == "met spec" for r in runs[name]) for name in runs}
+        unstable: dict[str, int | None] = {}
+        for name, mine in runs.items():
+            growth = [r.get("linear_growth_1_s") for r in mine]
+            growth = [g for g in growth if g is not None and g == g]  # NaN: not linearised
+            unstable[name] = sum(g > 0 for g in growth) if growth else None
+        counts = claims(rows, manifest, variant.name)
+        lines.append(
+            variant_sentence(variant.title, len(manifest.experiments), counts, met, unstable, p, b)
         )
-        why = (
-            f" ({b}'s loop, linearised at the target, is unstable in {unstable} of them: "
-            "the gains are too high for these joints)"
-            if unstable
-            else ""
-        )
-        out.append(
-            f"- **{variant.title[0].upper()}{variant.title[1:]}, the paper's "
-            f"{len(manifest.experiments)} experiments:** {p} lower/higher than {b} beyond "
-            f"tolerance: {counts}. Met the spec: {p} {met_runs[p]}, {b} {met_runs[b]}{why}."
-        )
-    return out
+    return ["", "## Conclusions", "", *(f"- {s}" for s in sentences(lines, studies))]
 
 
 VERDICT_ORDER = (

@@ -1,0 +1,265 @@
+"""The report's conclusions in sentences (issue 37): at most :data:`MOST` sentences a
+control engineer reads in a minute, each with its magnitude and its count, written from
+the tables and nothing else:
+
+- per plant variant, the paper's own experiments: whether the proposed controller equals
+  the baseline (no metric beyond its tolerance), how often it is lower or higher, how many
+  met the spec, and for whom the loop linearised at the target is unstable;
+- per claims study (its regime), the paper's claim against each distinct opponent of the
+  study (an opponent that is another by construction, as CTC-matched is CTC on smooth
+  moves, is said once, with the alias), with every verdict's estimate and the shares
+  shown;
+- where the proposed controller makes a limit cycle its baseline does not, and on how
+  many plants;
+- whether the controller with integral action beats the proposed controller and every
+  opponent.
+
+The opponents are whatever the study names (:class:`ClaimsStudy`), so the sentences keep
+working when a stronger linear opponent replaces CTC-matched.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import pandas as pd
+
+__all__ = ["MOST", "ClaimsStudy", "limit_cycle_sentence", "study_sentence", "variant_sentence"]
+
+MOST = 8  # sentences
+
+
+@dataclasses.dataclass(frozen=True)
+class ClaimsStudy:
+    """One claims study's tables, as the report shows them.
+
+    Attributes
+    ----------
+    label : str
+        Its regime in words ("quintic moves", "the paper's raw steps at ωn = 3 rad/s").
+    plants : int
+    met : mapping
+        Controller -> plants on which it met the spec.
+    proposed, baseline : str
+    claims : mapping
+        Opponent -> the paper's claim judged against it (``paired_claims``), in order; an
+        opponent in ``same_as`` is not judged again.
+    same_as : mapping
+        Opponent -> the opponent it is on these plants (CTC-matched -> CTC on smooth moves).
+    every : DataFrame
+        ``paired_claims_many`` rows of every pair the report compares on its winner
+        metrics (each other controller against the baseline, the integral one against
+        the proposed and the opponents).
+    integral : str or None
+        The controller with integral action, if the study runs one.
+    """
+
+    label: str
+    plants: int
+    met: Mapping[str, int]
+    proposed: str
+    baseline: str
+    claims: Mapping[str, pd.DataFrame]
+    same_as: Mapping[str, str]
+    every: pd.DataFrame
+    integral: str | None = None
+
+
+def _name(r: Any) -> str:
+    from twolink.simulation.vocabulary import metric
+
+    return f"θ{r.joint} {metric(r.metric).symbol}"
+
+
+def _signed(key: str, value: float) -> str:
+    from twolink.studies.claims_words import amount
+
+    return ("+" if value > 0 else "") + amount(key, value)
+
+
+def _rows(table: pd.DataFrame, verdict: str) -> list[Any]:
+    return [r for r in table.itertuples() if r.verdict == verdict]
+
+
+def _shares(rows: Sequence[Any]) -> list[str]:
+    """The shares shown where the typical plant says nothing: 'worse by more than 10 ms
+    on 35 of 200 in θ2 Tr'."""
+    from twolink.studies.claims_words import amount
+
+    out = []
+    for r in rows:
+        for side in ("better", "worse"):
+            if getattr(r, f"share_{side}_shown"):
+                k = getattr(r, side) + getattr(r, f"unreached_{side}")
+                tol = amount(r.metric, r.tolerance)
+                out.append(f"{side} by more than {tol} on {k} of {r.plants} in {_name(r)}")
+    return out
+
+
+def describe(table: pd.DataFrame) -> str:
+    """A claims table in one clause: the verdicts with their estimates, the rest counted,
+    the shares shown beside an equivalent or inconclusive typical plant."""
+    parts = []
+    for verdict in ("better", "worse"):
+        rows = _rows(table, verdict)
+        if rows:
+            named = ", ".join(f"{_name(r)} ({_signed(r.metric, r.estimate)})" for r in rows)
+            parts.append(f"{verdict} on {named}")
+    for verdict in ("equivalent", "inconclusive"):
+        rows = _rows(table, verdict)
+        if rows:
+            shares = _shares(rows)
+            more = f", but {'; '.join(shares)}" if shares else ""
+            parts.append(f"{verdict} on {len(rows)}{more}")
+    by_reference = len(_rows(table, "set by the reference"))
+    if by_reference:
+        parts.append(f"{by_reference} set by the reference")
+    return "; ".join(parts) or "nothing judged"
+
+
+def study_sentence(study: ClaimsStudy) -> str:
+    """The paper's claim on a study's plants, against each distinct opponent."""
+    p = study.proposed
+    clauses = []
+    for opponent, table in study.claims.items():
+        if opponent in study.same_as:
+            continue
+        alias = [a for a, b in study.same_as.items() if b == opponent]
+        also = f" (= {', '.join(alias)} here)" if alias else ""
+        clauses.append(
+            f"against {opponent}{also}, met the spec {study.met.get(p, 0)} to "
+            f"{study.met.get(opponent, 0)}: {describe(table)}"
+        )
+    return (
+        f"**The paper's claim on {study.plants} plants, {study.label}** ({p} lowers Tp, Td, "
+        "Ts, Tr, Mp, ess; typical-plant shift in brackets): " + "; ".join(clauses) + "."
+    )
+
+
+def _pair(every: pd.DataFrame, proposed: str, opponent: str) -> pd.DataFrame:
+    mine = (every["proposed"] == proposed) & (every["opponent"] == opponent)
+    return every[mine]
+
+
+def limit_cycle_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
+    """Where the proposed controller oscillates more than its baseline beyond the
+    tolerance, on how many plants, by up to how much."""
+    from twolink.studies.claims_words import amount
+
+    if not studies:
+        return None
+    p, b = studies[0].proposed, studies[0].baseline
+    found, tol = [], None
+    for s in studies:
+        rows = _pair(s.every, s.proposed, s.baseline)
+        for r in rows[rows["metric"] == "oscillation_rad"].itertuples():
+            tol = amount(r.metric, r.tolerance)
+            if r.worse:
+                found.append(
+                    f"θ{r.joint} on {r.worse} of {r.n} plants of {s.label} "
+                    f"({100 * r.share_worse_low:.0f}-{100 * r.share_worse_high:.0f} %; up to "
+                    f"{amount(r.metric, r.difference_max)} more)"
+                )
+    if tol is None:
+        return None
+    if not found:
+        return f"**Limit cycles:** {p} oscillates no more than {b} (by {tol}) on any plant."
+    return (
+        f"**Limit cycles:** {p} oscillates more than {b} by over {tol} (a limit cycle {b} "
+        "does not make) on " + "; ".join(found) + "."
+    )
+
+
+def integral_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
+    """Whether the controller with integral action beats the proposed one and every
+    opponent, per study: how many metrics better and worse, the largest gain."""
+    parts, beats = [], True
+    name = next((s.integral for s in studies if s.integral), None)
+    if name is None:
+        return None
+    for s in studies:
+        if s.integral is None:
+            continue
+        against = [s.proposed] + [o for o in s.claims if o not in s.same_as]
+        said = []
+        for other in against:
+            t = _pair(s.every, s.integral, other)
+            better, worse = _rows(t, "better"), _rows(t, "worse")
+            beats &= bool(better) and not worse
+            best = min(better, key=lambda r: r.estimate / r.tolerance, default=None)
+            largest = f", e.g. {_name(best)} {_signed(best.metric, best.estimate)}" if best else ""
+            said.append(f"{other}: better on {len(better)}, worse on {len(worse)}{largest}")
+        parts.append(f"on {s.label} against " + "; ".join(said))
+    verb = "beats" if beats else "does not beat"
+    first = next(s for s in studies if s.integral)
+    per_pair = len(_pair(first.every, first.integral, first.proposed))
+    return (
+        f"**Integral action:** {name} {verb} them all (metrics better and worse of the "
+        f"{per_pair} per pair, on the typical plant or by its shares) " + "; ".join(parts) + "."
+    )
+
+
+def variant_sentence(
+    title: str,
+    experiments: int,
+    counts: Mapping[str, tuple[int, ...]],
+    met: Mapping[str, int],
+    unstable: Mapping[str, int | None],
+    proposed: str,
+    baseline: str,
+) -> str:
+    """The paper's own experiments in one plant variant: ``counts`` (metric -> lower,
+    higher, of n, ...), ``met`` (controller -> experiments that met the spec) and
+    ``unstable`` (controller -> experiments whose loop, linearised at the target, is
+    unstable; None where it was not linearised)."""
+    from twolink.simulation.vocabulary import metric
+
+    p, b = proposed, baseline
+    lower = sum(c[0] for c in counts.values())
+    higher = sum(c[1] for c in counts.values())
+    total = sum(c[2] for c in counts.values())
+    head = f"**{title[0].upper()}{title[1:]}, the paper's {experiments} experiments:** "
+    if lower == higher == 0:
+        said = (
+            f"{p} equals {b}: no metric differs by more than its tolerance in {total} comparisons"
+        )
+    else:
+        each = ", ".join(
+            f"{metric(k).symbol} {c[0]}/{c[1]} of {c[2]}" for k, c in counts.items() if c[0] or c[1]
+        )
+        said = (
+            f"{p} is lower than {b} beyond the tolerance in {lower} and higher in {higher} "
+            f"of {total} comparisons ({each})"
+        )
+    if met.get(p, 0) == met.get(b, 0):
+        spec = (
+            "neither met the spec in any of them" if met.get(p, 0) == 0
+            else f"both met the spec in {met.get(p, 0)}"
+        )  # fmt: skip
+    else:
+        spec = f"{p} met the spec in {met.get(p, 0)}, {b} in {met.get(b, 0)}"
+    loops = []
+    for name in (b, p):
+        n = unstable.get(name)
+        if n is None:
+            loops.append(f"{name}'s not linearised")
+        elif n:
+            loops.append(f"{name}'s in {n}")
+    why = ""
+    if any(unstable.get(name) for name in (b, p)):
+        why = "; the loop linearised at the target is unstable: " + " and ".join(loops)
+    return head + said + "; " + spec + why + "."
+
+
+def sentences(variant_lines: Sequence[str], studies: Sequence[ClaimsStudy]) -> list[str]:
+    """The conclusions, in order: the paper's experiments, the claims per study, limit
+    cycles, integral action; at most :data:`MOST`, no sentence twice."""
+    out = list(variant_lines)
+    out += [study_sentence(s) for s in studies]
+    out += [x for x in (limit_cycle_sentence(studies), integral_sentence(studies)) if x]
+    out = list(dict.fromkeys(out))
+    if len(out) > MOST:
+        raise ValueError(f"{len(out)} conclusions, at most {MOST}")
+    return out
