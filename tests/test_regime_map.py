@@ -65,3 +65,19 @@ def test_the_effect_of_a_cell_is_what_its_verdicts_say():
     for verdicts, effect in cases.items():
         assert summary(table(list(verdicts)))["effect"].iloc[0] == effect
     assert Path(DEFAULT_STUDY).is_file()
+
+
+def test_a_share_without_a_verdict_is_listed_apart_from_the_verdicts():
+    t = pd.DataFrame(
+        {
+            "regime": "quintic", "wn": 4.0, "mass": 1.0, "payload": 0.0,
+            "proposed": "FCM-CTC", "opponent": "CTC", "fuzzy_active_share": 0.1,
+            "n": 100, "plants": 100, "joint": [2, 1], "metric": ["oscillation_rad", "iae_rad_s"],
+            "verdict": ["equivalent", "worse"], "better": 0, "worse": [29, 60],
+            "unreached_better": 0, "unreached_worse": 0,
+            "share_better_shown": False, "share_worse_shown": True,
+        }
+    )  # fmt: skip
+    row = summary(t).iloc[0]
+    assert row["worse_share"] == "θ2 osc 29/100" and row["worse"] == "θ1 IAE"
+    assert row["better_share"] == "" and row["effect"] == "hurts"

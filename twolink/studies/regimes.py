@@ -111,14 +111,25 @@ def _effect(verdicts: pd.Series) -> str:
 
 def summary(table: pd.DataFrame) -> pd.DataFrame:
     """One row per (regime, cell, proposed, opponent): the fuzzy term's share, the
-    proposed controller's metrics judged better and worse, and the effect: ``helps``
-    (better on some, worse on none), ``hurts`` (the reverse), ``mixed``, or ``no
-    difference shown``."""
+    proposed controller's metrics judged better and worse, the metrics that show no
+    verdict but a share of plants practically better or worse (``better_share``,
+    ``worse_share``: "θ2 osc 29/100"), and the effect of the verdicts: ``helps`` (better
+    on some, worse on none), ``hurts`` (the reverse), ``mixed``, or ``no difference
+    shown``."""
     rows = []
     for key, t in table.groupby(["regime", *CELL, "proposed", "opponent"], sort=False):
         named = [(r.verdict, f"θ{r.joint} {_symbol(r.metric)}") for r in t.itertuples()]
         better = [name for verdict, name in named if verdict == "better"]
         worse = [name for verdict, name in named if verdict == "worse"]
+        shares = {}
+        for side in ("better", "worse"):
+            shown = f"share_{side}_shown"
+            mine = t[t[shown] & ~t["verdict"].isin(["better", "worse"])] if shown in t else t[:0]
+            shares[f"{side}_share"] = ", ".join(
+                f"θ{r.joint} {_symbol(r.metric)} "
+                f"{getattr(r, side) + getattr(r, f'unreached_{side}')}/{r.plants}"
+                for r in mine.itertuples()
+            )
         rows.append(
             {
                 **dict(zip(["regime", *CELL, "proposed", "opponent"], key, strict=True)),
@@ -126,6 +137,7 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
                 "plants": int(t["n"].max()),
                 "better": ", ".join(better),
                 "worse": ", ".join(worse),
+                **shares,
                 "effect": _effect(t["verdict"]),
             }
         )
@@ -159,13 +171,19 @@ def markdown(summ: pd.DataFrame) -> list[str]:
             f"{100 * t['fuzzy_active_share'].min():.0f}-{100 * t['fuzzy_active_share'].max():.0f} "
             "% of samples.",
             "",
-            "| ωn [rad/s] | mass × | payload [kg] | fuzzy on | plants | effect | better | worse |",
-            "|---|---|---|---|---|---|---|---|",
+            "Better / worse: the verdicts; on a share: no verdict, but a share of plants",
+            "practically better / worse shown above 5 % (plants of the cell; docs/statistics.md).",
+            "",
+            "| ωn [rad/s] | mass × | payload [kg] | fuzzy on | plants | effect | better | worse "
+            "| better on a share | worse on a share |",
+            "|---|---|---|---|---|---|---|---|---|---|",
         ]
         for r in t.itertuples():
             out.append(
                 f"| {r.wn:g} | {r.mass:g} | {r.payload:g} | {100 * r.fuzzy_active_share:.1f} % "
-                f"| {r.plants} | {r.effect} | {_cell(r.better)} | {_cell(r.worse)} |"
+                f"| {r.plants} | {r.effect} | {_cell(r.better)} | {_cell(r.worse)} "
+                f"| {_cell(getattr(r, 'better_share', ''))} "
+                f"| {_cell(getattr(r, 'worse_share', ''))} |"
             )
         out.append("")
     return out
