@@ -206,3 +206,13 @@ def test_all_tables_at_once_equal_the_statistics_of_before_to_the_digit():
                "tost_p_adjusted"]  # fmt: skip
     for c in columns:
         assert np.array_equal(old[c].to_numpy(float), new[c].to_numpy(float), equal_nan=True), c
+
+
+def test_the_sign_test_of_arrays_is_binomtest_to_the_bit():
+    from twolink.studies.claims import _sign_ps
+
+    pairs = [(k, n) for n in range(1, 61) for k in range(n + 1)]
+    pairs += [(k, 200) for k in range(0, 201, 7)] + [(0, 0)]
+    k, n = np.array(pairs).T
+    expected = [stats.binomtest(a, b, 0.5).pvalue if b else 1.0 for a, b in pairs]
+    assert np.array_equal(_sign_ps(k, n - k), np.array(expected))

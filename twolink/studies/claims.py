@@ -217,17 +217,48 @@ def proportion_interval(
     return np.where(bad, np.nan, low), np.where(bad, np.nan, high)
 
 
-_SIGN_P: dict[tuple[int, int], float] = {}
-
-
 def _sign_p(better: int, worse: int) -> float:
-    n = better + worse
-    if n == 0:
-        return 1.0
-    key = (int(better), int(n))
-    if key not in _SIGN_P:
-        _SIGN_P[key] = float(stats.binomtest(key[0], key[1], 0.5).pvalue)
-    return _SIGN_P[key]
+    """Two-sided sign test of ``better`` against ``worse`` (``binomtest(better, better +
+    worse, 0.5)``); 1 where there is neither."""
+    return float(_sign_ps(np.array([better]), np.array([worse]))[0])
+
+
+def _sign_ps(better: np.ndarray, worse: np.ndarray) -> np.ndarray:
+    """:func:`_sign_p` of arrays: scipy's ``binomtest`` two-sided p-value, its own steps
+    for p = 1/2 (``scipy/stats/_binomtest.py``: the other tail from the terms no more
+    likely than the observed one, found by a search on the monotone side of the pmf,
+    here by counting), computed once per distinct (k, n); equal to ``binomtest``'s to the
+    bit (tests/test_claims_verdicts.py checks every k of every n up to 60 and more)."""
+    better, worse = np.asarray(better, dtype=int), np.asarray(worse, dtype=int)
+    n_all = better + worse
+    out = np.ones(better.shape)
+    pairs, where = np.unique(np.stack([better, n_all], axis=1), axis=0, return_inverse=True)
+    values = np.ones(len(pairs))
+    rerr = 1 + 1e-7
+    for n in np.unique(pairs[:, 1]):
+        if n == 0:
+            continue
+        rows = np.flatnonzero(pairs[:, 1] == n)
+        k = pairs[rows, 0]
+        pmf = stats.binom.pmf(np.arange(n + 1), n, 0.5)
+        d = pmf[k] * rerr
+        half = 0.5 * n
+        p = np.ones(k.size)
+        low = k < half  # the other tail lies above the mode
+        if low.any():
+            start = int(np.ceil(half))
+            ix = start - 1 + (pmf[start:][None, :] >= d[low, None]).sum(axis=1)
+            y = n - ix + (d[low] == pmf[np.minimum(ix, n)]).astype(int)
+            p[low] = stats.binom.cdf(k[low], n, 0.5) + stats.binom.sf(n - y, n, 0.5)
+        high = k > half  # the other tail lies below the mode
+        if high.any():
+            stop = int(np.floor(half))
+            ix = -1 + (pmf[: stop + 1][None, :] <= d[high, None]).sum(axis=1)
+            y = ix + 1
+            p[high] = stats.binom.cdf(y - 1, n, 0.5) + stats.binom.sf(k[high] - 1, n, 0.5)
+        values[rows] = np.minimum(1.0, p)
+    out[:] = values[where.ravel()]
+    return out
 
 
 def _tost_p(d: np.ndarray, tolerance: float) -> float:
@@ -322,7 +353,7 @@ def judge_rows(
     estimate, ci_low, ci_high = _hodges_lehmann_rows(d)
     medians_a = _row_medians(np.where(both, a, np.nan))
     medians_b = _row_medians(np.where(both, b, np.nan))
-    sign_p = np.array([_sign_p(x, y) for x, y in zip(better, worse, strict=True)])
+    sign_p = _sign_ps(better, worse)
     tost_p, below_p, above_p = _margin_tests(d, tol)
     margin_p = np.minimum(1.0, 2.0 * np.minimum(below_p, above_p))
     reference = np.asarray(reference, dtype=float)
