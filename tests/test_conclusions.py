@@ -76,7 +76,7 @@ def test_the_limit_cycle_is_said_with_its_joint_count_and_size():
     row = s.every[(s.every["proposed"] == "FCM-CTC") & (s.every["opponent"] == "CTC")]
     row = row[(row["metric"] == "oscillation_rad") & (row["joint"] == 2)].iloc[0]
     assert row["worse"] == 29 and row["verdict"] == "equivalent"  # a share, not a shift
-    assert "θ2 on 29 of 200 plants of quintic moves" in line
+    assert "on quintic moves: θ2 on 29 of 200 plants (10-20 %" in line
     assert "up to 6.5 mrad more" in line and "θ1" not in line
 
 
@@ -103,9 +103,9 @@ def test_any_opponents_name_works_and_its_verdicts_come_from_its_table():
 
 def test_integral_action_beating_both_is_said_and_counted():
     (line,) = [x for x in sentences([], [study()]) if x.startswith("**Integral")]
-    assert "CTC-I beats them all" in line
-    assert "FCM-CTC: better on 2, worse on 0, e.g. θ1 ess -3 mrad" in line  # ess, both joints
-    assert "CTC: better on 2, worse on 0" in line
+    assert line.startswith("**Integral action:** CTC-I beats FCM-CTC and CTC on quintic moves")
+    # better on ess of both joints, worse on nothing, against each
+    assert "(metrics better/worse of 14: FCM-CTC 2/0, CTC 2/0; e.g. θ1 ess −3 mrad" in line
     # an opponent it does not beat turns the word
     s = study("CTC-strong", same=False)
     every = s.every.copy()
@@ -113,7 +113,7 @@ def test_integral_action_beating_both_is_said_and_counted():
     every.loc[hit & (every["metric"] == "iae_rad_s"), "verdict"] = "worse"
     s = ClaimsStudy(**{**s.__dict__, "every": every})
     (line,) = [x for x in sentences([], [s]) if x.startswith("**Integral")]
-    assert "CTC-I does not beat them all" in line
+    assert "CTC-I does not beat FCM-CTC, CTC and CTC-strong" in line and "CTC-strong 2/2" in line
 
 
 def test_the_papers_experiments_sentence_names_every_unstable_loop():

@@ -16,7 +16,7 @@ import pandas as pd
 __all__ = ["amount", "reading", "row_reading"]
 
 # Display units for small amounts: (unit, below, factor, shown unit)
-_SMALL = {"rad": (0.1, 1e3, "mrad"), "s": (1.0, 1e3, "ms")}
+_SMALL = {"rad": (0.1, 1e3, "mrad"), "s": (1.0, 1e3, "ms"), "rad·s": (0.1, 1e3, "mrad·s")}
 
 
 @functools.cache

@@ -76,43 +76,59 @@ def _name(r: Any) -> str:
 def _signed(key: str, value: float) -> str:
     from twolink.studies.claims_words import amount
 
-    return ("+" if value > 0 else "") + amount(key, value)
+    return ("+" if value > 0 else "") + amount(key, value).replace("-", "−")
 
 
 def _rows(table: pd.DataFrame, verdict: str) -> list[Any]:
     return [r for r in table.itertuples() if r.verdict == verdict]
 
 
-def _shares(rows: Sequence[Any]) -> list[str]:
-    """The shares shown where the typical plant says nothing: 'worse by more than 10 ms
-    on 35 of 200 in θ2 Tr'."""
+def _count(r: Any, side: str) -> int:
+    return getattr(r, side) + getattr(r, f"unreached_{side}")
+
+
+def _one_share(r: Any) -> str | None:
+    """'worse by more than 10 ms on 35 of 200 in θ2 Tr' where one share is shown."""
     from twolink.studies.claims_words import amount
 
-    out = []
-    for r in rows:
-        for side in ("better", "worse"):
-            if getattr(r, f"share_{side}_shown"):
-                k = getattr(r, side) + getattr(r, f"unreached_{side}")
-                tol = amount(r.metric, r.tolerance)
-                out.append(f"{side} by more than {tol} on {k} of {r.plants} in {_name(r)}")
-    return out
+    sides = [side for side in ("better", "worse") if getattr(r, f"share_{side}_shown")]
+    if len(sides) != 1:
+        return None
+    tol = amount(r.metric, r.tolerance)
+    return f"{sides[0]} by more than {tol} on {_count(r, sides[0])} of {r.plants} in {_name(r)}"
+
+
+def _mixed(r: Any) -> bool:
+    return bool(r.share_better_shown and r.share_worse_shown)
 
 
 def describe(table: pd.DataFrame) -> str:
-    """A claims table in one clause: the verdicts with their estimates, the rest counted,
-    the shares shown beside an equivalent or inconclusive typical plant."""
+    """A claims table in one clause: the verdicts with their estimates; the typical plant
+    equivalent or undecided, with the one share shown beside it; mixtures (a share shown
+    each way) with their counts; the rest counted."""
     parts = []
     for verdict in ("better", "worse"):
         rows = _rows(table, verdict)
         if rows:
             named = ", ".join(f"{_name(r)} ({_signed(r.metric, r.estimate)})" for r in rows)
             parts.append(f"{verdict} on {named}")
+    open_ = _rows(table, "equivalent") + _rows(table, "inconclusive")
     for verdict in ("equivalent", "inconclusive"):
-        rows = _rows(table, verdict)
+        rows = [r for r in _rows(table, verdict) if not _mixed(r)]
         if rows:
-            shares = _shares(rows)
+            shares = [x for x in map(_one_share, rows) if x]
             more = f", but {'; '.join(shares)}" if shares else ""
             parts.append(f"{verdict} on {len(rows)}{more}")
+    mixed = [r for r in open_ if _mixed(r)]
+    if mixed:
+        named = ", ".join(
+            f"{_name(r)} {_count(r, 'better')}/{_count(r, 'worse')}"
+            + (f" of {r.plants}" if r.plants != mixed[0].plants else "")
+            for r in mixed
+        )
+        parts.append(
+            f"mixed (plants better / worse beyond the tolerance, of {mixed[0].plants}) on {named}"
+        )
     by_reference = len(_rows(table, "set by the reference"))
     if by_reference:
         parts.append(f"{by_reference} set by the reference")
@@ -154,51 +170,55 @@ def limit_cycle_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
     found, tol = [], None
     for s in studies:
         rows = _pair(s.every, s.proposed, s.baseline)
+        said = []
         for r in rows[rows["metric"] == "oscillation_rad"].itertuples():
             tol = amount(r.metric, r.tolerance)
             if r.worse:
-                found.append(
-                    f"θ{r.joint} on {r.worse} of {r.n} plants of {s.label} "
-                    f"({100 * r.share_worse_low:.0f}-{100 * r.share_worse_high:.0f} %; up to "
+                said.append(
+                    f"θ{r.joint} on {r.worse} of {r.n} plants "
+                    f"({100 * r.share_worse_low:.0f}-{100 * r.share_worse_high:.0f} %, up to "
                     f"{amount(r.metric, r.difference_max)} more)"
                 )
+        if said:
+            found.append(f"on {s.label}: " + ", ".join(said))
     if tol is None:
         return None
     if not found:
         return f"**Limit cycles:** {p} oscillates no more than {b} (by {tol}) on any plant."
     return (
         f"**Limit cycles:** {p} oscillates more than {b} by over {tol} (a limit cycle {b} "
-        "does not make) on " + "; ".join(found) + "."
+        "does not make) " + "; ".join(found) + "."
     )
 
 
 def integral_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
     """Whether the controller with integral action beats the proposed one and every
-    opponent, per study: how many metrics better and worse, the largest gain."""
-    parts, beats = [], True
+    opponent (better on some metrics, worse on none), per study: how many metrics better
+    and worse of how many, the largest gain against the proposed controller."""
     name = next((s.integral for s in studies if s.integral), None)
     if name is None:
         return None
+    parts = []
     for s in studies:
         if s.integral is None:
             continue
         against = [s.proposed] + [o for o in s.claims if o not in s.same_as]
-        said = []
+        counts, beats = [], True
         for other in against:
             t = _pair(s.every, s.integral, other)
             better, worse = _rows(t, "better"), _rows(t, "worse")
             beats &= bool(better) and not worse
-            best = min(better, key=lambda r: r.estimate / r.tolerance, default=None)
-            largest = f", e.g. {_name(best)} {_signed(best.metric, best.estimate)}" if best else ""
-            said.append(f"{other}: better on {len(better)}, worse on {len(worse)}{largest}")
-        parts.append(f"on {s.label} against " + "; ".join(said))
-    verb = "beats" if beats else "does not beat"
-    first = next(s for s in studies if s.integral)
-    per_pair = len(_pair(first.every, first.integral, first.proposed))
-    return (
-        f"**Integral action:** {name} {verb} them all (metrics better and worse of the "
-        f"{per_pair} per pair, on the typical plant or by its shares) " + "; ".join(parts) + "."
-    )
+            counts.append(f"{other} {len(better)}/{len(worse)}")
+        t = _pair(s.every, s.integral, s.proposed)
+        best = min(_rows(t, "better"), key=lambda r: r.estimate / r.tolerance, default=None)
+        largest = f"; e.g. {_name(best)} {_signed(best.metric, best.estimate)}" if best else ""
+        verb = "beats" if beats else "does not beat"
+        names = ", ".join(against[:-1]) + f" and {against[-1]}" if len(against) > 1 else against[0]
+        parts.append(
+            f"{verb} {names} on {s.label} (metrics better/worse of {len(t)}: "
+            f"{', '.join(counts)}{largest} against {s.proposed})"
+        )
+    return f"**Integral action:** {name} " + "; it ".join(parts) + "."
 
 
 def variant_sentence(
