@@ -154,6 +154,7 @@ def test_a_time_only_one_controller_reaches_counts_against_the_other():
     # a controller that never settles anywhere is worse, not "undefined"
     row = judge(np.full(200, np.nan), "settling_time_s", base=np.ones(200))
     assert row["n"] == 0 and row["verdict"] == "worse" and row["share_worse"] == 1
+    assert row["reading"].startswith("worse by more than 10 ms or alone in reaching it on 200")
 
 
 def test_the_share_intervals_are_binomtests_clopper_pearson():

@@ -39,8 +39,13 @@ def amount(key: str, value: float) -> str:
     return f"{value:.3g}{sep}{unit}"
 
 
-def _share(direction: str, k: int, plants: int, low: float, high: float, tol: str) -> str:
-    return f"{direction} by more than {tol} on {k} of {plants} ({100 * low:.0f}-{100 * high:.0f} %)"
+def _share(
+    direction: str, k: int, plants: int, low: float, high: float, tol: str, alone: int = 0
+) -> str:
+    """'worse by more than 1 mrad on 29 of 200 (10-20 %)'; ``alone``: of the ``k``, plants
+    where only one controller reaches the time (counted in the share)."""
+    how = f"by more than {tol}" + (" or alone in reaching it" if alone else "")
+    return f"{direction} {how} on {k} of {plants} ({100 * low:.0f}-{100 * high:.0f} %)"
 
 
 def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
@@ -59,7 +64,8 @@ def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
         if getattr(r, f"share_{side}_shown"):
             k = getattr(r, side) + getattr(r, f"unreached_{side}")
             low, high = getattr(r, f"share_{side}_low"), getattr(r, f"share_{side}_high")
-            parts.append(_share(side, k, r.plants, low, high, tol))
+            alone = getattr(r, f"unreached_{side}")
+            parts.append(_share(side, k, r.plants, low, high, tol, alone))
     who = proposed or "the proposed"
     other = opponent or "the opponent"
     if r.unreached_worse:

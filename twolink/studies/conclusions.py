@@ -95,7 +95,10 @@ def _one_share(r: Any) -> str | None:
     if len(sides) != 1:
         return None
     tol = amount(r.metric, r.tolerance)
-    return f"{sides[0]} by more than {tol} on {_count(r, sides[0])} of {r.plants} in {_name(r)}"
+    alone = " or alone in reaching it" if getattr(r, f"unreached_{sides[0]}") else ""
+    return (
+        f"{sides[0]} by more than {tol}{alone} on {_count(r, sides[0])} of {r.plants} in {_name(r)}"
+    )
 
 
 def _mixed(r: Any) -> bool:
