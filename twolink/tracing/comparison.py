@@ -102,12 +102,13 @@ class _Plot:
 def _plots(
     e: ExperimentRuns, pair: Sequence[str], colours: Mapping[str, tuple[int, int, int]]
 ) -> tuple[Trajectory, list[tuple[_Plot, str]]]:
-    """The experiment's longest run (its time grid and reference), and its two views, each
+    """The experiment's longest run (its time grid and reference), and its views, each
     one's entity with the view's title: ``angle`` (the pair, the FCM variants, the
-    baselines on their scale and the reference) and ``error`` (the pair's and the
-    variants'). A baseline that leaves the pair's scale is named in the angle view's
-    title and left out (each run's ``trace.rrd`` has it, and the response figures give it
-    a panel of its own)."""
+    baselines on their scale and the reference), ``error`` (the pair's and the
+    variants') and, where the baseline ran, ``difference`` (each variant less it, titled
+    with the first one's largest |difference|: the pair's). A baseline that leaves the
+    pair's scale is named in the angle view's title and left out (each run's
+    ``trace.rrd`` has it, and the response figures give it a panel of its own)."""
     j = e.joint - 1
     longest = max(e.runs.values(), key=lambda tr: len(tr.t))
     angles = {n: tr.q[:, j] for n, tr in e.runs.items()}
@@ -138,12 +139,12 @@ def _plots(
         (plot("error", pair_like, errors, False), f"error θ{sub}d − θ{sub} [rad]"),
     ]
     if variants:
-        largest = pair_difference(e, pair)
+        largest = pair_difference(e, (variants[0], base))
         names = [f"{n} − {base}" for n in variants]
         paint = [colours[n] for n in variants]
         views.append((
             _Plot(f"{e.prefix}/difference", names, paint, diffs),
-            f"difference θ{sub} [rad]: largest |{pair[0]} − {base}| {largest:.2g} rad",
+            f"difference θ{sub} [rad]: largest |{variants[0]} − {base}| {largest:.2g} rad",
         ))  # fmt: skip
     return longest, views
 
