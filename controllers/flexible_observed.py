@@ -12,15 +12,17 @@ measured figures.
 
 :class:`SpringKalmanFilter` estimates the full state from the encoder *angles* alone (the
 sensor's rates are ignored): a constant-gain (steady-state) extended Kalman filter of the
-flexible-joint arm, as Lightcap and Banks run on a rigid-link flexible-joint arm from its
-motor and link encoders (C. A. Lightcap and S. A. Banks, "An extended Kalman filter for
-real-time estimation and control of a rigid-link flexible-joint manipulator", IEEE Trans.
-Control Syst. Technol. 18(1), 2010, 91-103), with the gain of the steady-state filter
-(D. Simon, *Optimal State Estimation*, Wiley 2006, §7.3) so that a step costs a few
-multiply-adds and no Riccati update. Per joint i the filter's states are the link angle
-and rate, the rotor angle and rate, and one acceleration disturbance on each (random
-walks that take up the model error, the "disturbance state" of Simon §7.x / Khalil's
-extended observer):
+flexible-joint arm, the estimator Lightcap and Banks run in the loop of such an arm (C. A.
+Lightcap and S. A. Banks, "An extended Kalman filter for real-time estimation and control
+of a rigid-link flexible-joint manipulator", IEEE Trans. Control Syst. Technol. 18(1),
+2010, 91-103), here on the link and motor encoder angles and with the gain of the
+steady-state filter (D. Simon, *Optimal State Estimation*, Wiley 2006, the steady-state
+Kalman filter), so that a step costs a few multiply-adds and no Riccati update. Per joint
+i the filter's states are the link angle and rate, the rotor angle and rate, and one
+acceleration disturbance on each: random walks that take up the model error, as the
+extended high-gain observer of Freidovich and Khalil estimates a feedback-linearised
+loop's lumped uncertainty ("Performance recovery of feedback-linearization-based
+designs", IEEE Trans. Autom. Control 53(10), 2008):
 
     q̈ = μ (K δ + D δ̇) + r(x̂) + dq,     J θ̈ = τ − K δ − D δ̇ + J dθ,     δ = θ − q,
 
