@@ -737,3 +737,21 @@ def test_the_compare_figure_and_the_sweep_figures_use_the_style_table():
         assert np.allclose(to_rgb(medians[name].get_color()), to_rgb(CONTROLLER_STYLES[name][0]))
     assert medians["PD-G"].get_linestyle() == ":"
     plt.close(fig)
+
+
+def test_the_overview_gives_a_controller_its_hue_whatever_its_order():
+    """A controller of the style table keeps its hue in the overview (CTC reds, FCM-CTC
+    greens, PD-G blues, ..., FCM-CTC-continuous a ramp through its teal) in whatever order
+    the runs come; a group the table does not know takes a family no group here claims."""
+    from twolink.simulation.vocabulary import CONTROLLER_STYLES, rgb
+
+    groups = ["fuzzy-PD", "PD+G", "CTC", "FCM-CTC-continuous", "mystery", "CTC"]
+    colours = tracing.overview_colors(groups)
+    families = tracing.GROUP_FAMILIES
+    assert colours[0] == families[5][0]  # fuzzy-PD: pinks, though first
+    assert colours[1] == families[2][0]  # PD+G is PD-G: blues
+    assert colours[2] == families[0][0] and colours[5] == families[0][1]  # CTC: reds
+    teal = np.array(rgb(CONTROLLER_STYLES["FCM-CTC-continuous"][0]))
+    assert colours[3] == tuple(int(v) for v in np.round(0.6 * teal))
+    assert colours[4] == families[1][0]  # the first family nobody here claims
+    assert len(set(colours)) == len(colours)

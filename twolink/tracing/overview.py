@@ -30,6 +30,11 @@ GROUP_FAMILIES = (
     ((102, 51, 0), (204, 153, 102)),
     ((145, 0, 63), (241, 105, 180)),
 )
+# The controllers whose table colour (twolink.simulation.vocabulary.CONTROLLER_STYLES) each
+# family above ramps: a controller keeps its hue here as in every figure. Another controller
+# of the table gets a ramp through its own colour; a group the table does not know (a
+# run's prefix, another name) the first family no group of the recording claims.
+FAMILY_OF = {"CTC": 0, "FCM-CTC": 1, "PD-G": 2, "CTC-I": 3, "CTC-paper": 4, "fuzzy-PD": 5}
 OVERVIEW = "all_runs"  # entity root of the overview's copies of every run's angles
 RUN_WIDTH, REFERENCE_WIDTH = 1.5, 1.0  # overview line widths [ui points]: references thinner
 LEGEND_ROOM = 1.4  # the overview's time axis runs to 1.4 x the runs' end: room for the legend
@@ -38,8 +43,10 @@ LEGEND_ROOM = 1.4  # the overview's time axis runs to 1.4 x the runs' end: room 
 def overview_colors(groups: Sequence[str]) -> list[tuple[int, int, int]]:
     """The colour of each run in the "all runs" overview: its group's family, its own shade.
 
-    Groups take the families of :data:`GROUP_FAMILIES` in order of first appearance; the
-    runs of one group are spread from the family's dark end to its light end, in order.
+    A controller of the style table takes its hue's family (:data:`FAMILY_OF`, else a ramp
+    through its table colour); other groups take the unclaimed families of
+    :data:`GROUP_FAMILIES` in order of first appearance; the runs of one group are spread
+    from the family's dark end to its light end, in order.
 
     Parameters
     ----------
@@ -50,12 +57,28 @@ def overview_colors(groups: Sequence[str]) -> list[tuple[int, int, int]]:
     -------
     list of (r, g, b)
     """
-    families = {g: k % len(GROUP_FAMILIES) for k, g in enumerate(dict.fromkeys(groups))}
-    size = {g: list(groups).count(g) for g in families}
-    seen = dict.fromkeys(families, 0)
+    from twolink.simulation.vocabulary import CONTROLLER_STYLES, STYLE_ALIASES, rgb
+
+    ramps: dict[str, tuple[tuple[int, int, int], tuple[int, int, int]]] = {}
+    unknown = []
+    for g in dict.fromkeys(groups):
+        name = STYLE_ALIASES.get(g, g)
+        if name in FAMILY_OF:
+            ramps[g] = GROUP_FAMILIES[FAMILY_OF[name]]
+        elif name in CONTROLLER_STYLES:
+            c = np.array(rgb(CONTROLLER_STYLES[name][0]), dtype=float)
+            dark, light = np.round(0.6 * c), np.round(c + 0.5 * (255 - c))
+            ramps[g] = (tuple(int(v) for v in dark), tuple(int(v) for v in light))  # type: ignore[assignment]
+        else:
+            unknown.append(g)
+    free = [f for f in GROUP_FAMILIES if f not in ramps.values()] or list(GROUP_FAMILIES)
+    for k, g in enumerate(unknown):
+        ramps[g] = free[k % len(free)]
+    size = {g: list(groups).count(g) for g in ramps}
+    seen = dict.fromkeys(ramps, 0)
     colors = []
     for g in groups:
-        dark, light = (np.array(c, dtype=float) for c in GROUP_FAMILIES[families[g]])
+        dark, light = (np.array(c, dtype=float) for c in ramps[g])
         shade = seen[g] / (size[g] - 1) if size[g] > 1 else 0.0
         seen[g] += 1
         rgb = np.round(dark + shade * (light - dark)).astype(int)
