@@ -256,12 +256,6 @@ def _cells(
     index of each cell's first piece along e and de."""
     from twolink.controllers.fuzzy.engine import _partition_peaks
 
-    if not isinstance(exact, MamdaniEngine):  # a MATLAB FIS's term (controllers/fuzzy/matlab.py)
-        source = getattr(getattr(exact, "fis", None), "source", "this engine")
-        raise ValueError(
-            f"{source}: the table's proven bound needs the project's engine (triangular "
-            "partitions, centroid); for another system measure the table against it"
-        )
     pe, pd, pu = (_partition_peaks(v) for v in (exact.e, exact.de, exact.u))
     if exact.defuzz != "centroid" or pe is None or pd is None or pu is None:
         raise ValueError("table_bound needs triangular partitions on e, de and u and the centroid")
@@ -504,6 +498,10 @@ def table_bound(table: FuzzyTable, refine: int = 2) -> TableBound:
     exact = table.exact
     if isinstance(refine, bool) or not isinstance(refine, int) or refine < 1:
         raise ValueError(f"refine must be an integer >= 1, got {refine!r}")
+    if not isinstance(exact, MamdaniEngine):  # a MATLAB FIS's term: its own argument
+        from twolink.controllers.fuzzy.matlab_bound import fis_table_bound
+
+        return fis_table_bound(table)
     e_nodes, d_nodes = table.e_nodes, table.de_nodes
     known = None
     if refine > 1:
