@@ -1,5 +1,5 @@
 """The lookup table's proven error bound for a MATLAB FIS term (docs/fuzzy.md, "Any MATLAB
-FIS"): :func:`fis_table_bound`, what :func:`~controllers.fuzzy.table.table_bound` gives
+FIS"): :func:`fis_cell_bound`, what :func:`~controllers.fuzzy.table.table_bound` gives
 for a table of a :class:`~controllers.fuzzy.matlab.FisTerm`.
 
 The argument, per table cell (a box of inputs):
@@ -44,7 +44,7 @@ import numpy as np
 
 from twolink.controllers.fuzzy import matlab_exact as mx
 
-__all__ = ["fis_table_bound", "mf_range", "mf_slope"]
+__all__ = ["fis_cell_bound", "mf_range", "mf_slope"]
 
 MARGIN = 1e-9  # of the output's range
 
@@ -266,12 +266,11 @@ def _mean_extreme(w_lo, w_hi, z, largest: bool) -> np.ndarray:
     return mean.max(1) if largest else mean.min(1)
 
 
-def fis_table_bound(table):
-    """The proven error bound of a lookup table of a :class:`FisTerm` (the module's
-    argument), as a :class:`~controllers.fuzzy.table.TableBound` on the normalised output
-    (its Lipschitz constants NaN: the bound comes from the term's range on each cell)."""
-    from twolink.controllers.fuzzy.table import ROUNDING_MARGIN, TableBound
-
+def fis_cell_bound(table) -> tuple[np.ndarray, np.ndarray]:
+    """Per cell of a lookup table of a :class:`FisTerm`: the proven bound on |term - table|
+    (normalised output; before the table's rounding margin) and the jump cells, by the
+    module's argument. :func:`~controllers.fuzzy.table.table_bound` makes it a
+    ``TableBound``."""
     term = table.exact
     fis = term.fis
     if fis.type == "mamdani" and fis.defuzz_method in ("mom", "som", "lom"):
@@ -302,17 +301,5 @@ def fis_table_bound(table):
     c = np.stack([v[:-1, :-1], v[1:, :-1], v[:-1, 1:], v[1:, 1:]]).reshape(4, -1)
     span = max(var.range[1] - var.range[0], abs(var.mid), 1.0)
     cell = np.maximum(u_hi / ru - c.min(0), c.max(0) - u_lo / ru)
-    cell = (np.maximum(cell, 0.0) + MARGIN * span / ru + ROUNDING_MARGIN).reshape(n1, n1)
-    jump = jump.reshape(n1, n1)
-    off = cell[~jump]
-    return TableBound(
-        bound=float(off.max()) if off.size else 0.0,
-        jump_bound=float(cell[jump].max()) if jump.any() else 0.0,
-        lipschitz=(math.nan, math.nan),
-        steps=table.steps,
-        jump_cells=int(jump.sum()),
-        cells=n1 * n1,
-        cell_bound=cell,
-        cell_lipschitz=np.full((2, n1, n1), math.nan),
-        jump=jump,
-    )
+    cell = np.maximum(cell, 0.0) + MARGIN * span / ru
+    return cell.reshape(n1, n1), jump.reshape(n1, n1)

@@ -15,6 +15,7 @@ surface with per-axis Lipschitz constants L_e, L_de on a cell of size h_e x h_de
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -499,9 +500,22 @@ def table_bound(table: FuzzyTable, refine: int = 2) -> TableBound:
     if isinstance(refine, bool) or not isinstance(refine, int) or refine < 1:
         raise ValueError(f"refine must be an integer >= 1, got {refine!r}")
     if not isinstance(exact, MamdaniEngine):  # a MATLAB FIS's term: its own argument
-        from twolink.controllers.fuzzy.matlab_bound import fis_table_bound
+        from twolink.controllers.fuzzy.matlab_bound import fis_cell_bound
 
-        return fis_table_bound(table)
+        cell, jump = fis_cell_bound(table)
+        cell = cell + ROUNDING_MARGIN
+        off, on = cell[~jump], cell[jump]
+        return TableBound(
+            bound=float(off.max()) if off.size else 0.0,
+            jump_bound=float(on.max()) if on.size else 0.0,
+            lipschitz=(math.nan, math.nan),  # a range per cell, not a slope
+            steps=table.steps,
+            jump_cells=int(jump.sum()),
+            cells=cell.size,
+            cell_bound=cell,
+            cell_lipschitz=np.full((2, *cell.shape), math.nan),
+            jump=jump,
+        )
     e_nodes, d_nodes = table.e_nodes, table.de_nodes
     known = None
     if refine > 1:
