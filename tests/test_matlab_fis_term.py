@@ -45,6 +45,12 @@ def test_a_two_input_fis_is_the_fuzzy_term_of_a_scenario_and_its_table(tmp_path)
         c.engine(np.array([0.3, -0.2]), np.array([0.1, 0.4])).tolist(), abs=1e-15
     )
     assert c.engine.scaling == (0.2, 0.2, 5.0)
+    # with those as the scenario's scaling the correction is the file's own law, F(e, de)
+    own = build_controller(load_scenario(scenario(tmp_path, DATA / "mam21.fis", ke=0.2,
+                                                  kde=0.2, ku=5.0)))  # fmt: skip
+    x = np.stack([rng.uniform(-5, 5, 50), rng.uniform(-5, 5, 50)], 1)
+    law = own.ku * own.engine(own.ke * x[:, 0], own.kde * x[:, 1])
+    assert np.max(np.abs(law - fis.evaluate(x)[:, 0])) < 1e-12
     traj = run_scenario(load_scenario(scenario(tmp_path, DATA / "mam21.fis")))
     assert np.isfinite(traj.q).all() and np.isfinite(traj.tau).all()
     labels = trace_extras(c, traj)["fired_rules"]  # what a recording shows
