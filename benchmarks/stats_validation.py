@@ -1,7 +1,9 @@
 """Simulated operating characteristics of twolink.studies.claims (docs/statistics.md): the type I
 error of the paired sign test and of the equivalence test (TOST) under their nulls, their
 power under known shifts, and the Hodges-Lehmann interval's coverage, on paired
-differences drawn as the sweeps produce them (continuous, heavy-tailed, zero-inflated).
+differences drawn as the sweeps produce them (continuous, heavy-tailed, zero-inflated);
+then the verdict rule's own rates (judge_rows, all simulated sweeps at once): on the
+margin, off it, and on mixtures around MIN_SHARE.
 
     python benchmarks/stats_validation.py [--reps 2000]
 """
@@ -12,7 +14,7 @@ import argparse
 
 import numpy as np
 
-from twolink.studies.claims import _sign_p, _tost_p, count_wins, hodges_lehmann
+from twolink.studies.claims import _sign_p, _tost_p, count_wins, hodges_lehmann, judge_rows
 
 DRAWS = {
     "normal": lambda rng, n: rng.normal(0.0, 1.0, n),
@@ -63,6 +65,37 @@ def main() -> None:
     worse[rng.choice(n, 97, replace=False)] = rng.uniform(0.6, 5.0, 97)
     b, w, e = count_wins(worse, np.zeros(n), 0.5)
     print(f"zero-inflated case: better {b}, worse {w}, equal {e}, sign p = {_sign_p(b, w):.2g}")
+
+    verdict_rates(n, reps)
+
+
+# The verdict rule's cases (tolerance δ = 0.3, noise scale 1 unless said): name -> draw
+MARGIN = 0.3
+CASES = {
+    "normal, shift 0": lambda rng, n: rng.normal(0, 1, n),
+    "normal, shift δ (on the margin)": lambda rng, n: rng.normal(MARGIN, 1, n),
+    "normal, shift 2δ": lambda rng, n: rng.normal(2 * MARGIN, 1, n),
+    "tight, shift δ/2": lambda rng, n: rng.normal(MARGIN / 2, 0.1, n),
+    "15 % of plants +4δ, rest 0": lambda rng, n: np.where(rng.random(n) < 0.15, 4 * MARGIN, 0.0),
+    "5 % of plants +4δ, rest 0": lambda rng, n: np.where(rng.random(n) < 0.05, 4 * MARGIN, 0.0),
+    "half +2δ, half 0": lambda rng, n: np.where(rng.random(n) < 0.5, 2 * MARGIN, 0.0),
+}
+
+
+def verdict_rates(n: int, reps: int) -> None:
+    """Share of simulated sweeps per verdict, and how often a worse share is said."""
+    print()
+    print(f"verdict rule, tolerance {MARGIN}, n = {n}, {reps} sweeps per row (each its own family)")
+    head = ("better", "worse", "equivalent", "inconclusive")
+    print(f"{'differences':32s} " + " ".join(f"{h:>12s}" for h in head) + f" {'worse said':>11s}")
+    for k, (name, draw) in enumerate(CASES.items()):
+        rng = np.random.default_rng(10 + k)
+        d = np.stack([draw(rng, n) for _ in range(reps)])
+        out = judge_rows(d, np.zeros_like(d), np.full(reps, MARGIN), np.full(reps, np.nan),
+                         np.arange(reps), np.zeros(reps, bool))  # fmt: skip
+        shares = [np.mean(out["verdict"] == h) for h in head]
+        said = np.mean(out["share_worse_shown"])
+        print(f"{name:32s} " + " ".join(f"{x:12.3f}" for x in shares) + f" {said:11.3f}")
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ SHORT = {"duration": 1.5}
 def test_the_verdict_is_as_against_b_and_flips_when_they_swap(tmp_path, monkeypatch):
     """CTC (ωn = 15) rises far sooner than CTC-paper (ωn = 2, ζ = 0.6) on the raw step:
     'better' for CTC against CTC-paper, 'worse' the other way round. (10 plants: the
-    sign test on 6 metrics with Holm's correction needs 8 plants all one way.)"""
+    margin test on 6 metrics with Holm's correction needs 9 plants all one way.)"""
     monkeypatch.chdir(tmp_path)
     before = clone_files()
     ab = twolink.compare("theta1_step", "CTC", "CTC-paper", 10, overrides=SHORT)

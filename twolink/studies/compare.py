@@ -6,9 +6,10 @@ The plants are the shipped robustness sweep's (``sweeps/robustness``'s ``[parame
 masses and lengths off by drawn factors, gravity, a payload the controllers do not know
 about); the scenario is run as it stands (its reference, duration and sensor). ``A`` is
 judged against ``B``, plant by plant, with :func:`twolink.studies.claims.paired_claims`:
-"better" means A's metric is lower than B's beyond the practical tolerance, on enough
-plants to pass the sign test with Holm's correction. The sweep this runs is written as a
-file (``compare.toml``) so that ``twolink sweep`` can rerun it.
+"better" means A's metric is lower than B's by more than the practical tolerance on the
+typical plant (the verdict rule of docs/statistics.md, Holm-corrected over the table).
+The sweep this runs is written as a file (``compare.toml``) so that ``twolink sweep`` can
+rerun it.
 """
 
 from __future__ import annotations
@@ -42,8 +43,9 @@ SHOWN = {  # the paired table's columns as printed, in this order (others are in
     "estimate": "A − B",
     "ci_low": "95 % low",
     "ci_high": "95 % high",
-    "p_adjusted": "p (Holm)",
+    "margin_p_adjusted": "p margin (Holm)",
     "verdict": "verdict",
+    "reading": "reading",
 }
 
 
