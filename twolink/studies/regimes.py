@@ -7,8 +7,8 @@ paper's raw steps (:func:`twolink.studies.claims_studies.raw_steps`). Per cell, 
 samples where the fuzzy term acts (``fuzzy_active_share``, mean over plants and joints)
 and the paired verdicts of FCM-CTC, and of the continuous inference of its rules
 (FCM-CTC-continuous, our extension: docs/fuzzy.md, "The relay")
-(:func:`twolink.studies.claims.paired_claims`: sign test, Holm across the cell's table,
-equivalence) against each opponent on Ts to the target,
+(:func:`twolink.studies.claims.paired_claims_many`, all cells at once: the verdict rule
+of docs/statistics.md, Holm across each cell's table) against each opponent on Ts to the target,
 max|e| of both joints, IAE, peak torque and oscillation (docs/reproduction.md, "The
 regime map").
 """
