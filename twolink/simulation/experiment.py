@@ -288,12 +288,12 @@ def _simulate_batch_mjx(
     errors: list[tuple[int, Exception]],
 ) -> tuple[list[int], Any]:
     """:func:`_simulate_batch` on MJX (the arms MuJoCo refuses are added to ``errors``)."""
-    from twolink.simulation.batch import BatchPlant
-    from twolink.simulation.mjx_engine import simulate_batch_mjx
+    from twolink.simulation.mjx_engine import arm_model, simulate_batch_mjx
 
+    models = {}
     for i in list(arms):
         try:
-            BatchPlant([arms[i]], timestep)
+            models[i] = arm_model(arms[i], timestep)
         except ValueError as exc:
             del arms[i]
             errors.append((i, exc))
@@ -311,6 +311,7 @@ def _simulate_batch_mjx(
         noise=[measurement_noise(scenarios[i]) for i in batch],
         sensor=sensor,
         precision="float32" if backend == "mjx-float32" else "float64",
+        models=[models[i] for i in batch],
     )
     return batch, run
 

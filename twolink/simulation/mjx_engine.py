@@ -25,11 +25,13 @@ Mamdani engine's general path (non-triangular terms, bisector or mean of maximum
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 
+from twolink.arm.plant import add_arm, new_spec
 from twolink.controllers.base import Controller
 from twolink.simulation.batch import Arm, BatchPlant, BatchResult
 from twolink.simulation.sensor import (
@@ -47,7 +49,7 @@ from twolink.simulation.sim import (
     torque_message,
 )
 
-__all__ = ["PRECISIONS", "available", "prepare_batch_mjx", "simulate_batch_mjx"]
+__all__ = ["PRECISIONS", "arm_model", "available", "prepare_batch_mjx", "simulate_batch_mjx"]
 
 PRECISIONS = ("float64", "float32")
 
@@ -76,8 +78,52 @@ def _jax(precision: str = "float64"):
     return jax, jax.numpy, mjx
 
 
-def _stack(trees: list[Any], jnp: Any, jax: Any) -> Any:
-    return jax.tree_util.tree_map(lambda *x: jnp.stack(x), *trees)
+def arm_model(arm: Arm, timestep: float) -> Any:
+    """An arm's own MjModel, as a one-arm :class:`BatchPlant` builds it (without the rest
+    of the plant: 2 ms an arm instead of 5); a ValueError where MuJoCo refuses it."""
+    g = arm.params.g
+    spec = new_spec(timestep, g, "twolink_batch")
+    add_arm(spec, arm.params, arm.flexibility, arm.payload, prefix="arm0_", model_g=g,
+            visual=False, motors=False)  # fmt: skip
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        why = " ".join(str(exc).split()).removeprefix("Error: ")
+        raise ValueError(f"MuJoCo cannot build this batch of arms: {why}") from None
+
+
+def _batched_model(models: list[Any], mjx: Any, jax: Any, jnp: Any) -> tuple[Any, Any]:
+    """One MJX model for arms of one structure: the first arm's, with every field in which
+    the arms differ (masses, inertias, lengths, gravity, ... read off their MjModels) an
+    array along a leading arm axis; and the vmap axes of its fields (0 for those, None for
+    the shared ones). One put_model and one array per differing field, where a put_model
+    per arm and a stack of every field took minutes for 10^4 arms."""
+    first = models[0]
+    shared = mjx.put_model(first)
+    fields: dict[str, Any] = {}
+    for name in (f.name for f in dataclasses.fields(shared)):
+        if name.startswith("_") or not hasattr(first, name):
+            continue
+        value = getattr(first, name)
+        if not isinstance(value, np.ndarray) or value.dtype.kind not in "fiub":
+            continue
+        stacked = np.stack([getattr(m, name) for m in models])
+        if stacked.shape[1:] != value.shape:
+            raise ValueError("the mjx backend needs arms of one structure")
+        if not (stacked == value).all():
+            fields[name] = jnp.asarray(stacked)
+    opt = {}
+    for name in ("gravity", "timestep"):
+        stacked = np.stack([np.asarray(getattr(m.opt, name)) for m in models])
+        if not (stacked == stacked[0]).all():
+            opt[name] = jnp.asarray(stacked)
+    none = jax.tree_util.tree_map(lambda _: None, shared)
+    axes = none.replace(**dict.fromkeys(fields, 0))
+    model = shared.replace(**fields)
+    if opt:
+        model = model.replace(opt=shared.opt.replace(**opt))
+        axes = axes.replace(opt=none.opt.replace(**dict.fromkeys(opt, 0)))
+    return model, axes
 
 
 def simulate_batch_mjx(*args: Any, **kwargs: Any) -> BatchResult:
@@ -101,10 +147,11 @@ def prepare_batch_mjx(
     noise: Sequence[np.ndarray | None] | None = None,
     sensor: Sensor | None = None,
     precision: str = "float64",
+    models: Sequence[Any] | None = None,
 ) -> tuple[Any, Any, Any]:
     """The run of :func:`simulate_batch_mjx` before it starts: ``(run, carry, finish)``,
     ``finish(run(carry))`` its BatchResult; ``run`` is compiled at its first call (the
-    benchmarks time the second)."""
+    benchmarks time the second). ``models``: the arms' :func:`arm_model`, if at hand."""
     from twolink.controllers.batch import batch_laws, on_namespace
     from twolink.simulation.batch import _stack_noise
 
@@ -117,8 +164,9 @@ def prepare_batch_mjx(
     if any(a.flexibility is not None for a in arms):
         raise ValueError("the mjx backend runs rigid arms only (no [plant.flexibility])")
     dtype = jnp.float64 if precision == "float64" else jnp.float32
-    plants = [BatchPlant([a], timestep) for a in arms]
-    dt = plants[0].dt
+    models = [arm_model(a, timestep) for a in arms] if models is None else models
+    first = BatchPlant(arms[:1], timestep)  # a single arm's addresses
+    dt = first.dt
     steps = np.array([control_steps(d, control_dt, dt)[0] for d in durations])
     substeps = control_steps(durations[0], control_dt, dt)[1]
     n_max = int(steps.max())
@@ -149,22 +197,22 @@ def prepare_batch_mjx(
 
         return jax.tree_util.tree_map(leaf, tree)
 
-    models, datas = [], []
-    for p, a, b in zip(plants, q0, qd0, strict=True):
-        p.reset(a[None], b[None])
-        models.append(mjx.put_model(p.model))
-        datas.append(mjx.put_data(p.model, p.data))
-    if any(
-        jax.tree_util.tree_structure(m) != jax.tree_util.tree_structure(models[0]) for m in models
-    ):
-        raise ValueError("the mjx backend needs arms of one structure")
-    model = cast(_stack(models, jnp, jax))
-    data = cast(_stack(datas, jnp, jax))
-    qa, va = plants[0].q_index[0], plants[0].v_index[0]  # a single arm's addresses
-    fa = plants[0].force_index[0]
+    model, model_axes = _batched_model(models, mjx, jax, jnp)
+    model = cast(model)
+    qa, va = first.q_index[0], first.v_index[0]
+    first.reset(q0[:1], qd0[:1])
+    one = mjx.put_data(first.model, first.data)
+    # Every arm's data from the first arm's, its own angles and rates set: mjx.step
+    # computes everything else from them (as mj_forward did on the CPU).
+    data = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (n_arms, *x.shape)), one)
+    data = cast(data.replace(
+        qpos=jnp.broadcast_to(data.qpos[0], data.qpos.shape).at[:, qa].set(q0),
+        qvel=jnp.broadcast_to(data.qvel[0], data.qvel.shape).at[:, va].set(qd0),
+    ))  # fmt: skip
+    fa = first.force_index[0]
     bounds = bounds or Bounds()
     qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
-    step_arms = jax.vmap(mjx.step)
+    step_arms = jax.vmap(mjx.step, in_axes=(model_axes, 0))
     steps_j = jnp.asarray(steps)
     noise_j = None if noise_all is None else jnp.asarray(noise_all, dtype)
 
@@ -173,7 +221,7 @@ def prepare_batch_mjx(
         q, qd = data.qpos[:, qa], data.qvel[:, va]
         inside = jnp.all(jnp.abs(q) < qmax, axis=1) & jnp.all(jnp.abs(qd) < wmax, axis=1)
         escaped = active & ~inside
-        length = jnp.where(escaped, jnp.maximum(k, 1), length)
+        length = jnp.where(escaped, jnp.maximum(k, 1), length).astype(length.dtype)
         code = jnp.where(escaped, 1, code)
         active = active & ~escaped
         zero = jnp.zeros_like(q)
@@ -203,7 +251,7 @@ def prepare_batch_mjx(
         runaway = active & ~jnp.all(jnp.abs(tau) < tmax, axis=1)
         code = jnp.where(runaway, 2, code)
         done = active & (runaway | (steps_j == k))
-        length = jnp.where(done, k + 1, length)
+        length = jnp.where(done, k + 1, length).astype(length.dtype)
         active = active & ~done
         record = (q, qd, tau)
         applied = jnp.where(active[:, None], tau, 0.0)
