@@ -193,3 +193,13 @@ def test_no_table_bound_for_a_maximum_based_defuzzifier():
     table = FuzzyTable(parse_matlab_fis(text, "tipper_mom.fis").term(), 5)
     with pytest.raises(ValueError, match=r"tipper_mom.fis: .* mom \(maximum-based"):
         table_bound(table)
+
+
+@pytest.mark.parametrize(
+    "name",
+    ["tipper.fis", "tank.fis", "tank2.fis", "mam21.fis", "line_control.fis", "dual_sensor.fis"],
+)
+def test_the_public_files_refused_before_are_fuzzy_terms_now(tmp_path, name):
+    c = build_controller(load_scenario(scenario(tmp_path, DATA / name)))
+    assert isinstance(c.engine, FisTerm)
+    assert np.isfinite(c.engine.evaluate_floats([0.2, -0.4], [0.1, 0.3])).all()
