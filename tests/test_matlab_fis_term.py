@@ -203,3 +203,12 @@ def test_the_public_files_refused_before_are_fuzzy_terms_now(tmp_path, name):
     c = build_controller(load_scenario(scenario(tmp_path, DATA / name)))
     assert isinstance(c.engine, FisTerm)
     assert np.isfinite(c.engine.evaluate_floats([0.2, -0.4], [0.1, 0.3])).all()
+
+
+def test_the_batch_engine_runs_a_fis_term_as_the_single_path_does(tmp_path):
+    from twolink.simulation.experiment import run_scenarios
+
+    s = load_scenario(scenario(tmp_path, DATA / "tipper.fis"))
+    single = run_scenario(s)
+    for traj in run_scenarios([s, s]):  # one engine object: one batch law for both
+        assert np.max(np.abs(traj.q - single.q)) < 1e-12
