@@ -310,18 +310,22 @@ def comparison_figure(
     reference (black dashed); below, the difference panel, θ_A − θ_B plant by plant with
     its median and the 5-95 % band: the paired difference the table judges. The two
     upper panels show the first ``window`` seconds (the transient); the bottom one the
-    difference over the whole run. ``qa``, ``qb``: (plants, time, 2); ``reference``:
-    (time, 2)."""
+    difference over the whole run (left out where the window is the whole run).
+    ``qa``, ``qb``: (plants, time, 2); ``reference``: (time, 2)."""
     a, b = names
     window = float(t[-1]) if window is None else min(window, float(t[-1]))
-    fig, axes = plt.subplots(3, len(joints), figsize=(6.5 * len(joints), 8.0), squeeze=False,
-                             height_ratios=(2, 1.2, 1), layout="constrained")  # fmt: skip
+    whole = window >= float(t[-1])  # the transient panels already show the whole run
+    rows, heights = (2, (2, 1.2)) if whole else (3, (2, 1.2, 1))
+    fig, axes = plt.subplots(
+        rows, len(joints), figsize=(6.5 * len(joints), 2.7 * rows), squeeze=False,
+        height_ratios=heights, layout="constrained",
+    )  # fmt: skip
     styles = controller_styles([a, b])  # each its own colour and dash, as everywhere
     if styles[a][1] == styles[b][1]:  # A on top must not hide B's equal median
         styles[a] = (styles[a][0], ":" if styles[b][1] == "--" else "--")
     colours = {n: c for n, (c, _) in styles.items()}
     for col, j in enumerate(joints):
-        ax, ax_d, ax_all = axes[:, col]
+        ax, ax_d, ax_all = (*axes[:, col], None) if whole else axes[:, col]
         for name, q in ((b, qb), (a, qa)):
             style = styles[name][1]
             ax.plot(t, q[:, :, j - 1].T, color=colours[name], lw=0.5, alpha=0.15)
@@ -329,10 +333,10 @@ def comparison_figure(
                     lw=1.8, label=f"{name}: median of {len(q)} plants")  # fmt: skip
         ax.plot(t, reference[:, j - 1], "k:", lw=1.2, label="reference")
         ax.set_ylabel(f"θ{j} [rad]")
-        ax.set_title(f"θ{j}, the first {window:.3g} s", fontsize=10)
+        ax.set_title(f"θ{j}" + ("" if whole else f", the first {window:.3g} s"), fontsize=10)
         d = qa[:, :, j - 1] - qb[:, :, j - 1]
         low, high = np.nanpercentile(d, [5, 95], axis=0)
-        for axis, span in ((ax_d, window), (ax_all, float(t[-1]))):
+        for axis, span in ((ax_d, window), (ax_all, float(t[-1])))[: 1 if whole else 2]:
             shown = t <= span
             axis.plot(t[shown], d[:, shown].T, color="0.5", lw=0.5, alpha=0.2)
             axis.fill_between(t[shown], low[shown], high[shown], color="tab:purple", alpha=0.25,
@@ -344,9 +348,10 @@ def comparison_figure(
         ax.set_xlim(0.0, window)
         ax_d.set_xlim(0.0, window)
         ax_d.set_title(f"θ{j}: {a} − {b}, plant by plant", fontsize=10)
-        ax_all.set_title(f"the same over the whole run ({t[-1]:.3g} s)", fontsize=10)
-        ax_all.set_xlabel("t [s]")
-        for axis in (ax, ax_d, ax_all):
+        (ax_d if whole else ax_all).set_xlabel("t [s]")
+        if not whole:
+            ax_all.set_title(f"the same over the whole run ({t[-1]:.3g} s)", fontsize=10)
+        for axis in (ax, ax_d, *([] if whole else [ax_all])):
             axis.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8)
         ax_d.legend(loc="best", fontsize=8)

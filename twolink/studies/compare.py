@@ -45,8 +45,7 @@ SHOWN = {  # the paired table's columns as printed, in this order (others are in
     "ci_high": "95 % high",
     "margin_p_adjusted": "p margin (Holm)",
     "verdict": "verdict",
-    "reading": "reading",
-}
+}  # each row's reading (the verdict in words) is printed under the table
 
 
 @dataclass(frozen=True)
@@ -275,6 +274,15 @@ def _write(folder, table, figure, runs, plan, a, b, trace) -> None:
 
 
 def format_claims(table: pd.DataFrame) -> str:
-    """The paired table as text: the columns of :data:`SHOWN` that it has."""
+    """The paired table as text: the columns of :data:`SHOWN` that it has, then each row's
+    verdict in words where the table gives them (its ``reading``)."""
     shown = table[[c for c in SHOWN if c in table.columns]].rename(columns=SHOWN)
-    return shown.to_string(index=False, float_format=lambda v: f"{v:.4g}", na_rep="—")
+    text = shown.to_string(index=False, float_format=lambda v: f"{v:.4g}", na_rep="—")
+    if "reading" in table.columns:
+        words = [
+            f"  θ{row.joint} {row.metric}: {row.verdict}: {row.reading}"
+            for row in table.itertuples()
+            if isinstance(row.reading, str) and row.reading
+        ]
+        text += "\n" + "\n".join(words)
+    return text
