@@ -399,7 +399,8 @@ def test_oscillation_is_the_amplitude_of_a_limit_cycle_and_not_of_drift_or_offse
     # a drift or a sag only rises (or only falls): half its peak-to-peak (0.03 and 0.03
     # rad here, over the 2 % band of a 1 rad move) would call it a limit cycle
     assert got[3] == 0 and got[4] == 0 and got[6] == 0
-    # a cycle on a sag: its half-swings alternate A ± the sag over a half period; their
-    # envelope is the cycle's amplitude, within the sag's share (5 %)
-    assert got[5] == pytest.approx(0.004, rel=0.05)
+    # a cycle on a sag: its half-swings alternate A ± the sag over a half period; paired,
+    # they read the cycle's amplitude, less what the sag (27 % of the cycle's speed at the
+    # end) takes of the swing: within 10 %, never more
+    assert 0.0036 < got[5] <= 0.004
     assert math.isnan(oscillation_amplitude(t[:2], cycle[:2]))

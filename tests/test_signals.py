@@ -166,3 +166,26 @@ def test_ess_is_the_mean_error_over_the_window_not_one_lucky_sample():
                     np.linspace(0.0, 2 * np.pi, 7)]  # fmt: skip
     # the window (0.5 s of a 0.6 s period) spreads ~5 times less than the last sample
     assert np.ptp(readings) < 0.25 * np.ptp(last_samples)
+
+
+def test_the_moves_own_swings_are_not_the_oscillation_at_the_end():
+    # The flexible map's composite law at k 2000, ωn 4: its tracking error swings by
+    # ±18 mrad during the 1.5 s move, then settles without turning; the window's largest
+    # error is 0.6 mrad. Read from the turns after the move, nothing oscillates at the end
+    # (before, the move's last swings read 16 and 18 mrad at the end).
+    from test_stability import map_cell
+
+    from twolink.simulation.experiment import measure, run_scenario
+
+    s = map_cell("composite", 2000.0, 4.0)
+    m = measure(s, run_scenario(s))
+    assert max(m.tail_error) < 1e-3
+    assert m.oscillation == (0.0, 0.0)
+    # synthetic: three swings of 20 mrad, then a monotone decay from t = 1.5 s
+    t = clock(3.0)
+    e = np.where(t < 1.5, 0.02 * np.sin(2 * np.pi * t / 0.9), 0.0)
+    e = np.where(t >= 1.5, e[np.searchsorted(t, 1.5) - 1] * np.exp(-4 * (t - 1.5)), e)
+    assert oscillation_amplitude(t, e, since=1.5) == 0.0
+    # without `since` the move's swings are the record's, but the end bounds them: at
+    # most half the error's peak-to-peak over their last period
+    assert oscillation_amplitude(t, e) <= 0.5 * np.ptp(e[t >= 3.0 - 0.9]) + 1e-12

@@ -444,9 +444,22 @@ def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None)
         **_tail(s, traj),
         linear_growth=(growth, growth),
         fuzzy_active=fuzzy_active_share(controller, traj),
-        oscillation=oscillation_amplitude(traj.t, traj.e) if len(traj.t) else (math.nan,) * 2,
+        oscillation=_oscillation(s, traj),
         settling_target=(to_target[0], to_target[1]),
         max_twist=max_twist(traj),
+    )
+
+
+def _oscillation(s: Scenario, traj: Trajectory) -> tuple[float, float]:
+    """The oscillation at the end of the run, of the turns after its reference stopped
+    (the move's own tracking error is no swing of it)."""
+    from twolink.simulation.outcome import reference_end
+
+    if not len(traj.t):
+        return (math.nan, math.nan)
+    since = reference_end(s.reference)
+    return oscillation_amplitude(  # type: ignore[return-value]
+        traj.t, traj.e, since=since if math.isfinite(since) else -math.inf
     )
 
 
@@ -474,7 +487,7 @@ def fuzzy_active_share(controller: Controller | None, traj: Trajectory) -> tuple
 def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:
     """The final error (the settling window's mean |error|), the window's largest error and
     its growth, per joint, all against the target (twolink.simulation.outcome)."""
-    from twolink.simulation.outcome import settling_window, tail_growth
+    from twolink.simulation.outcome import reference_end, settling_window, tail_growth
 
     if not len(traj.t):
         nan = (math.nan, math.nan)
@@ -486,7 +499,8 @@ def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:
     with np.errstate(invalid="ignore"):
         worst = np.abs(off[tail]).max(axis=0)
         mean = np.abs(off[tail]).mean(axis=0)  # over the window, not one sample
-    growth = tail_growth(traj.t, off, window)
+    since = reference_end(s.reference) if hasattr(s.reference, "joint1") else -math.inf
+    growth = tail_growth(traj.t, off, window, since if math.isfinite(since) else -math.inf)
     return {
         "final_error": tuple(float(x) for x in mean),  # type: ignore[dict-item]
         "tail_error": tuple(float(x) for x in worst),  # type: ignore[dict-item]

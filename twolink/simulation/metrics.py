@@ -19,12 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from twolink.simulation.swings import (
-    ending_swings,
-    envelope,
-    last,
-    settling_window,
-)
+from twolink.simulation.swings import end_envelope, last, settling_window
 
 __all__ = [
     "ErrorMeasures",
@@ -371,7 +366,7 @@ OSCILLATION_WINDOW = 0.3  # the swings of the last 30 % of a run (and at least E
 
 
 def oscillation_amplitude(
-    t: np.ndarray, e: np.ndarray, window: float = OSCILLATION_WINDOW
+    t: np.ndarray, e: np.ndarray, window: float = OSCILLATION_WINDOW, since: float = -math.inf
 ) -> float | tuple[float, ...]:
     """Amplitude of the oscillation that persists at the end of the run [rad]: an
     exponential envelope fitted to the error's swings (half the change between consecutive
@@ -387,8 +382,10 @@ def oscillation_amplitude(
     approach, a monotone runaway: no oscillation), or an oscillation that ended (its last
     turn more than its last period before the end). A cycle whose period exceeds about
     two thirds of the run (fewer than three turns) is not told from a drift: run longer
-    (the run's outcome is "undecided" where its growth cannot be read). NaN for fewer than
-    3 samples in the window, or a non-finite error.
+    (the run's outcome is "undecided" where its growth cannot be read). Where it does not
+    grow, it is at most half the error's peak-to-peak over its last period: the end bounds
+    what persists there. NaN for fewer than 3 samples in the window, or a non-finite
+    error.
 
     Parameters
     ----------
@@ -397,6 +394,9 @@ def oscillation_amplitude(
         Error (or angle); each column separately.
     window : float
         Share of the run (0.3: its last 30 %) whose swings the envelope is fitted to.
+    since : float
+        Turns before this time are not the oscillation's (a run's: its reference's end,
+        so the move's own tracking error is not read as a swing); default: every turn.
     """
     e = _check_signal("e", e)
     t = _check_times(t, e.shape[0])
@@ -408,8 +408,8 @@ def oscillation_amplitude(
             x = columns[:, j]
             if not np.all(np.isfinite(x)):
                 continue  # NaN, as the other measures give
-            ending = ending_swings(t, x, span)
-            out[j] = 0.0 if ending is None else envelope(*ending, at=float(t[-1]))[0]
+            ending = end_envelope(t, x, span, since)
+            out[j] = 0.0 if ending is None else ending[0]
     return _per_column(out if e.ndim > 1 else out[0])
 
 

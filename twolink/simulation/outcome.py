@@ -248,7 +248,9 @@ def reasons(scenario: Any, metrics: Any, spec: SuccessSpec = SuccessSpec()) -> l
     return out
 
 
-def tail_growth(t: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
+def tail_growth(
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
+) -> np.ndarray:
     """Growth of each column of ``x`` (errors from the target, shape (N, k)) over the last
     ``window`` s of ``t``: ``e^(σ window)``, σ the growth rate of what persists there
     (:func:`twolink.simulation.swings.growth_rate`: an oscillation's envelope, or a
@@ -260,4 +262,4 @@ def tail_growth(t: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     k = x.shape[1] if x.ndim == 2 else 1
     with np.errstate(over="ignore"):
-        return np.exp(growth_rate(t, x.reshape(len(t), k), window) * window)
+        return np.exp(growth_rate(t, x.reshape(len(t), k), window, since) * window)

@@ -20,6 +20,7 @@ __all__ = [
     "SETTLING_WINDOW_SHARE",
     "SWING_FLOOR",
     "WIGGLE_SHARE",
+    "end_envelope",
     "ending_swings",
     "envelope",
     "growth_rate",
@@ -115,12 +116,13 @@ def _without_wiggles(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
 
 
 def half_swings(
-    t: np.ndarray, x: np.ndarray, floor: float = SWING_FLOOR
+    t: np.ndarray, x: np.ndarray, floor: float = SWING_FLOOR, since: float = -math.inf
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The half-swings of a 1-d signal: between consecutive turning points
-    (:func:`turning_points`), half the change, at the midpoint in time. Returns
-    ``(times, halves, turns)``, ``turns`` the turning points' times."""
+    (:func:`turning_points`) at or after ``since``, half the change, at the midpoint in
+    time. Returns ``(times, halves, turns)``, ``turns`` the turning points' times."""
     idx = turning_points(x, floor)
+    idx = idx[t[idx] >= since]
     turns = t[idx]
     if idx.size < 2:
         return np.empty(0), np.empty(0), turns
@@ -142,7 +144,11 @@ def envelope(times: np.ndarray, halves: np.ndarray, at: float) -> tuple[float, f
     try:
         with np.errstate(over="ignore", invalid="ignore"), warnings.catch_warnings():
             warnings.simplefilter("ignore", OptimizeWarning)  # an exact fit: no covariance
-            (a1, s1), _ = curve_fit(lambda u, a, s: a * np.exp(s * u), dt, halves, p0=(a, s))
+            # relative residuals (sigma = the swing): every swing weighs alike, so the
+            # large ones of a decaying transient do not decide the envelope at the end
+            (a1, s1), _ = curve_fit(
+                lambda u, a, s: a * np.exp(s * u), dt, halves, p0=(a, s), sigma=halves
+            )
         if math.isfinite(a1) and math.isfinite(s1) and a1 > 0:
             a, s = float(a1), float(s1)
     except (RuntimeError, ValueError):  # no convergence: the log-linear fit stands
@@ -151,15 +157,16 @@ def envelope(times: np.ndarray, halves: np.ndarray, at: float) -> tuple[float, f
 
 
 def ending_swings(
-    t: np.ndarray, x: np.ndarray, window: float
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The swings an oscillation at the end of the record is read from: the half-swings of
     the last ``window`` seconds, and at least the record's last :data:`ENDING_SWINGS` + 1,
     each consecutive two averaged (at least :data:`ENDING_SWINGS` of them, at most the last
-    :data:`FITTED_SWINGS`). None
-    where the record has no swing, or its oscillation has ended (its last turn more than
-    its last period before the end)."""
-    times, halves, turns = half_swings(t, x)
+    :data:`FITTED_SWINGS`), of the turns at or after ``since`` (a run's: after its
+    reference stopped, so the move's own tracking error is no swing of it). None where
+    there is no swing, or the oscillation has ended (its last turn more than its last
+    period before the end)."""
+    times, halves, turns = half_swings(t, x, since=since)
     if not halves.size:
         return None
     period = turns[-1] - turns[-3] if turns.size >= 3 else 2.0 * (turns[-1] - turns[-2])
@@ -175,6 +182,25 @@ def ending_swings(
     # FITTED_SWINGS of them: the envelope at the end is read where the end is
     times, halves = 0.5 * (times[1:] + times[:-1]), 0.5 * (halves[1:] + halves[:-1])
     return times[-FITTED_SWINGS:], halves[-FITTED_SWINGS:]
+
+
+def end_envelope(
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
+) -> tuple[float, float] | None:
+    """``(a, s)``: the envelope of :func:`ending_swings` at the record's end and its rate
+    (NaN for one swing), or None (no oscillation at the end). Where it does not grow
+    (s <= 0 or NaN), ``a`` is at most half the error's peak-to-peak over its last period
+    (after ``since``): what the end shows bounds what persists there."""
+    ending = ending_swings(t, x, window, since)
+    if ending is None:
+        return None
+    a, s = envelope(*ending, at=float(t[-1]))
+    if not s > 0:
+        _, _, turns = half_swings(t, x, since=since)
+        period = turns[-1] - turns[-3] if turns.size >= 3 else 2.0 * (turns[-1] - turns[-2])
+        seen = x[t >= max(since, t[-1] - period)]
+        a = min(a, 0.5 * float(np.ptp(seen)))
+    return a, s
 
 
 # Growth is judged of what persists above this at the end [rad]: 1 mrad, the claims'
@@ -210,7 +236,9 @@ def _trend_rate(tw: np.ndarray, w: np.ndarray) -> float:
     return u / h if size >= GROWTH_FLOOR_RAD else 0.0
 
 
-def growth_rate(t: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
+def growth_rate(
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
+) -> np.ndarray:
     """The growth rate σ [1/s] of what persists over the last ``window`` seconds of each
     column of ``x`` (errors from the target, shape (N,) or (N, k)); ``e^(σ window)`` is
     its growth over the window (:func:`twolink.simulation.outcome.tail_growth`).
@@ -245,8 +273,8 @@ def growth_rate(t: np.ndarray, x: np.ndarray, window: float) -> np.ndarray:
             out[j] = math.inf
         elif np.ptp(w) < GROWTH_FLOOR_RAD:
             out[j] = 0.0
-        elif (ending := ending_swings(t, col, window)) is not None:
-            size, rate = envelope(*ending, at=float(t[-1]))
+        elif (ending := end_envelope(t, col, window, since)) is not None:
+            size, rate = ending
             # a ripple is not judged; one swing alone gives no rate (NaN: cannot tell)
             out[j] = rate if size >= GROWTH_FLOOR_RAD else 0.0
         else:
