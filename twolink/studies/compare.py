@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import tempfile
 from collections.abc import Sequence
+from contextlib import nullcontext
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -154,7 +155,7 @@ def compare(
     text = sweep_text(path, a, b, plants, seed, overrides)
     with tempfile.TemporaryDirectory(prefix="twolink-compare-") as tmp:
         folder = Path(out) if out is not None else Path(tmp)
-        holder = owned_output(folder, "compare", str(path.resolve())) if out else _nothing()
+        holder = owned_output(folder, "compare", str(path.resolve())) if out else nullcontext()
         with holder:
             atomic_write_text(folder / "compare.toml", text)
             plan = sweep.load_sweep(folder / "compare.toml")
@@ -179,14 +180,6 @@ def compare(
     )  # fmt: skip
 
 
-class _nothing:
-    def __enter__(self) -> None:
-        return None
-
-    def __exit__(self, *exc: Any) -> None:
-        return None
-
-
 def _plant_runs(plan: Any, names: Sequence[str]) -> dict[str, Any]:
     """Every plant's trajectory under each controller (as the sweep ran them), on the
     figure's grid, and the nominal plant's whole trajectories for the recording."""
@@ -200,7 +193,11 @@ def _plant_runs(plan: Any, names: Sequence[str]) -> dict[str, Any]:
         for i in range(plan.samples):
             values, noise_seed = plan.draw(i)
             s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
-            arms.append((s, controller))
+            # as the sweep does (run_chunk): a flexible-joint law models each plant's joints
+            law = controller
+            if getattr(controller, "needs_motor", False):
+                law = controller.with_joints(s.plant.flexibility)
+            arms.append((s, law))
             labels.append((name, i))
     angles: dict[str, list[np.ndarray]] = {n: [] for n in names}
     nominal: dict[str, Any] = {}
@@ -280,7 +277,12 @@ def format_claims(table: pd.DataFrame) -> str:
     text = shown.to_string(index=False, float_format=lambda v: f"{v:.4g}", na_rep="—")
     if "reading" in table.columns:
         words = [
-            f"  θ{row.joint} {row.metric}: {row.verdict}: {row.reading}"
+            f"  θ{row.joint} {row.metric}: "
+            + (
+                row.reading
+                if row.reading.startswith(row.verdict)
+                else f"{row.verdict}: {row.reading}"
+            )
             for row in table.itertuples()
             if isinstance(row.reading, str) and row.reading
         ]
