@@ -61,7 +61,7 @@ __all__ = [
 # Spectral densities of the filter's process noise: white acceleration on each link and
 # rotor [(rad/s²)² s], and the random walk of each acceleration disturbance [(rad/s³)² s].
 # The rule and the evidence: docs/control.md, "A law a lab can run".
-DEFAULT_PROCESS_NOISE = (1.0e-4, 1.0e-2)
+DEFAULT_PROCESS_NOISE = (1.0e-5, 1.0e-3)
 # The encoders it assumes: 17 bits a turn, the studies' (twolink.simulation.sensor's
 # ENCODER_BITS; this layer does not import the simulation's).
 DEFAULT_RESOLUTION = 2.0 * math.pi / 2**17
