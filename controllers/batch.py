@@ -32,6 +32,7 @@ from twolink.arm.dynamics import terms
 from twolink.controllers.base import Controller
 from twolink.controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity
 from twolink.controllers.ctc import ComputedTorque
+from twolink.controllers.fuzzy import kernels
 from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
 from twolink.foundation.references import ArmReference
 
@@ -265,11 +266,15 @@ class BatchFuzzyPD(BatchComputedTorque):
 
 
 def _evaluate(engine: Any, e, de, xp: Any):
-    """The fuzzy term: the engine's numpy batch path (compiled kernels where available),
-    or its array-namespace form (``evaluate_xp``) on another backend."""
-    if xp is np:
-        return engine.evaluate_batch(e, de)
-    return engine.evaluate_xp(e, de, xp)
+    """The fuzzy term: on numpy the engine's compiled kernel (``evaluate_compiled``,
+    controllers/fuzzy/kernels.py) for more than ``MIN_INPUTS`` inputs, else its numpy
+    batch path; on another backend its array-namespace form (``evaluate_xp``)."""
+    if xp is not np:
+        return engine.evaluate_xp(e, de, xp)
+    compiled = getattr(engine, "evaluate_compiled", None)
+    if compiled is not None and e.size > kernels.MIN_INPUTS:
+        return compiled(e, de)
+    return engine.evaluate_batch(e, de)
 
 
 def on_namespace(law: Any, xp: Any, dtype: Any = None) -> Any:

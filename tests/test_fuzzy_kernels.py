@@ -38,7 +38,7 @@ def engines():
 def test_mamdani_kernel_equals_the_pure_python_path_to_the_bit(name):
     engine = engines()[name]
     e, de = inputs(engine)
-    got = engine.evaluate_batch(e, de)
+    got = engine.evaluate_compiled(e, de)
     want = np.array(engine.evaluate_floats(e.tolist(), de.tolist()))
     assert np.array_equal(got, want)
     assert (want == engine.no_fire_output).any() or name != "designed"
@@ -49,7 +49,7 @@ def test_table_and_continuous_kernels_equal_their_pure_python_paths(kind):
     exact = engines()["designed"]
     engine = FuzzyTable(exact, 41) if kind == "table" else ContinuousEngine(exact)
     e, de = inputs(exact, seed=1)
-    got = engine.evaluate_batch(e.reshape(-1, 2), de.reshape(-1, 2))
+    got = engine.evaluate_compiled(e.reshape(-1, 2), de.reshape(-1, 2))
     want = np.array(engine.evaluate_floats(e.tolist(), de.tolist())).reshape(-1, 2)
     assert np.array_equal(got, want)
 
@@ -61,18 +61,37 @@ def test_nan_is_refused_on_the_compiled_path(kind):
     e = np.zeros(200)
     e[7] = np.nan
     with pytest.raises(ValueError, match="NaN"):
-        engine[kind].evaluate_batch(e, np.zeros(200))
+        engine[kind].evaluate_compiled(e, np.zeros(200))
 
 
 def test_without_numba_the_numpy_paths_agree(monkeypatch):
     engine = engines()["designed"]
     e, de = inputs(engine, seed=2)
-    compiled = engine.evaluate_batch(e, de)
+    compiled = {
+        kind: eng.evaluate_compiled(e, de)
+        for kind, eng in (
+            ("exact", engine),
+            ("table", FuzzyTable(engine, 41)),
+            ("continuous", ContinuousEngine(engine)),
+        )
+    }
     monkeypatch.setattr(kernels, "available", lambda: False)
-    numpy_path = engine.evaluate_batch(e, de)
-    np.testing.assert_allclose(numpy_path, compiled, rtol=0, atol=1e-12)
-    for other in (FuzzyTable(engine, 41), ContinuousEngine(engine)):
-        slow = other.evaluate_batch(e, de)
-        monkeypatch.undo()
-        assert np.array_equal(other.evaluate_batch(e, de), slow)
-        monkeypatch.setattr(kernels, "available", lambda: False)
+    np.testing.assert_allclose(
+        engine.evaluate_compiled(e, de), compiled["exact"], rtol=0, atol=1e-12
+    )
+    assert np.array_equal(FuzzyTable(engine, 41).evaluate_compiled(e, de), compiled["table"])
+    assert np.array_equal(ContinuousEngine(engine).evaluate_compiled(e, de), compiled["continuous"])
+
+
+def test_building_a_table_or_a_design_does_not_import_numba():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys; from twolink.controllers.fuzzy.table import FuzzyTable, table_bound; "
+        "from twolink.controllers.fuzzy.tables import paper_fuzzy_pd; "
+        "t = FuzzyTable(paper_fuzzy_pd()); table_bound(t, refine=1); "
+        "print('numba' in sys.modules)"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"

@@ -304,16 +304,19 @@ class MamdaniEngine:
         if flat_e.size <= _SMALL_N and self._plan.pair_table is not None:
             out_small = self._small(flat_e.tolist(), flat_de.tolist())
             return np.array(out_small, dtype=float).reshape(e_arr.shape)
-        if self._plan.pair_table is not None and kernels.available():
-            # _small compiled (controllers/fuzzy/kernels.py): equal to it to the bit
-            if np.isnan(flat_e).any() or np.isnan(flat_de).any():
-                raise ValueError("fuzzy engine inputs contain NaN")
-            return kernels.mamdani(self, flat_e, flat_de).reshape(e_arr.shape)
         out = np.empty(flat_e.size)
         for s in range(0, flat_e.size, _CHUNK):
             sl = slice(s, s + _CHUNK)
             out[sl] = self._batch(flat_e[sl], flat_de[sl])
         return out.reshape(e_arr.shape)
+
+    def evaluate_compiled(self, e: np.ndarray, de: np.ndarray) -> np.ndarray:
+        """The batch laws' call: ``_small`` compiled where numba is installed (equal to it
+        to the bit, controllers/fuzzy/kernels.py), else :meth:`evaluate_batch`."""
+        e_arr, de_arr = self._prepare(e, de)
+        if self._plan.pair_table is None or not kernels.available():
+            return self.evaluate_batch(e_arr, de_arr)
+        return kernels.mamdani(self, *(np.ravel(x) for x in (e_arr, de_arr))).reshape(e_arr.shape)
 
     def evaluate_xp(self, e: Any, de: Any, xp: Any) -> Any:
         """The closed form (triangular partitions, centroid) on the array namespace ``xp``

@@ -13,10 +13,11 @@ numba's defaults), so its outputs equal the pure-Python ones to the bit
 * :func:`continuous` is ``ContinuousEngine.evaluate_floats``.
 
 Without numba (or with ``TWOLINK_NO_NUMBA=1``) :func:`available` is false and the
-engines take their numpy paths. The engines use a kernel only for batches of more than
-``MIN_INPUTS`` inputs (below it the pure-Python path is as fast and nothing is compiled),
-so a single-arm run never imports numba. Compiled code is cached on disk (``cache=True``):
-the first batch run on a machine compiles each kernel once (~1-3 s), later ones load it.
+engines take their numpy paths. Only the batch laws call the kernels (the engines'
+``evaluate_compiled``, ``controllers/batch.py``), for more than ``MIN_INPUTS`` inputs (below
+it the pure-Python path is as fast): a single-arm run, a table, a design or a coverage map
+never imports numba (~0.5 s). Compiled code is cached on disk (``cache=True``): the first
+batch run on a machine compiles each kernel once (~1-3 s), later ones load it.
 """
 
 from __future__ import annotations
@@ -196,8 +197,14 @@ def _compiled() -> dict[str, Any]:
     }
 
 
+def _no_nan(e: np.ndarray, d: np.ndarray) -> None:
+    if np.isnan(e).any() or np.isnan(d).any():
+        raise ValueError("fuzzy engine inputs contain NaN")
+
+
 def mamdani(engine: Any, e: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """``engine._small`` on 1-D float arrays (no NaN: the caller checks)."""
+    """``engine._small`` on 1-D float arrays (NaN is an error)."""
+    _no_nan(e, d)
     plan = engine._plan
     packed = _packed(engine)
     out = np.empty(e.size)
@@ -240,7 +247,8 @@ def _packed(engine: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def table(t: Any, e: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """``FuzzyTable.evaluate_floats`` on 1-D float arrays (no NaN: the caller checks)."""
+    """``FuzzyTable.evaluate_floats`` on 1-D float arrays (NaN is an error)."""
+    _no_nan(e, d)
     out = np.empty(e.size)
     _compiled()["table"](
         e, d, t.values.ravel(), t.points, t.e_lo, t.e_hi, t.e_scale, t.d_lo, t.d_hi, t.d_scale, out
@@ -249,7 +257,8 @@ def table(t: Any, e: np.ndarray, d: np.ndarray) -> np.ndarray:
 
 
 def continuous(c: Any, e: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """``ContinuousEngine.evaluate_floats`` on 1-D float arrays (no NaN: the caller checks)."""
+    """``ContinuousEngine.evaluate_floats`` on 1-D float arrays (NaN is an error)."""
+    _no_nan(e, d)
     out = np.empty(e.size)
     _compiled()["continuous"](e, d, c._peaks_e, c._peaks_d, c._ravel, out)
     return out

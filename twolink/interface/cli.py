@@ -14,7 +14,7 @@ from pathlib import Path
 
 import click
 
-from twolink.foundation.executors import EXECUTORS, open_executor
+from twolink.foundation.executors import EXECUTORS, SWEEP_PRELOAD, open_executor
 from twolink.foundation.interrupts import (
     CTRL_C_RECEIVED,
     forget_escaped_interrupt,
@@ -394,7 +394,7 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
     click.echo(f"gain study: {study_module.n_runs(study)} runs ({study.source})", err=True)
     if install and parse_set(settings):
         _fail_input("--install writes the shipped table of the study file as it is; drop --set")
-    with open_executor("process", workers) as pool:
+    with open_executor("process", workers, preload=SWEEP_PRELOAD) as pool:
         results = study_module.run_gain_study(study, pool, progress=True)
     table = study_module.gain_table(results, study.quantile)
     try:

@@ -41,7 +41,7 @@ def regimes_command(
       twolink regimes -n 300 --out /tmp/regimes   # 10 plants per cell, quicker
     """
     from twolink.figures.plots import save_figure
-    from twolink.foundation.executors import open_executor
+    from twolink.foundation.executors import SWEEP_PRELOAD, open_executor
     from twolink.foundation.io import atomic_write_text
     from twolink.simulation.config import ConfigError
     from twolink.studies import regimes
@@ -53,7 +53,7 @@ def regimes_command(
     except ConfigError as exc:
         fail_input(str(exc))
     own_output(out, "regimes", str(Path(study).resolve()))
-    with sweep_exits(out), open_executor("process", workers) as pool:
+    with sweep_exits(out), open_executor("process", workers, preload=SWEEP_PRELOAD) as pool:
         results = regimes.run_regimes(study, out, samples, pool)
     table = regimes.regime_table(results)
     summ = regimes.summary(table)

@@ -24,7 +24,12 @@ from typing import Any
 
 import pandas as pd
 
-from twolink.foundation.executors import SweepExecutor, check_options, open_executor
+from twolink.foundation.executors import (
+    SWEEP_PRELOAD,
+    SweepExecutor,
+    check_options,
+    open_executor,
+)
 from twolink.foundation.interrupts import interrupts_held
 from twolink.foundation.io import (
     append_line,
@@ -547,7 +552,7 @@ def _run_sweep(
         with stops.installed():
             try:
                 if missing:
-                    ex = pool or open_executor(executor, workers, scheduler)
+                    ex = pool or open_executor(executor, workers, scheduler, SWEEP_PRELOAD)
                     n_workers = ex.workers
                     try:
                         _drive(plan, out, ex, missing, frames, computed, bar, stops, backend)
