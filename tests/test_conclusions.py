@@ -129,10 +129,12 @@ def test_the_papers_experiments_sentence_names_every_unstable_loop():
         ({"CTC": 10, "FCM-CTC": 0}, "CTC's in 10."),
     ):
         line = variant_sentence("flexible joints", 10, counts, {"FCM-CTC": 0, "CTC": 0},
-                                growth, "FCM-CTC", "CTC")  # fmt: skip
+                                growth, "FCM-CTC", "CTC",
+                                ("settling_time_s", -0.62, "Table 4"))  # fmt: skip
         assert line.endswith(said.rstrip(".") + ".")
         assert "neither met the spec in any of them" in line
         assert "lower than CTC beyond the tolerance in 3 and higher in 5 of 20" in line
+        assert "of 20 comparisons (Ts 3/5 of 10), the largest Ts −620 ms (Table 4)" in line
 
 
 def test_at_most_eight_sentences_and_none_twice():

@@ -232,11 +232,13 @@ def variant_sentence(
     unstable: Mapping[str, int | None],
     proposed: str,
     baseline: str,
+    largest: tuple[str, float, str] | None = None,
 ) -> str:
     """The paper's own experiments in one plant variant: ``counts`` (metric -> lower,
-    higher, of n, ...), ``met`` (controller -> experiments that met the spec) and
+    higher, of n, ...), ``met`` (controller -> experiments that met the spec),
     ``unstable`` (controller -> experiments whose loop, linearised at the target, is
-    unstable; None where it was not linearised)."""
+    unstable; None where it was not linearised) and the ``largest`` difference beyond
+    its tolerance (metric, proposed − baseline, experiment)."""
     from twolink.simulation.vocabulary import metric
 
     p, b = proposed, baseline
@@ -256,6 +258,9 @@ def variant_sentence(
             f"{p} is lower than {b} beyond the tolerance in {lower} and higher in {higher} "
             f"of {total} comparisons ({each})"
         )
+        if largest is not None:
+            key, d, where = largest
+            said += f", the largest {metric(key).symbol} {_signed(key, d)} ({where})"
     if met.get(p, 0) == met.get(b, 0):
         spec = (
             "neither met the spec in any of them" if met.get(p, 0) == 0

@@ -491,9 +491,32 @@ def conclusions(rows, manifest: Manifest, studies: Sequence[Any] = ()) -> list[s
             unstable[name] = sum(g > 0 for g in growth) if growth else None
         counts = claims(rows, manifest, variant.name)
         lines.append(
-            variant_sentence(variant.title, len(manifest.experiments), counts, met, unstable, p, b)
+            variant_sentence(
+                variant.title,
+                len(manifest.experiments),
+                counts,
+                met,
+                unstable,
+                p,
+                b,
+                _largest(rows, manifest, variant.name),
+            )
         )
     return ["", "## Conclusions", "", *(f"- {s}" for s in sentences(lines, studies))]
+
+
+def _largest(rows, manifest: Manifest, variant: str) -> tuple[str, float, str] | None:
+    """The largest difference beyond its tolerance (in tolerances) of :func:`claims`'
+    counts in ``variant``: (metric, proposed − baseline in magnitude, experiment label)."""
+    best, out = 1.0, None
+    for key in CLAIMED_BETTER:
+        for e in manifest.experiments:
+            x = _lookup(rows, variant, e, manifest.proposed)[key]
+            y = _lookup(rows, variant, e, manifest.baseline)[key]
+            d = abs(float(x)) - abs(float(y)) if x is not None and y is not None else math.nan
+            if np.isfinite(d) and abs(d) / TOLERANCES[key] > best:
+                best, out = abs(d) / TOLERANCES[key], (key, d, e.label)
+    return out
 
 
 VERDICT_ORDER = (
