@@ -187,20 +187,22 @@ def ending_swings(
 def end_envelope(
     t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
 ) -> tuple[float, float] | None:
-    """``(a, s)``: the envelope of :func:`ending_swings` at the record's end and its rate
-    (NaN for one swing), or None (no oscillation at the end). Where it does not grow
-    (s <= 0 or NaN), ``a`` is at most half the error's peak-to-peak over its last period
-    (after ``since``): what the end shows bounds what persists there."""
+    """``(a, s)``: the envelope of :func:`ending_swings` at the record's end and its rate,
+    or None (no oscillation at the end). ``a`` is at most half the error's peak-to-peak
+    over its last period (after ``since``): what the end shows bounds what persists there
+    (a growing envelope's extrapolation too). With one half-swing only (two turns: a slow
+    cycle, or the last swing of a heavily damped one, the record cannot tell) ``a`` is
+    half the peak-to-peak over the last ``window`` seconds, what the end shows, and ``s``
+    is NaN."""
     ending = ending_swings(t, x, window, since)
     if ending is None:
         return None
+    _, _, turns = half_swings(t, x, since=since)
+    if turns.size < 3:
+        return 0.5 * float(np.ptp(x[last(t, window)])), math.nan
     a, s = envelope(*ending, at=float(t[-1]))
-    if not s > 0:
-        _, _, turns = half_swings(t, x, since=since)
-        period = turns[-1] - turns[-3] if turns.size >= 3 else 2.0 * (turns[-1] - turns[-2])
-        seen = x[t >= max(since, t[-1] - period)]
-        a = min(a, 0.5 * float(np.ptp(seen)))
-    return a, s
+    seen = x[t >= max(since, t[-1] - (turns[-1] - turns[-3]))]
+    return min(a, 0.5 * float(np.ptp(seen))), s
 
 
 # Growth is judged of what persists above this at the end [rad]: 1 mrad, the claims'
