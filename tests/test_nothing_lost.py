@@ -505,17 +505,17 @@ def test_output_busy_is_an_oserror_the_cli_reports_as_bad_input():
     assert issubclass(OutputBusy, OSError) and issubclass(ForeignOutput, OSError)
 
 
-def test_a_run_folder_of_a_twolink_before_owner_records_is_still_its_own(tmp_path):
-    # written by an earlier twolink's `run` (no lock, no owner record): rerun into it
+def test_a_folder_without_an_owner_record_is_not_adopted_by_its_names(tmp_path):
+    # a run folder with its record removed (or one from a twolink before records) holds
+    # only a run's names: twolink cannot tell them from a user's and refuses (no adoption)
     out = tmp_path / "old_run"
     assert invoke("run", STEP, "--out", out, *QUICK).exit_code == 0
     for name in (OWNER_NAME, LOCK_NAME, "seal.json"):
         (out / name).unlink()
-    assert invoke("run", STEP, "--out", out, *QUICK).exit_code == 0
-    (out / "notes.txt").write_text("mine")  # but not once anything else is there
-    (out / OWNER_NAME).unlink()
-    (out / LOCK_NAME).unlink()
-    assert invoke("run", STEP, "--out", out, *QUICK).exit_code == 2
+    before = tree(out)
+    result = invoke("run", STEP, "--out", out, *QUICK)
+    assert result.exit_code == 2 and "did not write" in result.output
+    assert tree(out) == before
 
 
 @pytest.mark.parametrize("when", ["made", "removed"])

@@ -47,12 +47,16 @@ def design_rule_base(
     >>> [f"{r.e},{r.de}->{r.u}" for r in result.rules]  # doctest: +SKIP
     ['NM,PS->NS', 'NS,PS->Z', 'Z,Z->Z', 'PS,NS->Z', 'PM,NS->PS']
     """
+    from twolink.foundation.io import check_output_folder, owned_output
     from twolink.studies.design import DEFAULT_DESIGN, design, design_or_load, load_design_config
 
     settings = load_design_config(config or DEFAULT_DESIGN)
     if out is None:
         return design(settings)
-    return design_or_load(settings, out)[0]
+    # the command line's rules: a folder of the user's files, a link, is refused
+    check_output_folder(out)
+    with owned_output(out, "design", str(Path(config or DEFAULT_DESIGN).resolve())):
+        return design_or_load(settings, out)[0]
 
 
 def run_sweep(

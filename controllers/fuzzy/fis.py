@@ -194,8 +194,13 @@ def parse_fis(text: str, source: str = "<fis>") -> FisSystem:
         m = _RULE.match(line)
         if not m:
             raise ValueError(f"{source}: line {number}: not a rule 'i j, k (w) : c': {line!r}")
-        ante = tuple(int(float(x)) for x in m.group(1).split())
-        cons = tuple(int(float(x)) for x in m.group(2).split())
+        try:
+            ante = tuple(int(float(x)) for x in m.group(1).split())
+            cons = tuple(int(float(x)) for x in m.group(2).split())
+        except OverflowError:  # a 400-digit index is inf as a float
+            raise ValueError(
+                f"{source}: line {number}: an index too large: {line[:60]!r}"
+            ) from None
         if len(ante) != len(inputs) or len(cons) != len(outputs):
             raise ValueError(
                 f"{source}: line {number}: {len(ante)} antecedents and {len(cons)} "
@@ -217,6 +222,9 @@ def _variable(var: FisVariable, factor: float, where: str) -> FuzzyVariable:
                 f"{where}: {label}: membership type {kind!r} (twolink: {list(_KINDS)})"
             )
         p = [x * factor for x in params]
+        wanted = {"trimf": 3, "trapmf": 4, "gaussmf": 2}[kind]
+        if len(p) != wanted:
+            raise ValueError(f"{where}: {label}: {kind} takes {wanted} parameters, got {len(p)}")
         if kind == "gaussmf":
             p = [p[1], p[0]]  # MATLAB [sigma mean] -> (mean, sigma)
         else:
@@ -276,12 +284,18 @@ def engine_from_fis(fis: FisSystem, source: str = "<fis>") -> tuple[MamdaniEngin
 
 def read_fis(path: str | Path) -> tuple[MamdaniEngine, tuple[float, float, float]]:
     """:func:`engine_from_fis` of a ``.fis`` file (a regular file of at most 1 MiB)."""
+    from twolink.foundation.planted import read_bounded
+
     path = Path(path)
-    if path.exists() and not path.is_file():
-        raise ValueError(f"{path}: is not a regular file")
-    if path.stat().st_size > MAX_FIS_BYTES:
-        raise ValueError(f"{path}: larger than {MAX_FIS_BYTES} bytes")
-    return engine_from_fis(parse_fis(path.read_text(), str(path)), str(path))
+    try:
+        text = read_bounded(path, MAX_FIS_BYTES).decode()
+    except UnicodeDecodeError:
+        raise ValueError(f"{path}: not UTF-8 text") from None
+    except OSError as exc:
+        if not path.exists():
+            raise
+        raise ValueError(str(exc.strerror or exc)) from None
+    return engine_from_fis(parse_fis(text, str(path)), str(path))
 
 
 def read_rule_base(path: str | Path):
@@ -297,6 +311,17 @@ def read_rule_base(path: str | Path):
         return load_rule_base(path)
     engine, scaling = read_fis(path)
     standard = default_fuzzy_pd()
+    # only the rules are taken: a method the scenario's engine would not use is refused,
+    # not ignored
+    for key, ours, theirs in (
+        ("AndMethod", standard.and_method, engine.and_method),
+        ("DefuzzMethod", standard.defuzz, engine.defuzz),
+    ):
+        if ours != theirs:
+            raise ValueError(
+                f"{path}: [System] {key}: {theirs!r}; a rule base read from a .fis keeps only "
+                f"its rules, and twolink's engine uses {ours!r} (the method would be ignored)"
+            )
     for name in ("e", "de", "u"):
         ours, theirs = getattr(standard, name), getattr(engine, name)
         same = ours.labels == theirs.labels and all(
@@ -316,8 +341,10 @@ def written_by_twolink(path: str | Path) -> bool:
     """Whether the ``.fis`` file ``path`` is byte for byte what :func:`to_fis` writes for
     its own content: then twolink wrote it and may overwrite it. (The format has no place
     for a mark that MATLAB's ``readfis`` is sure to skip.)"""
+    from twolink.foundation.planted import read_bounded
+
     try:
-        text = Path(path).read_text()
+        text = read_bounded(path, MAX_FIS_BYTES).decode()
         fis = parse_fis(text)
         engine, scaling = engine_from_fis(fis)
         return to_fis(engine, fis.system.get("Name", "twolink"), scaling) == text

@@ -7,7 +7,6 @@ shared by the resolved run configs and the rule-base files.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -61,18 +60,26 @@ def check_output_file(
     """Make sure the file ``path`` can be written, before any work starts and without
     creating anything: it is not a folder, and its folder can become one (see
     :func:`check_output_folder`); if it exists, it is a regular file that twolink wrote
-    (it carries :data:`WRITTEN_BY`). Errors name the option and ``path``."""
+    (it carries twolink's exact header: :func:`carries_mark`). Errors name the option and
+    ``path``."""
     path = Path(path)
     if path.is_symlink():
         raise ForeignOutput(f"{option} {path}: is a symbolic link; give the file itself")
     if path.is_dir():
         raise IsADirectoryError(f"{option} {path}: is a folder, not a file")
-    if path.exists():
-        if not path.is_file():
-            raise ForeignOutput(f"{option} {path}: is not a regular file (a pipe, a device)")
-        with open(path, "rb") as fh:
-            head = fh.read(1 << 16)
-        if ours_only and WRITTEN_BY not in head:
+    if os.path.lexists(path):
+        try:
+            fd, st = open_regular(path)
+            os.close(fd)
+        except PlantedFile:
+            raise ForeignOutput(
+                f"{option} {path}: is not a regular file (a pipe, a device)"
+            ) from None
+        if st.st_nlink > 1:
+            raise ForeignOutput(
+                f"{option} {path}: has another name (a hard link); twolink does not replace it"
+            )
+        if ours_only and not carries_mark(path):
             raise ForeignOutput(
                 f"{option} {path}: exists and twolink did not write it; "
                 f"twolink never overwrites such a file: choose another {option}"
@@ -81,9 +88,50 @@ def check_output_file(
     return path
 
 
-# Files twolink writes to a path the user names (rule bases, figures) carry this mark (a
-# TOML comment, a PNG text chunk), so that only they are ever overwritten.
-WRITTEN_BY = b"written by twolink"
+# Files twolink writes to a path the user names carry an exact header: a TOML file's first
+# line is MARK_LINE (a rule base's: its title, then MARK_LINE); a PNG has the text chunk
+# Software = "written by twolink". A mention of the words anywhere else is no mark.
+WRITTEN_BY = "written by twolink"
+MARK_LINE = b"# " + WRITTEN_BY.encode()
+RULE_BASE_TITLE = (
+    b"# Fuzzy rule base for controllers.fuzzy (read with controllers.fuzzy.load_rule_base)."
+)
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+
+
+def png_text(data: bytes) -> dict[str, str]:
+    """The tEXt chunks of a PNG's bytes (before its image data), {key: text}."""
+    import struct
+
+    out: dict[str, str] = {}
+    at = len(PNG_SIGNATURE)
+    while at + 8 <= len(data):
+        (length,) = struct.unpack(">I", data[at : at + 4])
+        kind = data[at + 4 : at + 8]
+        body = data[at + 8 : at + 8 + length]
+        if kind in (b"IDAT", b"IEND") or len(body) < length:
+            break
+        if kind == b"tEXt" and b"\0" in body:
+            key, text = body.split(b"\0", 1)
+            out.setdefault(key.decode("latin-1"), text.decode("latin-1"))
+        at += 12 + length
+    return out
+
+
+def carries_mark(path: str | os.PathLike) -> bool:
+    """Whether the regular file ``path`` carries twolink's exact header (see above)."""
+    from twolink.foundation.planted import read_bounded
+
+    try:
+        head = read_bounded(path, 64 << 20)[: 1 << 20]
+    except OSError:
+        return False
+    if head.startswith(PNG_SIGNATURE):
+        return png_text(head).get("Software") == WRITTEN_BY
+    lines = head.split(b"\n", 2)
+    first = lines[0].rstrip(b"\r")
+    second = lines[1].rstrip(b"\r") if len(lines) > 1 else b""
+    return first == MARK_LINE or (first == RULE_BASE_TITLE and second == MARK_LINE)
 
 
 def _check_writable(folder: Path, shown: Path, option: str) -> None:
@@ -100,41 +148,48 @@ def _check_writable(folder: Path, shown: Path, option: str) -> None:
         ) from None
 
 
-LOCK_NAME = ".twolink.lock"
-OWNER_NAME = ".twolink-owner.json"  # which command owns the folder, and what it wrote there
-# Temporaries twolink leaves beside a target while it writes (".NAME.xxxx.tmp", ".NAME.xxxx.old").
-TEMPORARY = re.compile(r"^\..+\.(tmp|old)$")
+from twolink.foundation.ownership import (  # noqa: E402  (one home; the old names import)
+    JOURNAL_NAME,
+    LOCK_NAME,
+    OWNER_NAME,
+    TEMPORARY,
+    ForeignOutput,
+    OutputBusy,
+    WriteFailed,
+    check_ownership,
+    held_by_a_command,
+    note_temporary,
+    note_written,
+    output_lock,
+    owned_output,
+    show_names,
+)
+from twolink.foundation.ownership import write_failed as _write_failed  # noqa: E402
+from twolink.foundation.planted import (  # noqa: E402
+    HEX64,
+    PlantedFile,
+    open_regular,
+    plain_relative,
+    read_json,
+    sha256_of,
+)
 
-
-class OutputBusy(OSError):
-    """Another twolink process is writing into the same output folder."""
-
-
-class WriteFailed(OSError):
-    """An output could not be written (disk full, no permission, file-size limit): the
-    message names the file. The command line ends with exit 3 (docs/reliability.md)."""
-
-    def __str__(self) -> str:
-        return str(self.strerror)
-
-    def moved_to(self, folder: Path) -> WriteFailed:
-        """The same failure, naming the file by its place in ``folder`` (where it was
-        going) rather than in the temporary folder it was being written in."""
-        target = Path(folder) / Path(self.filename).name
-        reason = str(self.strerror).rsplit(": ", 1)[-1]
-        return WriteFailed(self.errno, f"cannot write {target}: {reason}", str(target))
-
-
-def _write_failed(path: Path, exc: OSError) -> WriteFailed:
-    if isinstance(exc, WriteFailed | ForeignOutput):
-        return exc
-    reason = exc.strerror or str(exc) or type(exc).__name__
-    return WriteFailed(exc.errno, f"cannot write {path}: {reason}", str(path))
-
-
-class ForeignOutput(OSError):
-    """The output folder (or a file in it) holds something twolink did not write, or a
-    link: twolink refuses rather than delete, overwrite or write through it (exit 2)."""
+__all__ = [
+    "JOURNAL_NAME",
+    "LOCK_NAME",
+    "OWNER_NAME",
+    "TEMPORARY",
+    "ForeignOutput",
+    "OutputBusy",
+    "PlantedFile",
+    "WriteFailed",
+    "check_ownership",
+    "held_by_a_command",
+    "sha256_of",
+    "output_lock",
+    "owned_output",
+    "show_names",
+]
 
 
 def refuse_links(path: str | os.PathLike) -> None:
@@ -159,171 +214,39 @@ def refuse_links(path: str | os.PathLike) -> None:
 
 
 def folder_entries(path: Path) -> set[str]:
-    """What a folder holds, less twolink's own lock, owner record and temporaries."""
+    """What a folder holds, less twolink's lock, owner record, journal and temporaries."""
     return {
         name
         for name in os.listdir(path)
-        if name not in (LOCK_NAME, OWNER_NAME) and not TEMPORARY.match(name)
+        if name not in (LOCK_NAME, OWNER_NAME, JOURNAL_NAME) and not TEMPORARY.match(name)
     }
 
 
-def _read_owner(path: Path) -> dict[str, Any] | None:
-    try:
-        owner = json.loads((path / OWNER_NAME).read_text())
-    except (OSError, ValueError):
-        return None
-    return owner if isinstance(owner, dict) else None
-
-
-def show_names(names: set[str]) -> str:
-    """Up to three of ``names`` for a one-line message, and how many more."""
-    shown = sorted(names)[:3]
-    return ", ".join(shown) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
-
-
-def check_ownership(
-    path: str | os.PathLike,
-    command: str,
-    source: str | None = None,
-    default: bool = False,
-    option: str = "--out",
-    known: frozenset[str] = frozenset(),
-) -> None:
-    """Refuse (:class:`ForeignOutput`) an output folder that ``twolink COMMAND`` may not
-    write into; read-only, so it can run before any work.
-
-    The rule (docs/reliability.md): twolink writes into a folder that does not exist, is
-    empty, or was written by the same command before and holds nothing else. A folder
-    with anything twolink did not write is refused, naming what is there; so is another
-    command's folder (a sweep's, a reproduction's), and with ``default`` (the command
-    picked the folder, not the user) one written for another ``source`` file. A folder
-    with no owner record that holds only names in ``known`` (the command's own outputs,
-    written by a twolink from before owner records) is taken as the command's.
-    """
-    path = Path(path)
-    if path.is_symlink():
-        raise ForeignOutput(
-            f"{option} {path}: is a symbolic link"
-            + (" to nothing" if not path.exists() else f"; give its folder ({path.resolve()})")
-        )
-    if not path.exists():
-        return
-    if not path.is_dir():
-        raise NotADirectoryError(f"{option} {path}: is not a folder")
-    owner = _read_owner(path)
-    entries = folder_entries(path)
-    if owner is None:
-        if entries and not (path / LOCK_NAME).is_file() and not entries <= known:
-            raise ForeignOutput(
-                f"{option} {path}: holds files twolink did not write ({show_names(entries)}); "
-                "twolink writes only into a new or empty folder or one it wrote before: "
-                f"choose another {option}"
-            )
-        return  # empty, or written by a twolink from before owner records (it has the lock)
-    if owner.get("command") != command:
-        raise ForeignOutput(
-            f"{option} {path}: holds the results of `twolink {owner.get('command')}`"
-            + (f" ({owner['source']})" if owner.get("source") else "")
-            + f"; `twolink {command}` would mix with them: choose another {option}"
-        )
-    if default and source is not None and owner.get("source") not in (None, source):
-        raise ForeignOutput(
-            f"{option} {path}: holds the results of {owner['source']}, not of {source} "
-            f"(same default folder); give this run its own {option}"
-        )
-    foreign = entries - set(owner.get("entries", ()))
-    if foreign:
-        raise ForeignOutput(
-            f"{option} {path}: holds files twolink did not write ({show_names(foreign)}); "
-            f"move them away or choose another {option}"
-        )
-
-
-@contextmanager
-def owned_output(
-    path: str | os.PathLike,
-    command: str,
-    source: str | None = None,
-    default: bool = False,
-    option: str = "--out",
-    known: frozenset[str] = frozenset(),
-) -> Iterator[Path]:
-    """Check (:func:`check_ownership`), lock (:func:`output_lock`) and record the output
-    folder of ``twolink COMMAND`` for the command's life.
-
-    The folder's owner record (``.twolink-owner.json``) names the command, its source
-    file and every top-level entry twolink wrote there, so that a later command can tell
-    twolink's files from a user's."""
-    path = Path(path)
-    check_ownership(path, command, source, default, option, known)
-    refuse_links(path / LOCK_NAME)
-    with output_lock(path, option) as held:
-        check_ownership(path, command, source, default, option, known)  # again, now held
-        record = {"command": command, "source": source}
-        owner = _read_owner(path) or {}
-        try:
-            yield held
-        finally:
-            entries = set(owner.get("entries", ())) | folder_entries(path)
-            try:
-                atomic_write_json(path / OWNER_NAME, {**record, "entries": sorted(entries)})
-            except OSError:
-                pass  # the command's own write error (disk full) is the one to report
-
-
-@contextmanager
-def output_lock(path: str | os.PathLike, option: str = "--out") -> Iterator[Path]:
-    """Hold the output folder ``path`` (created if need be) for this process.
-
-    A second reproduction or sweep into the same folder stops at once with
-    :class:`OutputBusy`, naming the process that holds it, instead of mixing its files
-    with the first's. The lock is ``fcntl.flock`` on ``path/.twolink.lock``: the kernel
-    drops it when the holder ends, even killed, so a stale lock never blocks a rerun.
-    The lock file is never opened through a link (``O_NOFOLLOW``).
-    """
-    import fcntl
-
-    path = Path(path)
-    path.mkdir(parents=True, exist_ok=True)
-    lock = path / LOCK_NAME
-    try:
-        fd = os.open(lock, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
-    except OSError:
-        if lock.is_symlink():
-            raise ForeignOutput(
-                f"{option} {path}: {LOCK_NAME} is a symbolic link; twolink never writes "
-                "through one (remove it)"
-            ) from None
-        raise
-    fh = os.fdopen(fd, "r+")
-    try:
-        try:
-            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            fh.seek(0)
-            holder = fh.read().strip() or "?"
-            raise OutputBusy(
-                f"{option} {path}: another twolink (pid {holder}) is writing into this folder; "
-                "wait for it to finish or use another --out"
-            ) from None
-        fh.seek(0)
-        fh.truncate()
-        fh.write(f"{os.getpid()}\n")
-        fh.flush()
-        yield path
-    finally:
-        fh.close()  # releases the lock
-
-
 def append_line(path: str | os.PathLike, line: str) -> None:
-    """Append ``line`` to a log file, never through a link."""
+    """Append ``line`` to a log file, never through a link nor into a file with another
+    name (a hard link), a pipe or a device."""
+    import stat
+
     refuse_links(path)
     try:
-        fd = os.open(path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o644)
-        with os.fdopen(fd, "a") as fh:
-            fh.write(line if line.endswith("\n") else line + "\n")
+        fd = os.open(
+            path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK, 0o644
+        )
     except OSError as exc:
         raise _write_failed(Path(path), exc) from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode) or st.st_nlink != 1:
+            what = "a hard link" if stat.S_ISREG(st.st_mode) else "not a regular file"
+            raise ForeignOutput(f"{path}: is {what}; twolink does not append to it")
+        data = (line if line.endswith("\n") else line + "\n").encode()
+        while data:
+            data = data[os.write(fd, data) :]
+    except OSError as exc:
+        raise _write_failed(Path(path), exc) from None
+    finally:
+        os.close(fd)
+    note_written(path)
 
 
 @contextmanager
@@ -342,6 +265,7 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=suffix + ".tmp", dir=path.parent)
         os.close(fd)
+        note_temporary(tmp)
         return Path(tmp)
 
     with _pending(path, make, lambda tmp: tmp.unlink(missing_ok=True)) as tmp_path:
@@ -349,6 +273,7 @@ def atomic_path(path: str | os.PathLike, suffix: str = "") -> Iterator[Path]:
             _usual_permissions(tmp_path, 0o666)
             yield tmp_path
             os.replace(tmp_path, path)
+            note_written(path)
         except OSError as exc:
             raise _write_failed(path, exc) from None
 
@@ -512,33 +437,42 @@ SEAL_NAME = "seal.json"
 
 
 def _sha256(path: Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as fh:
-        for block in iter(lambda: fh.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
+    return sha256_of(path)
 
 
 def write_seal(folder: str | os.PathLike, names: Iterator[str] | list[str]) -> None:
     """Seal ``folder``'s files ``names``: their SHA-256 in ``seal.json``, written last, so a
-    file cut short, damaged or edited afterwards is found (:func:`seal_intact`)."""
+    file cut short, damaged or edited afterwards is found (:func:`seal_intact`). A seal
+    finds damage, not a deliberate forgery: whoever edits a file can write its seal too."""
     folder = Path(folder)
     atomic_write_json(folder / SEAL_NAME, {n: _sha256(folder / n) for n in sorted(names)})
 
 
+def read_seal(folder: str | os.PathLike) -> dict[str, str] | None:
+    """``folder``'s seal if it is one twolink could have written (a regular file, bounded,
+    {plain name inside the folder: SHA-256}), else None."""
+    try:
+        seal = read_json(Path(folder) / SEAL_NAME)
+    except OSError:
+        return None
+    ok = all(
+        plain_relative(n) and "/" not in n and isinstance(d, str) and HEX64.match(d)
+        for n, d in seal.items()
+    )
+    return seal if ok else None
+
+
 def seal_intact(folder: str | os.PathLike, needed: tuple[str, ...] = ()) -> bool:
     """Whether ``folder``'s seal is readable, covers ``needed``, and every file it names
-    still has the bytes it was sealed with."""
+    (a plain name in the folder, a regular file, never through a link) still has the
+    bytes it was sealed with."""
     folder = Path(folder)
+    seal = read_seal(folder)
+    if seal is None or not set(needed) <= set(seal):
+        return False
     try:
-        seal = json.loads((folder / SEAL_NAME).read_text())
-        if not isinstance(seal, dict) or not set(needed) <= set(seal):
-            return False
-        return all(
-            not (folder / n).is_symlink() and _sha256(folder / n) == digest
-            for n, digest in seal.items()
-        )
-    except (OSError, ValueError):
+        return all(_sha256(folder / n) == digest for n, digest in seal.items())
+    except OSError:
         return False
 
 
@@ -558,6 +492,7 @@ def replace_files(
         try:
             if (new / name).exists():
                 os.replace(new / name, folder / name)
+                note_written(folder / name)
             else:
                 (folder / name).unlink(missing_ok=True)
         except OSError as exc:
@@ -573,7 +508,9 @@ def scratch_folder(beside: str | os.PathLike) -> Iterator[Path]:
 
     def make() -> Path:
         beside.parent.mkdir(parents=True, exist_ok=True)
-        return Path(tempfile.mkdtemp(prefix=f".{beside.name}.", suffix=".tmp", dir=beside.parent))
+        tmp = tempfile.mkdtemp(prefix=f".{beside.name}.", suffix=".tmp", dir=beside.parent)
+        note_temporary(tmp)
+        return Path(tmp)
 
     with _pending(beside, make, lambda tmp: shutil.rmtree(tmp, ignore_errors=True)) as tmp:
         _usual_permissions(tmp, 0o777)

@@ -36,34 +36,17 @@ def sweep_exits(out: Path) -> Iterator[None]:
         sys.exit(1)
 
 
-# What each command writes at the top of its folder (run: twolink.studies.run_folder.RUN_FILES):
-# a folder of only these, from a twolink before owner records, is the command's own.
-KNOWN_OUTPUTS = {
-    "gains": frozenset({"gains.csv", "gain_tradeoff.png"}),
-    "calibrate": frozenset({"calibrated.toml", "calibration_profile.png"}),
-    "models": frozenset({"twolink.xml", "twolink_flexible.xml", "scene.xml"}),
-}  # fmt: skip
-
-
 def own_output(out: Path, command: str, source: str | None = None, default: bool = False) -> None:
     """Check that ``twolink COMMAND`` may write into ``out`` (exit 2 if not), then hold it
-    (lock and owner record) until the command ends (docs/reliability.md)."""
+    (lock, journal and owner record) until the command ends (docs/reliability.md)."""
     from twolink.foundation.io import check_output_folder, check_ownership, owned_output
 
     try:
         check_output_folder(out)
-        known = KNOWN_OUTPUTS.get(command, frozenset())
-        if command == "run":  # a run folder's own files, as write_run names them
-            from twolink.foundation.io import SEAL_NAME
-            from twolink.studies.run_folder import RUN_FILES
-
-            known = frozenset({*RUN_FILES, SEAL_NAME})
-        check_ownership(out, command, source, default, known=known)
+        check_ownership(out, command, source, default)
     except OSError as exc:
         fail_input(str(exc))
-    click.get_current_context().with_resource(
-        owned_output(out, command, source, default, known=known)
-    )
+    click.get_current_context().with_resource(owned_output(out, command, source, default))
 
 
 def format_metrics(metrics) -> str:

@@ -504,7 +504,7 @@ def _plant(t: TomlTable) -> PlantConfig:
 def _sensor(t: TomlTable) -> Sensor:
     d = Sensor()
     sensor = Sensor(
-        resolution_rad=t.number("resolution_rad", d.resolution_rad, minimum=0.0),
+        resolution_rad=_resolution(t, d.resolution_rad),
         noise_std_rad=t.number("noise_std_rad", d.noise_std_rad, minimum=0.0),
         delay_samples=t.integer("delay_samples", d.delay_samples),
         velocity=t.string("velocity", d.velocity, VELOCITY_ESTIMATES),
@@ -576,8 +576,26 @@ def _fuzzy(
     )
     if not 2 <= fuzzy.table_points <= MAX_TABLE_POINTS:
         f.fail("table_points", f"must be 2 to {MAX_TABLE_POINTS}, got {fuzzy.table_points}")
+    if kind not in FUZZY_KINDS and fuzzy.inference != fd.inference:
+        f.fail(
+            "inference",
+            f"{fuzzy.inference!r} on a {kind!r} controller, which has no fuzzy term: it "
+            f"would be ignored (only {', '.join(FUZZY_KINDS)} infer)",
+        )
     f.done()
     return fuzzy
+
+
+# An encoder quantum is 0 (none) or at least this (a 42-bit encoder): a subnormal one
+# (5e-324) makes every count overflow.
+MIN_RESOLUTION_RAD = 1e-12
+
+
+def _resolution(t: TomlTable, default: float) -> float:
+    value = t.number("resolution_rad", default, minimum=0.0)
+    if 0 < value < MIN_RESOLUTION_RAD:
+        t.fail("resolution_rad", f"must be 0 (none) or >= {MIN_RESOLUTION_RAD:g}, got {value!r}")
+    return value
 
 
 def _auto_or_number(t: TomlTable, key: str, **checks: Any) -> float | None:

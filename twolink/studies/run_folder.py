@@ -18,9 +18,12 @@ from twolink.foundation.io import (
     atomic_write_json,
     atomic_write_text,
     folder_entries,
+    held_by_a_command,
+    read_seal,
     refuse_links,
     replace_files,
     scratch_folder,
+    sha256_of,
     show_names,
     to_toml,
     write_seal,
@@ -57,10 +60,21 @@ RUN_FILES = (
 
 def check_run_folder(out: Path) -> None:
     """Refuse (:class:`~twolink.foundation.io.ForeignOutput`) a run folder that holds anything but a
-    run's files, or is reached through a link inside its output folder."""
+    run's files, or is reached through a link inside its output folder. Outside a folder
+    a twolink command holds (whose owner record proved every file twolink's as it began),
+    a run's file is replaced only while its seal lists it with its current bytes: a file
+    of the user's named ``angles.png`` is not taken for one."""
     refuse_links(out)
     if out.is_dir():
         extra = folder_entries(out) - {*RUN_FILES, SEAL_NAME}
+        if not extra and not held_by_a_command(out):
+            seal = read_seal(out) or {}
+            for name in sorted(folder_entries(out) - {SEAL_NAME}):
+                try:
+                    if sha256_of(out / name) != seal.get(name):
+                        extra.add(name)
+                except OSError:
+                    extra.add(name)
         if extra:
             raise ForeignOutput(
                 f"{out}: holds files that are not a twolink run's ({show_names(extra)}); "

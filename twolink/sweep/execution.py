@@ -9,7 +9,6 @@ writes, so a chunk file and its log line are always written together.
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import os
 import signal
@@ -38,6 +37,7 @@ from twolink.foundation.io import (
     owned_output,
     refuse_links,
 )
+from twolink.foundation.planted import read_bounded, read_json
 from twolink.simulation.config import scenario_from_dict
 from twolink.simulation.experiment import BACKENDS, build_controller, iter_scenarios, measure
 from twolink.simulation.outcome import classify
@@ -222,6 +222,10 @@ def _measured_row(
 # ----------------------------------------------------------------------------- chunk files
 
 
+# A chunk file read back is at most this large (a chunk of 10^4 rows is ~2 MB).
+MAX_CHUNK_BYTES = 1 << 30
+
+
 def _chunk_path(out: Path, chunk: int) -> Path:
     return out / "chunks" / f"chunk_{chunk:05d}.parquet"
 
@@ -243,7 +247,7 @@ def _seal(plan: SweepPlan, path: Path) -> None:
 def _seal_digest(path: Path) -> str | None:
     """The sweep digest a chunk's seal names, None where it has no readable seal."""
     try:
-        return json.loads(_seal_path(path).read_text()).get("digest")
+        return read_json(_seal_path(path), 1 << 16).get("digest")
     except (OSError, ValueError, AttributeError):
         return None
 
@@ -255,8 +259,8 @@ def _valid_chunk(plan: SweepPlan, out: Path, chunk: int) -> pd.DataFrame | None:
     if not path.is_file():
         return None
     try:
-        seal = json.loads(_seal_path(path).read_text())
-        data = path.read_bytes()
+        seal = read_json(_seal_path(path), 1 << 16)
+        data = read_bounded(path, MAX_CHUNK_BYTES)
         if seal != {"digest": plan.digest, "sha256": hashlib.sha256(data).hexdigest()}:
             return None  # edited, cut short, of another sweep, or never sealed
         df = read_table(path)
@@ -345,7 +349,7 @@ def _prepare_out(plan: SweepPlan, out: Path, fresh: bool, replace_other: bool = 
     digest = old_format = None
     if manifest_path.is_file():
         try:
-            saved = json.loads(manifest_path.read_text())
+            saved = read_json(manifest_path)
             digest, old_format = saved.get("digest"), saved.get("format")
         except (OSError, ValueError, AttributeError):
             digest = None  # a damaged manifest: each chunk's seal says whose it is
