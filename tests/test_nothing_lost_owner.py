@@ -410,3 +410,82 @@ def test_a_killed_commands_temporaries_are_removed_by_the_next(tmp_path):
     with owned_output(out, "demo"), atomic_path(out / "small.txt") as tmp:
         tmp.write_text("x")
     assert not [p for p in out.iterdir() if p.name.endswith(".tmp")]
+
+
+ALL_FOLDER_COMMANDS = {
+    "run": ["run", STEP, *QUICK],
+    "models": ["models"],
+    "sweep": ["sweep", "{sweep}", "--no-plots"],
+    "reproduce": ["reproduce", "--no-trace"],
+    "gains": ["gains", "--set", "plants=2"],
+    "calibrate": ["calibrate", "--set", "maxiter=1"],
+    "regimes": ["regimes", "-n", "10"],
+}
+
+
+@pytest.mark.parametrize("command", list(ALL_FOLDER_COMMANDS))
+def test_no_space_for_the_locks_pid_exits_3_naming_the_lock(tmp_path, monkeypatch, command):
+    # 0 bytes free: the first byte any command writes is the lock's pid (ENOSPC, simulated)
+    import errno
+
+    def full(*args):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    sweep_file = tmp_path / "tiny.toml"
+    sweep_file.write_text(SWEEP)
+    monkeypatch.setattr(os, "pwrite", full)
+    args = [str(a).format(sweep=sweep_file) for a in ALL_FOLDER_COMMANDS[command]]
+    result = invoke(*args, "--out", tmp_path / "out")
+    assert result.exit_code == 3, result.output
+    one_error_line(result)
+    assert f"{tmp_path / 'out' / LOCK_NAME}" in result.output and "No space left" in result.output
+
+
+@pytest.mark.slow  # ~1 min: nine processes, design and fis do their whole work first
+@pytest.mark.parametrize(
+    "command", [*ALL_FOLDER_COMMANDS, "design", "fis"], ids=[*ALL_FOLDER_COMMANDS, "design", "fis"]
+)
+def test_zero_bytes_writable_exits_3_naming_a_file_in_every_command(tmp_path, command):
+    import resource
+
+    sweep_file = tmp_path / "tiny.toml"
+    sweep_file.write_text(SWEEP)
+    if command in ALL_FOLDER_COMMANDS:
+        args = [str(a).format(sweep=sweep_file) for a in ALL_FOLDER_COMMANDS[command]]
+        args += ["--out", str(tmp_path / "out")]
+    else:
+        args = [command, "--out", str(tmp_path / f"out.{'toml' if command == 'design' else 'fis'}")]
+
+    def preexec() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+
+    r = subprocess.run(
+        [sys.executable, "-m", "twolink", *args],
+        cwd=tmp_path,
+        capture_output=True,
+        text=True,
+        preexec_fn=preexec,
+        timeout=300,
+    )
+    assert r.returncode == 3, r.stderr
+    assert "Traceback" not in r.stderr and f"cannot write {tmp_path}" in r.stderr, r.stderr
+
+
+def test_a_full_disk_in_a_reproduction_exits_3_naming_the_file(tmp_path):
+    import resource
+
+    def preexec() -> None:
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+
+    out = tmp_path / "r"
+    r = subprocess.run(
+        [sys.executable, "-m", "twolink", "reproduce", "--out", str(out), "--no-trace"],
+        capture_output=True,
+        text=True,
+        preexec_fn=preexec,
+        timeout=300,
+    )
+    assert r.returncode == 3, r.stderr  # exit 2 naming no file before
+    assert "Traceback" not in r.stderr and f"cannot write {out}" in r.stderr

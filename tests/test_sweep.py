@@ -672,6 +672,11 @@ def test_dask_executor_without_dask_says_how_to_get_it(tmp_path, monkeypatch):
 
 
 def test_corrupt_chunks_are_computed_again_and_a_corrupt_manifest_costs_nothing(tmp_path):
+    # A file changed since twolink wrote it is not replaced (its owner record's SHA-256 no
+    # longer matches: it may be the user's, docs/reliability.md): the rerun names it. Once
+    # it is moved away, only what is missing is computed again.
+    from twolink.foundation.io import ForeignOutput
+
     plan = sw.load_sweep(write(tmp_path, SMALL))
     out = tmp_path / "out"
     first = sw.run_sweep(plan, out, executor="inprocess", plots=False)
@@ -682,16 +687,25 @@ def test_corrupt_chunks_are_computed_again_and_a_corrupt_manifest_costs_nothing(
     edited.loc[0, "joint1_overshoot_pct"] = 99.0
     edited.to_parquet(chunks[0], index=False)
     chunks[1].write_bytes(chunks[1].read_bytes()[:-40])
+    with pytest.raises(ForeignOutput, match="chunk_00000.parquet .changed since twolink wrote"):
+        sw.run_sweep(plan, out, executor="inprocess", plots=False)
+    assert pd.read_parquet(chunks[0]).loc[0, "joint1_overshoot_pct"] == 99.0  # kept
+    chunks[0].unlink()
+    chunks[1].unlink()
     again = sw.run_sweep(plan, out, executor="inprocess", plots=False)
     assert again.computed == (0, 1) and again.reused == (2,)
     columns_equal(first.results, again.results)
-    # a damaged manifest: every chunk's seal still says it belongs to this sweep
+    # a damaged manifest is refused the same way; moved away, every chunk's seal still
+    # says it belongs to this sweep
     (out / "manifest.json").write_text('{"digest": ')
+    with pytest.raises(ForeignOutput, match="manifest.json"):
+        sw.run_sweep(plan, out, executor="inprocess", plots=False)
+    (out / "manifest.json").unlink()
     third = sw.run_sweep(plan, out, executor="inprocess", plots=False)
     assert third.computed == () and third.reused == (0, 1, 2)
     columns_equal(first.results, third.results)
     # ... and names another sweep's chunks as such
-    (out / "manifest.json").write_text("not json")
+    (out / "manifest.json").unlink()
     other = sw.load_sweep(write(tmp_path, SMALL.replace("seed = 7", "seed = 8"), "other.toml"))
     with pytest.raises(sw.SweepOutputError, match="holds results of a different sweep"):
         sw.run_sweep(other, out, executor="inprocess", plots=False)

@@ -485,10 +485,12 @@ def replace_files(
     ``folder`` stays. The seal goes first and is written again by the caller, so a stop
     half-way leaves a folder that reads as unsealed, never as whole."""
     folder, new = Path(folder), Path(new)
-    refuse_links(folder / SEAL_NAME)
+    for name in (SEAL_NAME, *names):
+        refuse_links(folder / name)
+        if (folder / name).is_dir():
+            raise ForeignOutput(f"{folder / name}: is a folder; twolink does not replace it")
     (folder / SEAL_NAME).unlink(missing_ok=True)
     for name in names:
-        refuse_links(folder / name)
         try:
             if (new / name).exists():
                 os.replace(new / name, folder / name)

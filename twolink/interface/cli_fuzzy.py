@@ -13,6 +13,10 @@ from typing import Any
 
 import click
 
+# `coverage --grid` at most: 1001 x 1001 points (and the surface check's grid twice as fine)
+# peak at ~0.35 GB and ~35 s on a loaded 2-core machine; 4001 took 14 GB (docs/reliability.md)
+MAX_GRID = 1001
+
 
 @click.command("coverage", short_help="Where a rule base fires no rule.")
 @click.argument("rule_base", default="paper", required=False)
@@ -25,10 +29,10 @@ import click
 )
 @click.option(
     "--grid",
-    type=click.IntRange(2, 4001),
+    type=click.IntRange(2, MAX_GRID),
     default=201,
     show_default=True,
-    help="Grid points per axis (2-4001).",
+    help=f"Grid points per axis (2-{MAX_GRID}; {MAX_GRID} takes ~0.4 GB and ~40 s).",
 )
 def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     """Print the share of the normalised (e, de) input box where RULE_BASE fires no rule,

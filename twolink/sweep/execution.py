@@ -31,13 +31,14 @@ from twolink.foundation.executors import (
 )
 from twolink.foundation.interrupts import interrupts_held
 from twolink.foundation.io import (
+    ForeignOutput,
     append_line,
     atomic_write_json,
     atomic_write_text,
     owned_output,
     refuse_links,
 )
-from twolink.foundation.planted import read_bounded, read_json
+from twolink.foundation.planted import read_bounded, read_json, shown
 from twolink.simulation.config import scenario_from_dict
 from twolink.simulation.experiment import BACKENDS, build_controller, iter_scenarios, measure
 from twolink.simulation.outcome import classify
@@ -366,7 +367,7 @@ def _prepare_out(plan: SweepPlan, out: Path, fresh: bool, replace_other: bool = 
         )
         raise SweepOutputError(
             f"{out} holds results of a different sweep (its digest "
-            f"{str(digest)[:12]} != {plan.digest[:12]} of {plan.file}{older}); "
+            f"{shown(digest, 12)} != {plan.digest[:12]} of {plan.file}{older}); "
             "use another --out, or --fresh to discard them"
         )
     if foreign or fresh:
@@ -374,6 +375,8 @@ def _prepare_out(plan: SweepPlan, out: Path, fresh: bool, replace_other: bool = 
             path.unlink()
         (out / "computed.log").unlink(missing_ok=True)
     out.mkdir(parents=True, exist_ok=True)
+    if chunk_dir.exists() and not chunk_dir.is_dir():
+        raise ForeignOutput(f"{chunk_dir}: is not a folder; twolink does not replace it")
     chunk_dir.mkdir(exist_ok=True)
     atomic_write_json(
         manifest_path,

@@ -70,9 +70,11 @@ import numpy as np
 from twolink.arm.params import Flexibility
 from twolink.foundation.executors import EXECUTORS
 from twolink.foundation.io import unsafe_name_problem
+from twolink.foundation.planted import read_bounded
 from twolink.foundation.shipped import locate, locate_beside, shipped_hint
 from twolink.simulation.config import (
     BUILTIN_RULE_BASES,
+    MAX_TOML_BYTES,
     RULE_BASE_KINDS,
     ConfigError,
     TomlTable,
@@ -489,11 +491,15 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     refuse_fis(path)
     if not path.is_file():
         raise ConfigError(f"{file}: no such file{shipped_hint(path)}")
-    raw = path.read_bytes()
     try:
+        raw = read_bounded(path, MAX_TOML_BYTES)
         data = tomllib.loads(raw.decode())
     except (ValueError, UnicodeDecodeError) as exc:
         raise ConfigError(f"{file}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{file}: not valid TOML: nested too deep") from None
+    except OSError as exc:
+        raise ConfigError(f"{file}: cannot be read: {exc.strerror or exc}") from None
     expect_kind(data, file, "sweep")
     if overrides:
         data = merge(data, dict(overrides))
