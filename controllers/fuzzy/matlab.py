@@ -481,7 +481,10 @@ def read_fis(path: str | Path) -> Fis:
         text = path.read_text()
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a text file") from None
-    return parse_matlab_fis(text, str(path))
+    try:
+        return parse_matlab_fis(text, str(path))
+    except OverflowError:  # a 400-digit index or count is inf as a float (issue 38)
+        raise ValueError(f"{path}: a number too large for an index or a count") from None
 
 
 # ----------------------------------------------------------------------------- the fuzzy term

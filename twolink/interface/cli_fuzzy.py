@@ -55,7 +55,7 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
         path = rule_base_file(rule_base)
         engine = rule_base_engine(path)  # any two-input, one-output .fis too
         result = coverage(engine, threshold=threshold, grid=grid)
-    except (OSError, ValueError, KeyError) as exc:
+    except (OSError, ValueError, KeyError, OverflowError) as exc:  # a 400-digit index
         text = str(exc)  # a .fis reader's messages name the file already
         named = text if text.startswith(rule_base) else f"{rule_base}: {text}"
         click.echo(f"error: {named}", err=True)
