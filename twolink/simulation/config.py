@@ -269,6 +269,7 @@ MAX_TOML_BYTES = 1 << 20  # 1 MiB: a scenario or study file is a few kB
 MAX_MAGNITUDE = 1e12
 MAX_TABLE_POINTS = 2001  # per axis: 4e6 cells, ~100 MB of lookup table
 MAX_DELAY_SAMPLES = 10_000  # [sensor] delay_samples: 10 s at 1 kHz, past any real loop
+MIN_RESOLUTION_RAD = 1e-12  # [sensor] resolution_rad, when not 0: a 42-bit encoder
 MIN_TIME_STEP = 1e-6  # s: timestep and control_dt; finer is not a control loop
 
 
@@ -504,12 +505,14 @@ def _plant(t: TomlTable) -> PlantConfig:
 def _sensor(t: TomlTable) -> Sensor:
     d = Sensor()
     sensor = Sensor(
-        resolution_rad=_resolution(t, d.resolution_rad),
+        resolution_rad=t.number("resolution_rad", d.resolution_rad, minimum=0.0),
         noise_std_rad=t.number("noise_std_rad", d.noise_std_rad, minimum=0.0),
         delay_samples=t.integer("delay_samples", d.delay_samples),
         velocity=t.string("velocity", d.velocity, VELOCITY_ESTIMATES),
         cutoff_hz=t.number("cutoff_hz", d.cutoff_hz, positive=True),
     )
+    if 0 < sensor.resolution_rad < MIN_RESOLUTION_RAD:  # 5e-324: every count overflows
+        t.fail("resolution_rad", f"0 or >= {MIN_RESOLUTION_RAD:g}, not {sensor.resolution_rad}")
     if sensor.delay_samples > MAX_DELAY_SAMPLES:
         t.fail("delay_samples", f"must be at most {MAX_DELAY_SAMPLES}, got {sensor.delay_samples}")
     t.done()
@@ -576,26 +579,10 @@ def _fuzzy(
     )
     if not 2 <= fuzzy.table_points <= MAX_TABLE_POINTS:
         f.fail("table_points", f"must be 2 to {MAX_TABLE_POINTS}, got {fuzzy.table_points}")
-    if kind not in FUZZY_KINDS and fuzzy.inference != fd.inference:
-        f.fail(
-            "inference",
-            f"{fuzzy.inference!r} on a {kind!r} controller, which has no fuzzy term: it "
-            f"would be ignored (only {', '.join(FUZZY_KINDS)} infer)",
-        )
+    if kind not in FUZZY_KINDS and fuzzy.inference != fd.inference:  # it would be ignored
+        f.fail("inference", f"{fuzzy.inference!r}: a {kind!r} controller has no fuzzy term")
     f.done()
     return fuzzy
-
-
-# An encoder quantum is 0 (none) or at least this (a 42-bit encoder): a subnormal one
-# (5e-324) makes every count overflow.
-MIN_RESOLUTION_RAD = 1e-12
-
-
-def _resolution(t: TomlTable, default: float) -> float:
-    value = t.number("resolution_rad", default, minimum=0.0)
-    if 0 < value < MIN_RESOLUTION_RAD:
-        t.fail("resolution_rad", f"must be 0 (none) or >= {MIN_RESOLUTION_RAD:g}, got {value!r}")
-    return value
 
 
 def _auto_or_number(t: TomlTable, key: str, **checks: Any) -> float | None:

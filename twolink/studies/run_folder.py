@@ -118,7 +118,8 @@ def write_run(
     name = name or CONTROLLER_LABELS.get(s.controller.kind, s.controller.kind)
     check_run_folder(out)
     out.mkdir(parents=True, exist_ok=True)
-    with scratch_folder(out) as tmp, _named_in(out):
+    # the scratch inside the run folder: a SIGKILL leaves it where the journal lists it
+    with scratch_folder(out / "run") as tmp, _named_in(out):
         atomic_write_text(tmp / "config.toml", to_toml(portable_config(s, out)))
         traj.save(tmp / "trajectory.npz")
         atomic_write_json(tmp / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
