@@ -332,6 +332,7 @@ def test_run_sweep_in_the_library_keeps_the_command_lines_rules(tmp_path):
     sweep_file.write_text(SWEEP)
     out = tmp_path / "out"
     out.mkdir()
+    (out / LOCK_NAME).write_text("")  # a lock alone made the folder twolink's before
     (out / "summary.json").write_text("mine")
     with pytest.raises(ForeignOutput, match="summary.json"):
         twolink.run_sweep(sweep_file, out, workers=1)
