@@ -60,6 +60,13 @@ def test_the_overlay_and_difference_are_the_plants_runs(tmp_path):
     difference_median = next(x for x in difference.get_lines() if x.get_label() == "median")
     n = len(difference_median.get_ydata())
     assert np.nanmax(np.abs(fcm[:n] - ctc[:n])) > 0  # the fuzzy term acts on raw steps
+    # one recording: the two on the nominal plant, side by side
+    from twolink.tracing.comparison import read_comparison
+
+    recorded = read_comparison(tmp_path / "cmp" / "compare.rrd")
+    assert {"joint1/angle/FCM-CTC", "joint1/angle/CTC", "joint1/angle/reference"} <= set(
+        recorded.columns
+    )
     # the sweep this ran is a file twolink sweep reads
     plan = twolink.sweep.load_sweep(tmp_path / "cmp" / "compare.toml")
     assert plan.samples == 3 and plan.controller_names == ("FCM-CTC", "CTC")
