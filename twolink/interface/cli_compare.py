@@ -27,7 +27,10 @@ from twolink.interface.cli_output import done_line, fail_input, set_option
     default=None,
     help="Output folder [default: results/compare/<scenario>_<A>_vs_<B>].",
 )
-@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option(
+    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
+    help="Seed of the plants' draws (the same seed, the same plants).",
+)  # fmt: skip
 @click.option(
     "--workers", type=click.IntRange(min=1), default=None, help="Processes [default: all cores]."
 )
@@ -38,7 +41,7 @@ def compare_command(
 ) -> None:
     """Judge controller A against controller B on SCENARIO (a file or a shipped name) over
     drawn plants: the paired table with verdicts (better: A lower beyond the tolerance;
-    docs/statistics.md), an overlay figure with a difference panel (compare.png) and one
+    docs/compare.md), an overlay figure with a difference panel (compare.png) and one
     rerun recording of the nominal plant (compare.rrd). A and B are controllers of the
     shipped reproduction (CTC, FCM-CTC, PD-G, CTC-I, CTC-paper, fuzzy-PD,
     FCM-CTC-continuous) or controller kinds (ctc, fcm_ctc, ...).
