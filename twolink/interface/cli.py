@@ -652,13 +652,19 @@ def sweep_command(
 from twolink.interface.cli_compare import compare_command  # noqa: E402
 from twolink.interface.cli_fuzzy import coverage_command, fis_command  # noqa: E402
 from twolink.interface.cli_models import models  # noqa: E402
-from twolink.interface.cli_studies import regimes_command  # noqa: E402
+from twolink.interface.cli_studies import (  # noqa: E402
+    frontier_command,
+    regimes_command,
+    search_command,
+)
 
 main.add_command(compare_command)
 main.add_command(models)
 main.add_command(coverage_command)
 main.add_command(fis_command)
 main.add_command(regimes_command)
+main.add_command(frontier_command)
+main.add_command(search_command)
 
 
 if __name__ == "__main__":

@@ -1,72 +1,47 @@
 """The reproduction's claims studies: the claims sweep of the manifest, as its file says
 and again in each regime of a ``raw_steps`` variant (the paper's own references), judged
-with :mod:`twolink.studies.claims`; and the two pieces of a regime, the raw steps that replace
-smooth moves (:func:`raw_steps`) and the reference's own step metrics
-(:func:`reference_values`), where no controller decides a metric."""
+with :mod:`twolink.studies.claims`, each against the baseline and against the fair linear
+opponent, CTC-best (:mod:`twolink.studies.frontier`). The pieces of a regime (the raw steps,
+the reference's own step metrics, the sweep in a regime) are
+:mod:`twolink.studies.claims_plans`' (re-exported here)."""
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from twolink.simulation.config import Scenario, read_toml
-from twolink.simulation.vocabulary import metric
+from twolink.studies.claims_plans import SMOOTH_KINDS, raw_steps, reference_values, regime_plan
 from twolink.studies.conclusions import ClaimsStudy
+from twolink.studies.frontier import OPPONENT
 from twolink.studies.manifest import Manifest
-from twolink.studies.matching import MATCHED, Matched, match_peak_torque
 
-__all__ = ["SMOOTH_KINDS", "raw_steps", "reference_values", "run_claims"]
-
-SMOOTH_KINDS = ("quintic", "septic")
-
-
-def raw_steps(source: Path | Mapping[str, Any]) -> dict[str, Any]:
-    """Reference overrides that make a scenario's (or a sweep's) smooth moves the raw steps
-    between the same angles at the same start: the paper's own references (``replace``:
-    a step takes no ``duration``). Other references (ramps, holds) are left as they are."""
-    tables = read_toml(source).get("reference", {}) if isinstance(source, Path) else source
-    out = {}
-    for joint, ref in tables.items():
-        if isinstance(ref, dict) and ref.get("kind") in SMOOTH_KINDS:
-            step = {k: ref[k] for k in ("initial", "final", "t0") if k in ref}
-            out[joint] = {"replace": True, "kind": "step", **step}
-    return out
-
-
-def reference_values(scenario: Scenario, joints: Any) -> dict[tuple[int, str], float]:
-    """The step metrics of the reference itself, per moving joint: where both controllers
-    have the reference's own value (a smooth move's Td and Tr), no controller set it."""
-    from twolink.simulation.metrics import step_metrics
-
-    t = np.arange(0.0, scenario.duration + 1e-12, scenario.control_dt)
-    q_ref = scenario.reference.sample(t)[0]  # (N, 2)
-    out = {}
-    for j in joints:
-        target, start = scenario.reference.final[j - 1], scenario.q0[j - 1]
-        m = step_metrics(t, q_ref[:, j - 1], target, y0=start)
-        for key in ("delay_time_s", "rise_time_s", "peak_time_s"):
-            value = getattr(m, metric(key).source.split(".")[1])
-            if np.isfinite(value):
-                out[(j, key)] = float(value)
-    return out
+__all__ = [
+    "SMOOTH_KINDS",
+    "fair_opponent",
+    "raw_steps",
+    "reference_values",
+    "regime_plan",
+    "run_claims",
+]
 
 
 def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tuple[list[str], Any]:
     """The claims study on ``pool``: as its file says, and again in each regime of a
     ``raw_steps`` variant (the paper's own references, the variant's gains), each with the
-    fair linear opponent beside the baseline (:mod:`twolink.studies.matching`). Returns the
+    fair linear opponent beside the baseline (:mod:`twolink.studies.frontier`). Returns the
     report's sections and, per study, its tables for the conclusions
     (:class:`twolink.studies.conclusions.ClaimsStudy`)."""
+    from twolink.studies import frontier, search
+
     sections: list[str] = []
     tables = []
     for variant in (None, *(v for v in manifest.variants if v.raw_steps)):
         more, studies = _claims_study(manifest, out, pool, progress, variant)
         sections += more
         tables += studies
+    # after the claims: where the fair opponent comes from, and the strongest fuzzy term
+    sections += frontier.report_section(manifest, out, pool) + search.report_section(manifest, out)
     return sections, tables
 
 
@@ -83,21 +58,10 @@ def _claims_study(
     from twolink.studies.claims import paired_claims, paired_claims_many
 
     study = manifest.claims_study
-    plan = sweep.load_sweep(study)
-    suffix, regime, overrides = "", "", {}
-    if variant is not None:  # the same study in the variant's regime
-        suffix, regime = f"_{variant.name}", variant.title
-        overrides = {
-            "name": f"{plan.name}{suffix}",
-            "overrides": variant.overrides,
-            "reference": raw_steps(read_toml(study).get("reference", {})),
-        }
-        plan = sweep.load_sweep(study, overrides)
-    # the fair linear opponent: CTC retuned to the proposed controller's peak torque
-    matched = match_peak_torque(plan, manifest.proposed, manifest.baseline)
-    if matched.scale != 1.0:  # else the baseline is its own match: not run twice
-        retuned = matched.controller(dict(plan.controllers)[manifest.baseline])
-        plan = sweep.load_sweep(study, {**overrides, "controllers": {MATCHED: retuned}})
+    suffix, regime = ("", "") if variant is None else (f"_{variant.name}", variant.title)
+    # the fair linear opponent: the best linear loop at the proposed controller's effort
+    opponent = fair_opponent(manifest, variant, pool)
+    plan = regime_plan(manifest, variant, {"controllers": {OPPONENT: opponent.controller()}})
     try:
         # the reproduction's own folder: a changed sweep file's results are replaced
         outcome = sweep.run_sweep(
@@ -119,25 +83,21 @@ def _claims_study(
         reference_values=refs,
     )  # fmt: skip
     atomic_write_text(out / f"claims{suffix}.csv", table.to_csv(index=False))
-    fair = table
-    if matched.scale != 1.0:
-        fair = paired_claims(
-            outcome.results, manifest.proposed, MATCHED, joints=plan.joints, reference_values=refs
-        )
+    fair = paired_claims(
+        outcome.results, manifest.proposed, OPPONENT, joints=plan.joints, reference_values=refs
+    )
     atomic_write_text(out / f"claims_matched{suffix}.csv", fair.to_csv(index=False))
     source = f"{study.parent.name}/{study.name}" + (f", {regime}" if regime else "")
     sensor = plan.nominal_scenario().sensor.describe()
     met = {name: outcome.summary[name]["met_spec"] for name in plan.controller_names}
-    met.setdefault(MATCHED, met[manifest.baseline])  # the baseline as its own match
     # Who wins on what: every controller of the sweep against the baseline, and the
     # controller with integral action against the proposed one and the opponents: one pass.
     base, proposed = manifest.baseline, manifest.proposed
-    distinct = matched.scale != 1.0  # else the matched opponent is the baseline itself
     integral = next((n for n, over in plan.controllers if over.get("kind") == "ctc_integral"), None)
     pairs = [(name, base) for name in plan.controller_names if name != base]
-    pairs += [(proposed, MATCHED)] if distinct else []
+    pairs += [(proposed, OPPONENT)]
     if integral is not None:
-        pairs += [(integral, proposed)] + ([(integral, MATCHED)] if distinct else [])
+        pairs += [(integral, proposed), (integral, OPPONENT)]
     every = paired_claims_many(
         outcome.results, pairs, report.WINNER_METRICS, plan.joints, reference_values=refs
     )
@@ -149,9 +109,9 @@ def _claims_study(
     sections = report.winners_section(versus, manifest.baseline, met, plan.samples, regime) + (
         report.claims_section(table, manifest, plan.samples, source, met, regime, sensor)
     )
-    against = dataclasses.replace(manifest, baseline=MATCHED)
-    sections += matched_section(matched, manifest) + report.claims_section(
-        fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {MATCHED}", sensor
+    against = dataclasses.replace(manifest, baseline=OPPONENT)
+    sections += opponent_section(opponent, manifest) + report.claims_section(
+        fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {OPPONENT}", sensor
     )
     label = regime or "the claims study's quintic moves"
     study = ClaimsStudy(
@@ -160,35 +120,36 @@ def _claims_study(
         met=met,
         proposed=proposed,
         baseline=base,
-        claims={base: table, MATCHED: fair},
-        same_as={} if distinct else {MATCHED: base},
+        claims={base: table, OPPONENT: fair},
+        same_as={},
         every=every,
         integral=integral,
     )
     return sections, [study]
 
 
-def matched_section(matched: Matched, manifest: Manifest) -> list[str]:
+def fair_opponent(manifest: Manifest, variant: Any = None, pool: Any = None) -> Any:
+    """The regime's fair opponent (:mod:`twolink.studies.frontier`): from the frontier file
+    beside the manifest, its shipped table where current, else the frontier run here."""
+    from twolink.studies import frontier
+
+    spec = frontier.load_spec(manifest.path.parent / frontier.DEFAULT_SPEC.name)
+    _, chosen, _ = frontier.opponents(spec, pool)
+    return chosen[frontier.QUINTIC if variant is None else variant.name]
+
+
+def opponent_section(opponent: Any, manifest: Manifest) -> list[str]:
     """What the fair linear opponent is, before its claims table."""
-    p, b = manifest.proposed, manifest.baseline
-    peaks = " / ".join(f"{v:.1f}" for v in matched.proposed_peak)
-    mine = " / ".join(f"{v:.1f}" for v in matched.matched_peak)
+    p = manifest.proposed
+    ratio = f"{opponent.effort_ratio:.3g}"
     return [
         "",
-        f"### Against a fair linear opponent ({MATCHED})",
+        f"### Against the best linear loop at {p}'s effort ({OPPONENT})",
         "",
-        f"{MATCHED} is {b} with its natural frequency scaled by {matched.scale:.3g} (ζ kept:",
-        f"Kp {matched.kp[0]:.4g}, Kd {matched.kd[0]:.4g}), the largest scale at which its peak",
-        f"torque on the nominal plant stays within {p}'s on every joint ({p}: {peaks} N·m;",
-        f"{MATCHED}: {mine} N·m; `twolink/studies/matching.py`). Does {p} beat a linear loop",
-        "given the same torque?",
-    ] + (
-        [
-            "",
-            f"Here the scale is 1: {p} spends no more torque than {b} (on smooth moves the",
-            f"feedforward sets the peak), so {MATCHED} is {b} itself and its table is the one",
-            "above.",
-        ]
-        if matched.scale == 1.0
-        else []
-    )
+        f"{OPPONENT} is {opponent.describe()}: of the linear frontier's loops (CTC on a grid",
+        "of ωn and ζ, and CTC clipped at FCM-CTC's peak torques; `runs/paper/frontier.toml`,",
+        "docs/reproduction.md) the one with the lowest median IAE₁ + IAE₂ on the training",
+        f"plants ({opponent.index:.4g} rad·s; {p}: {opponent.proposed_index:.4g}) among those",
+        f"whose median peak |τ| and Σ|Δτ| per joint stay within {p}'s (its largest ratio to",
+        f"{p}'s: {ratio}). Does {p} beat the best linear loop given the same effort?",
+    ]
