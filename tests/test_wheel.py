@@ -120,7 +120,7 @@ def test_the_installed_wheel_runs_from_any_folder_and_writes_nothing_in_the_clon
     }
     assert "outcome: met spec" in run.stdout
 
-    for command in (["design", "--install"], ["models", "--install"],
+    for command in (["design", "--install"], ["models", "--install"], ["calibrate", "--install"],
                     ["gains", "--install", "--set", "plants=1"]):  # fmt: skip
         refused = in_venv(wheel_venv, ["twolink", *command], tmp_path)
         assert refused.returncode == 2, (command, refused.stdout, refused.stderr)
