@@ -27,8 +27,15 @@ from twolink.interface.cli_output import done_line, fail_input, own_output, set_
     help="Plants in all, over every cell [default: the file's, 100 per cell].",
 )
 @click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes.")
+@click.option(
+    "--backend",
+    type=click.Choice(["cpu", "mjx"]),
+    default="cpu",
+    show_default=True,
+    help='MuJoCo on the CPU, or MJX (MuJoCo in JAX; pip install "twolink[mjx]"), in-process.',
+)
 def regimes_command(
-    study_file: Path | None, out: Path, samples: int | None, workers: int | None
+    study_file: Path | None, out: Path, samples: int | None, workers: int | None, backend: str
 ) -> None:
     """Run the regime map (runs/sweeps/regimes.toml: ωn x mass mismatch x payload, 100
     plants per cell) with 2 s quintic moves and with the paper's raw steps, and judge
@@ -53,8 +60,12 @@ def regimes_command(
     except ConfigError as exc:
         fail_input(str(exc))
     own_output(out, "regimes", str(Path(study).resolve()))
-    with sweep_exits(out), open_executor("process", workers, preload=SWEEP_PRELOAD) as pool:
-        results = regimes.run_regimes(study, out, samples, pool)
+    if backend != "cpu":  # one batch per regime in this process: no pool
+        with sweep_exits(out):
+            results = regimes.run_regimes(study, out, samples, backend=backend)
+    else:
+        with sweep_exits(out), open_executor("process", workers, preload=SWEEP_PRELOAD) as pool:
+            results = regimes.run_regimes(study, out, samples, pool)
     table = regimes.regime_table(results)
     summ = regimes.summary(table)
     atomic_write_text(out / "regimes.csv", table.to_csv(index=False))

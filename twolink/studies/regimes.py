@@ -46,8 +46,10 @@ def run_regimes(
     samples: int | None = None,
     pool: Any = None,
     progress: bool = True,
+    backend: str = "cpu",
 ) -> dict[str, pd.DataFrame]:
-    """Run the study in both regimes into ``out/<regime>``; their results tables."""
+    """Run the study in both regimes into ``out/<regime>``; their results tables.
+    ``backend``: run_sweep's (the CPU engine, or MJX)."""
     from twolink import sweep
     from twolink.simulation.config import read_toml
     from twolink.studies.claims_studies import raw_steps
@@ -60,7 +62,13 @@ def run_regimes(
         plan = sweep.load_sweep(study, overrides)
         folder = out / regime.replace(" ", "_")
         outcome = sweep.run_sweep(
-            plan, folder, pool=pool, plots=False, progress=progress, replace_other=True
+            plan,
+            folder,
+            pool=pool,
+            plots=False,
+            progress=progress,
+            replace_other=True,
+            backend=backend,
         )
         results[regime] = outcome.results
     return results
@@ -116,29 +124,33 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
     ``worse_share``: "θ2 osc 29/100"), and the effect of the verdicts: ``helps`` (better
     on some, worse on none), ``hurts`` (the reverse), ``mixed``, or ``no difference
     shown``."""
+    keys = ["regime", *CELL, "proposed", "opponent"]
+    groups: dict[tuple, list[dict]] = {}  # one pass over plain rows (pandas' per-group
+    for r in table.to_dict("records"):  # itertuples took seconds on the regime map)
+        groups.setdefault(tuple(r[k] for k in keys), []).append(r)
     rows = []
-    for key, t in table.groupby(["regime", *CELL, "proposed", "opponent"], sort=False):
-        named = [(r.verdict, f"θ{r.joint} {_symbol(r.metric)}") for r in t.itertuples()]
+    for key, t in groups.items():
+        named = [(r["verdict"], f"θ{r['joint']} {_symbol(r['metric'])}") for r in t]
         better = [name for verdict, name in named if verdict == "better"]
         worse = [name for verdict, name in named if verdict == "worse"]
         shares = {}
         for side in ("better", "worse"):
             shown = f"share_{side}_shown"
-            mine = t[t[shown] & ~t["verdict"].isin(["better", "worse"])] if shown in t else t[:0]
+            mine = [r for r in t if r.get(shown) and r["verdict"] not in ("better", "worse")]
             shares[f"{side}_share"] = ", ".join(
-                f"θ{r.joint} {_symbol(r.metric)} "
-                f"{getattr(r, side) + getattr(r, f'unreached_{side}')}/{r.plants}"
-                for r in mine.itertuples()
+                f"θ{r['joint']} {_symbol(r['metric'])} "
+                f"{r[side] + r[f'unreached_{side}']}/{r['plants']}"
+                for r in mine
             )
         rows.append(
             {
-                **dict(zip(["regime", *CELL, "proposed", "opponent"], key, strict=True)),
-                "fuzzy_active_share": float(t["fuzzy_active_share"].iloc[0]),
-                "plants": int(t["n"].max()),
+                **dict(zip(keys, key, strict=True)),
+                "fuzzy_active_share": float(t[0]["fuzzy_active_share"]),
+                "plants": int(max(r["n"] for r in t)),
                 "better": ", ".join(better),
                 "worse": ", ".join(worse),
                 **shares,
-                "effect": _effect(t["verdict"]),
+                "effect": _effect(pd.Series([r["verdict"] for r in t])),
             }
         )
     return pd.DataFrame(rows)

@@ -9,8 +9,6 @@ writes, so a chunk file and its log line are always written together.
 from __future__ import annotations
 
 import hashlib
-import math
-import os
 import signal
 import sys
 import time
@@ -18,9 +16,11 @@ from collections.abc import Iterator
 from concurrent import futures
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
+from itertools import pairwise
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from twolink.foundation.executors import (
@@ -39,14 +39,17 @@ from twolink.foundation.io import (
     refuse_links,
 )
 from twolink.foundation.planted import read_bounded, read_json, shown
-from twolink.simulation.config import scenario_from_dict
-from twolink.simulation.experiment import BACKENDS, build_controller, iter_scenarios, measure
+from twolink.simulation.experiment import BACKENDS
 from twolink.simulation.outcome import classify
-from twolink.simulation.vocabulary import joint_values
-from twolink.sweep.plan import FORMAT_VERSION, SweepPlan, gains
+from twolink.sweep.chunks import (  # run_chunk, ChunkResult: re-exported from their old home
+    ChunkResult,
+    _error_text,
+    run_chunk,
+    run_chunk_part,
+    run_chunks,
+)
+from twolink.sweep.plan import FORMAT_VERSION, SweepPlan
 from twolink.sweep.results import (
-    METRIC_COLUMNS,
-    STATUS_ERROR,
     read_table,
     results_frame,
     summarize,
@@ -64,161 +67,6 @@ __all__ = [
     "run_chunks",
     "run_sweep",
 ]
-
-# ----------------------------------------------------------------------------- computing
-
-
-@dataclass(frozen=True)
-class ChunkResult:
-    """The rows of one chunk, as computed by a worker.
-
-    Attributes
-    ----------
-    chunk : int
-        Chunk index.
-    rows : tuple of tuple
-        One row per (sample, controller), in sample then controller order, with the
-        values of :attr:`SweepPlan.columns`.
-    wall_s : float
-        Seconds the worker spent on it.
-    pid : int
-        The worker's process id.
-    """
-
-    chunk: int
-    rows: tuple[tuple[Any, ...], ...]
-    wall_s: float
-    pid: int
-
-
-def _metric_values(m: Any) -> list[float]:
-    """A run's metrics in :data:`METRIC_COLUMNS` order."""
-    return [v for j in (1, 2) for v in joint_values(m, j).values()]
-
-
-def _error_text(exc: BaseException) -> str:
-    return f"{type(exc).__name__}: {exc}"
-
-
-def run_chunk(plan: SweepPlan, chunk: int, backend: str = "cpu") -> ChunkResult:
-    """Compute every (sample, controller) of one chunk, as one batch of arms.
-
-    The controllers are built once per chunk, and once per swept ``wn`` (they are modelled
-    on the nominal arm, which does not change; a flexible-joint controller is given each
-    sample's joints, ``with_joints``); every (sample, controller) is one arm of the batch engine
-    (:func:`twolink.simulation.experiment.iter_scenarios`). A sample that raises or diverges gives
-    rows with status "error" or "diverged" and the message; it never stops the chunk.
-    ``backend``: iter_scenarios'.
-    """
-    start = time.perf_counter()
-    rows, arms = _chunk_arms(plan, chunk)
-    _measure_arms(rows, arms, backend)
-    return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
-
-
-def _chunk_arms(plan: SweepPlan, chunk: int) -> tuple[list[Any], list[tuple[int, Any, Any]]]:
-    """A chunk's rows (an error now, or a placeholder) and the arms that will fill them."""
-    controllers: dict[Any, Any] = {}  # (name, gains) -> the controller or its build error
-
-    def controller_of(name: str, values: dict[str, float]) -> Any:
-        key = (name, tuple(gains(values).items()))  # a swept ``wn``: one per bandwidth
-        if key not in controllers:
-            try:
-                s = scenario_from_dict(plan.controller_data(name, values), plan.file)
-                controllers[key] = build_controller(s)
-            except Exception as exc:  # recorded on every row of this controller
-                controllers[key] = _error_text(exc)
-        return controllers[key]
-
-    # Rows in sample then controller order: an error now, or the arm that will fill it.
-    rows: list[Any] = []
-    arms: list[tuple[int, Any]] = []  # (row, scenario) of every arm to simulate
-    for i in plan.chunk_samples(chunk):
-        values, noise_seed = plan.draw(i)
-        head = list(values.values())
-        try:
-            s = scenario_from_dict(plan.sample_data(values, noise_seed), plan.file)
-            sample_error = ""
-        except Exception as exc:
-            sample_error = _error_text(exc)
-        for name in plan.controller_names:
-            controller = controller_of(name, values)
-            error = sample_error or (controller if isinstance(controller, str) else "")
-            if error:
-                rows.append(_error_row(i, name, head, error))
-            else:
-                if getattr(controller, "needs_motor", False):  # models the sample's joints
-                    controller = controller.with_joints(s.plant.flexibility)
-                arms.append((len(rows), s, controller))
-                rows.append((i, name, head))
-    return rows, arms
-
-
-def _measure_arms(rows: list[Any], arms: list[tuple[int, Any, Any]], backend: str) -> None:
-    """Simulate the arms and fill their rows, measured as each batch ends: one trajectory
-    at a time is ever held."""
-    runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms], backend)
-    for k, traj in runs:
-        r, s, controller = arms[k]
-        i, name, head = rows[r]
-        rows[r] = _measured_row(i, name, head, s, traj, controller)
-
-
-def run_chunks(
-    plan: SweepPlan, chunks: list[int], threads: int = 1, backend: str = "cpu"
-) -> list[ChunkResult]:
-    """:func:`run_chunk` of several chunks, ``threads`` at a time in threads of this process
-    (the in-process executor's task): MuJoCo releases the GIL while it steps, so one
-    process steps several batches on several cores. Each chunk is its own batch, as on a
-    pool, so its rows do not depend on the executor or the number of threads.
-
-    On the accelerator backend (``backend`` "mjx", "mjx-float32") the arms of all the
-    chunks form one batch (batches of at most ``BATCH_RECORD_BYTES`` of records): the
-    device's width is the parallelism, and the loop is compiled once for them all; each
-    chunk still gets its own rows, and a share of the time by its rows."""
-    if backend != "cpu":
-        start = time.perf_counter()
-        parts = [_chunk_arms(plan, c) for c in chunks]
-        rows = [r for part_rows, _ in parts for r in part_rows]
-        arms, offset = [], 0
-        for part_rows, part_arms in parts:
-            arms += [(offset + r, s, c) for r, s, c in part_arms]
-            offset += len(part_rows)
-        _measure_arms(rows, arms, backend)
-        share = (time.perf_counter() - start) / max(1, len(rows))
-        out, offset = [], 0
-        for chunk, (part_rows, _) in zip(chunks, parts, strict=True):
-            n = len(part_rows)
-            out.append(ChunkResult(chunk, tuple(rows[offset : offset + n]), share * n, os.getpid()))
-            offset += n
-        return out
-    if threads <= 1 or len(chunks) == 1:
-        return [run_chunk(plan, c) for c in chunks]
-    with futures.ThreadPoolExecutor(min(threads, len(chunks))) as pool:
-        return list(pool.map(run_chunk, [plan] * len(chunks), chunks))
-
-
-_NAN_METRICS = [math.nan] * len(METRIC_COLUMNS)
-
-
-def _error_row(i: int, name: str, head: list[Any], error: str) -> tuple[Any, ...]:
-    return (i, name, *head, *_NAN_METRICS, STATUS_ERROR, error)
-
-
-def _measured_row(
-    i: int, name: str, head: list[Any], s: Any, traj: Any, controller: Any = None
-) -> tuple[Any, ...]:
-    """The row of one simulated arm (``traj`` is the exception where it could not run)."""
-    if isinstance(traj, Exception):
-        return _error_row(i, name, head, _error_text(traj))
-    try:
-        metrics = _metric_values(measure(s, traj, controller))
-    except Exception as exc:
-        if traj.ok:
-            return _error_row(i, name, head, _error_text(exc))
-        metrics = _NAN_METRICS  # diverged too early to measure anything
-    return (i, name, *head, *metrics, traj.status, traj.message)
-
 
 # ----------------------------------------------------------------------------- chunk files
 
@@ -622,6 +470,23 @@ def _classify(plan: SweepPlan, results: pd.DataFrame) -> None:
     results.attrs["success"] = {**asdict(plan.success), "step_rad": plan.step}
 
 
+def _whole(
+    results: list[ChunkResult], parts: dict[int, int], partial: dict[int, list[ChunkResult]]
+) -> list[ChunkResult]:
+    """The chunks these results complete: a chunk computed in parts is whole when its last
+    part is in (its rows in sample order, its time the parts' sum)."""
+    whole = []
+    for result in results:
+        got = partial.setdefault(result.chunk, [])
+        got.append(result)
+        if len(got) == parts[result.chunk]:
+            got.sort(key=lambda r: r.rows[0][0] if r.rows else -1)
+            rows = tuple(row for r in got for row in r.rows)
+            whole.append(ChunkResult(result.chunk, rows, sum(r.wall_s for r in got), result.pid))
+            del partial[result.chunk]
+    return whole
+
+
 def _drive(
     plan: SweepPlan,
     out: Path,
@@ -639,17 +504,31 @@ def _drive(
     group = ex.workers if ex.name == "inprocess" else 1
     if backend != "cpu":  # every chunk in one batch (run_chunks)
         group = len(missing)
-    todo = iter([missing[i : i + group] for i in range(0, len(missing), group)])
+    tasks: list[tuple[Any, ...]] = [
+        (run_chunks, plan, missing[i : i + group], group, backend)
+        for i in range(0, len(missing), group)
+    ]
+    parts = dict.fromkeys(missing, 1)
+    if ex.name != "inprocess" and backend == "cpu" and len(missing) < ex.workers:
+        tasks = []  # fewer chunks than workers: each chunk in parts, one a worker
+        for c in missing:
+            samples = plan.chunk_samples(c)
+            cuts = np.linspace(samples.start, samples.stop, -(-ex.workers // len(missing)) + 1)
+            edges = sorted({int(round(x)) for x in cuts})
+            parts[c] = len(edges) - 1
+            tasks += [(run_chunk_part, plan, c, a, b) for a, b in pairwise(edges)]
+    todo = iter(tasks)
+    partial: dict[int, list[ChunkResult]] = {}
     # Enough queued work that no worker waits on the client, little to cancel on Ctrl-C.
     window = 1 if ex.name == "inprocess" else 2 * ex.workers
     pending: set[futures.Future] = set()
 
     def fill() -> None:
         while len(pending) < window:
-            chunks = next(todo, None)
-            if chunks is None:
+            task = next(todo, None)
+            if task is None:
                 return
-            pending.add(ex.submit(run_chunks, plan, chunks, group, backend))
+            pending.add(ex.submit(*task))
 
     fill()
     while pending:
@@ -663,7 +542,7 @@ def _drive(
                 raise
             except Exception as exc:  # outside run_chunk's per-sample net: a real bug
                 raise SweepTaskError(f"a chunk task failed: {_error_text(exc)}") from exc
-            for result in results:
+            for result in _whole(results, parts, partial):
                 with interrupts_held():
                     frame = _chunk_frame(plan, result.rows)
                     _seal(plan, write_table(_chunk_path(out, result.chunk), frame))
