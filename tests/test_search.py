@@ -222,3 +222,22 @@ def test_the_reproduction_copies_the_shipped_search_and_reads_its_sentences(tmp_
     said = search.conclusion_lines(tmp_path)
     assert len(said) == len(search.load_spec().regimes) and all(s in text for s in said)
     assert search.conclusion_lines(tmp_path / "nothing") == []
+
+
+@pytest.mark.parametrize(
+    "args, said",
+    [
+        (["search", "--install", "--set", "maxiter=1"], "drop --set"),
+        (["search", "--set", "plants=99"], "plants: must be 1 to the frontier's 20"),
+        (["search", "--set", 'regimes=["nowhere"]'], "regimes: must be a non-empty list"),
+        (["frontier", "no/such/frontier.toml"], "no such file"),
+    ],
+)
+def test_the_commands_refuse_bad_input_before_running_anything(args, said, tmp_path):
+    from click.testing import CliRunner
+
+    from twolink.interface.cli import main
+
+    result = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "out")])
+    assert result.exit_code == 2, result.output
+    assert said in result.output and not (tmp_path / "out").exists()
