@@ -457,7 +457,7 @@ def _dense(
         frame = frame[frame["status"].to_numpy(object) != "error"]
     frame = frame[frame["controller"].isin(names)]
     if by:
-        group = frame.groupby(list(by), sort=True, observed=True).ngroup().to_numpy()
+        group = frame.groupby(list(by), sort=True, observed=True, dropna=False).ngroup().to_numpy()
         keys = frame[list(by)].drop_duplicates().sort_values(list(by)).reset_index(drop=True)
     else:
         group, keys = np.zeros(len(frame), int), pd.DataFrame(index=[0])
