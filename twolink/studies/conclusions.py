@@ -164,7 +164,7 @@ def _pair(every: pd.DataFrame, proposed: str, opponent: str) -> pd.DataFrame:
 
 def limit_cycle_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
     """Where the proposed controller oscillates more than its baseline beyond the
-    tolerance, on how many plants, by up to how much."""
+    tolerance (a verdict or a share shown), on how many plants, by up to how much."""
     from twolink.studies.claims_words import amount
 
     if not studies:
@@ -176,7 +176,7 @@ def limit_cycle_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
         said = []
         for r in rows[rows["metric"] == "oscillation_rad"].itertuples():
             tol = amount(r.metric, r.tolerance)
-            if r.worse:
+            if r.worse and (r.share_worse_shown or r.verdict == "worse"):  # not noise
                 said.append(
                     f"θ{r.joint} on {r.worse} of {r.n} plants "
                     f"({100 * r.share_worse_low:.0f}-{100 * r.share_worse_high:.0f} %, up to "
