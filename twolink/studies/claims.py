@@ -141,22 +141,34 @@ def _hodges_lehmann_rows(
             estimate[members] = ordered[members, 0]
         if n < 2:
             continue
-        i, j = np.triu_indices(int(n))
-        m = i.size  # n (n + 1) / 2
+        m = int(n * (n + 1) // 2)
         k = int(math.floor(m / 2.0 - z * math.sqrt(n * (n + 1) * (2 * n + 1) / 24.0)))
         k = min(max(k, 0), m - 1)
         ranks = sorted({k, m - 1 - k, (m - 1) // 2, m // 2})
         step = max(1, budget // m)
         for start in range(0, members.size, step):
             part = members[start : start + step]
-            values = ordered[part, : int(n)]
-            walsh = np.partition((values[:, i] + values[:, j]) / 2.0, ranks, axis=1)
+            walsh = _walsh(ordered[part, : int(n)])
+            walsh.partition(ranks, axis=1)
             if m % 2:
                 estimate[part] = walsh[:, (m - 1) // 2]
             else:  # np.median's mean of the two middle values
                 estimate[part] = (walsh[:, m // 2 - 1] + walsh[:, m // 2]) / 2.0
             low[part], high[part] = walsh[:, k], walsh[:, m - 1 - k]
     return estimate, low, high
+
+
+def _walsh(values: np.ndarray) -> np.ndarray:
+    """The Walsh averages (x_i + x_j) / 2, i <= j, of each row of ``values`` (R, n), in
+    the order of ``np.triu_indices(n)``: one contiguous block per i (no gather)."""
+    rows, n = values.shape
+    out = np.empty((rows, n * (n + 1) // 2))
+    at = 0
+    for i in range(n):
+        np.add(values[:, i : i + 1], values[:, i:], out=out[:, at : at + n - i])
+        at += n - i
+    out /= 2.0
+    return out
 
 
 def _row_medians(x: np.ndarray) -> np.ndarray:
