@@ -202,3 +202,30 @@ def test_the_moves_own_swings_are_not_the_oscillation_at_the_end():
     # without `since` the move's swings are the record's, but the end bounds them: at
     # most half the error's peak-to-peak over their last period
     assert oscillation_amplitude(t, e) <= 0.5 * np.ptp(e[t >= 3.0 - 0.9]) + 1e-12
+
+
+def test_a_transient_accelerating_away_in_a_stable_loop_is_undecided_not_growth():
+    # A trend that accelerates away over the window: a runaway, or a slow transient not yet
+    # turned. Where the loop's linearisation at rest is stable (settling), the run is too
+    # short to tell; without one, growth.
+    t = clock(4.0)
+    e = 0.015 * np.exp(2.0 * (t - 4.0))  # 15 mrad at the end, +2 s⁻¹
+    window = settling_window(4.0)
+    assert growth_rate(t, e, window)[0] == pytest.approx(2.0, rel=1e-3)
+    assert math.isnan(growth_rate(t, e, window, settling=True)[0])
+    # a sag decays either way
+    sag = np.where(t > 3.5, 0.015 * (1 - np.exp(-2.0 * (t - 3.5))), 0.0)
+    assert growth_rate(t, sag, window, settling=True)[0] == pytest.approx(-2.0, rel=1e-3)
+    # flexible-FL-I on k 3 joints at ωn 2 (σ = −1.0 s⁻¹ at rest): 15 mrad off, still
+    # drifting away at the end of its 3 s; the old ratio called it settled, an unchecked
+    # trend "growing at +5 s⁻¹": it is undecided
+    from test_stability import map_cell
+
+    from twolink.simulation.experiment import measure, run_scenario
+    from twolink.simulation.outcome import classify_run
+
+    s = map_cell("flexible-FL-I", 3.0, 2.0)
+    m = measure(s, run_scenario(s))
+    assert m.linear_growth[0] < 0
+    assert math.isnan(m.tail_growth[0])
+    assert classify_run(s, m) == "undecided"

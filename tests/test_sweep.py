@@ -519,17 +519,15 @@ def test_runs_are_classified_against_the_spec_and_the_spec_is_the_files(tmp_path
     printed = sw.format_summary(outcome.summary)
     assert "weak: 0/4 met the spec (0.0 %), 4 off target, 0 diverged" in printed
     # A looser spec in the file reclassifies the same rows, without recomputing them.
-    # (the band holds over the settling window: the tail's largest error decides; and the
-    # growth bound above every row's: the weak law's held joint is still being dragged
-    # away at the end of its 3 s, its error growing at up to +1.8 s⁻¹ there)
+    # (the band holds over the settling window: the tail's largest error decides). What
+    # no band decides stays so: a weak law's held joint still dragged away at the end of
+    # its 3 s (its loop stable at rest) has a growth the run cannot tell, "undecided".
     worst = float(r[["joint1_tail_error_rad", "joint2_tail_error_rad"]].max().max())
-    growth = float(r[["joint1_tail_growth", "joint2_tail_growth"]].max().max())
-    path.write_text(
-        SPEC + f"\n[success]\nfinal_error = {worst * 1.01}\nmax_tail_growth = {growth * 1.01}\n"
-    )
+    path.write_text(SPEC + f"\n[success]\nfinal_error = {worst * 1.01}\n")
     loose = sw.run_sweep(sw.load_sweep(path), tmp_path / "out", executor="inprocess", plots=False)
     assert loose.computed == () and loose.reused == (0, 1)
-    assert set(loose.results["outcome"]) == {"met spec"}
+    unknown = loose.results[["joint1_tail_growth", "joint2_tail_growth"]].isna().any(axis=1)
+    assert (loose.results["outcome"] == np.where(unknown, "undecided", "met spec")).all()
     assert loose.results.attrs["success"]["final_error"] == pytest.approx(worst * 1.01)
     path.write_text(SPEC + "\n[success]\nfinal_error = -1.0\n")
     with pytest.raises(ConfigError, match="success.final_error: must be > 0"):

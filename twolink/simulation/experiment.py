@@ -441,7 +441,7 @@ def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None)
         torque=torque_measures(traj.tau),
         status=traj.status,
         message=traj.message,
-        **_tail(s, traj),
+        **_tail(s, traj, settling=growth < 0),
         linear_growth=(growth, growth),
         fuzzy_active=fuzzy_active_share(controller, traj),
         oscillation=_oscillation(s, traj),
@@ -484,9 +484,11 @@ def fuzzy_active_share(controller: Controller | None, traj: Trajectory) -> tuple
     return (float(share[0]), float(share[1]))
 
 
-def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:
+def _tail(s: Scenario, traj: Trajectory, settling: bool = False) -> dict[str, tuple[float, float]]:
     """The final error (the settling window's mean |error|), the window's largest error and
-    its growth, per joint, all against the target (twolink.simulation.outcome)."""
+    its growth, per joint, all against the target (twolink.simulation.outcome); with
+    ``settling`` (the loop's linearisation at its rest state is stable) a trend that
+    accelerates away at the end is a transient not yet turned, not growth (NaN)."""
     from twolink.simulation.outcome import reference_end, settling_window, tail_growth
 
     if not len(traj.t):
@@ -500,7 +502,8 @@ def _tail(s: Scenario, traj: Trajectory) -> dict[str, tuple[float, float]]:
         worst = np.abs(off[tail]).max(axis=0)
         mean = np.abs(off[tail]).mean(axis=0)  # over the window, not one sample
     since = reference_end(s.reference) if hasattr(s.reference, "joint1") else -math.inf
-    growth = tail_growth(traj.t, off, window, since if math.isfinite(since) else -math.inf)
+    since = since if math.isfinite(since) else -math.inf
+    growth = tail_growth(traj.t, off, window, since, settling)
     return {
         "final_error": tuple(float(x) for x in mean),  # type: ignore[dict-item]
         "tail_error": tuple(float(x) for x in worst),  # type: ignore[dict-item]

@@ -249,7 +249,7 @@ def reasons(scenario: Any, metrics: Any, spec: SuccessSpec = SuccessSpec()) -> l
 
 
 def tail_growth(
-    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf, settling: bool = False
 ) -> np.ndarray:
     """Growth of each column of ``x`` (errors from the target, shape (N, k)) over the last
     ``window`` s of ``t``: ``e^(σ window)``, σ the growth rate of what persists there
@@ -257,9 +257,11 @@ def tail_growth(
     monotone trend). < 1 decaying (a sag toward rest too), ~1 settled (at the target, at
     an offset, or in a steady limit cycle), > 1 growing; 1.0 where the error moves less
     than :data:`GROWTH_FLOOR_RAD` over the window; NaN where the record cannot tell (a
-    swing slower than it shows) or has fewer than 6 samples in the window; inf where the
+    swing slower than it shows, or with ``settling`` a transient accelerating away on its
+    way to a stable rest state) or has fewer than 6 samples in the window; inf where the
     error is not finite."""
     x = np.asarray(x, dtype=float)
     k = x.shape[1] if x.ndim == 2 else 1
     with np.errstate(over="ignore"):
-        return np.exp(growth_rate(t, x.reshape(len(t), k), window, since) * window)
+        rate = growth_rate(t, x.reshape(len(t), k), window, since, settling)
+        return np.exp(rate * window)

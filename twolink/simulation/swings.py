@@ -239,7 +239,7 @@ def _trend_rate(tw: np.ndarray, w: np.ndarray) -> float:
 
 
 def growth_rate(
-    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf, settling: bool = False
 ) -> np.ndarray:
     """The growth rate σ [1/s] of what persists over the last ``window`` seconds of each
     column of ``x`` (errors from the target, shape (N,) or (N, k)); ``e^(σ window)`` is
@@ -257,7 +257,10 @@ def growth_rate(
       0 for a straight drift, and for a mode whose size at the end ``|d|`` is below
       :data:`GROWTH_FLOOR_RAD`. Where the thirds turn (the ratio is not positive: a swing
       slower than the window, no exponential), or an oscillation shows one swing only:
-      NaN, the run too short to tell.
+      NaN, the run too short to tell. With ``settling`` (the loop's linearisation at its
+      rest state is stable, :mod:`twolink.simulation.stability`) a trend that accelerates
+      away (σ > 0) is a transient not yet turned on its way to that rest: NaN too, the
+      run too short; without a linearisation a runaway cannot be told from it: σ.
 
     Capped at ±:data:`MAX_RATE`; inf where ``x`` is not finite (a run that blew up); NaN
     for fewer than 6 samples in the window.
@@ -280,5 +283,6 @@ def growth_rate(
             # a ripple is not judged; one swing alone gives no rate (NaN: cannot tell)
             out[j] = rate if size >= GROWTH_FLOOR_RAD else 0.0
         else:
-            out[j] = _trend_rate(t[tail], w)
+            rate = _trend_rate(t[tail], w)
+            out[j] = math.nan if settling and rate > 0 else rate
     return np.where(np.isinf(out), out, np.clip(out, -MAX_RATE, MAX_RATE))
