@@ -490,3 +490,20 @@ def test_a_full_disk_in_a_reproduction_exits_3_naming_the_file(tmp_path):
     )
     assert r.returncode == 3, r.stderr  # exit 2 naming no file before
     assert "Traceback" not in r.stderr and f"cannot write {out}" in r.stderr
+
+
+def test_a_journal_with_another_name_is_never_appended_by_a_worker(tmp_path):
+    # a pool worker appends to the journal by its path: never into a hard link (on its own,
+    # without the exclusive create that the command holding the folder does first)
+    from twolink.foundation.io import JOURNAL_NAME, note_written
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / LOCK_NAME).write_text("")
+    other = tmp_path / "someone_elses.txt"
+    other.write_text("theirs")
+    os.link(other, out / JOURNAL_NAME)
+    (out / "a.txt").write_text("x")
+    with pytest.raises(ForeignOutput, match="journal"):
+        note_written(out / "a.txt")
+    assert other.read_text() == "theirs"

@@ -184,9 +184,28 @@ def _journal_line(line: str, owner: Path, fd: int | None) -> None:
 
 
 def held_by_a_command(path: str | os.PathLike) -> bool:
-    """Whether a twolink command holds a folder above ``path`` (it checked, as it began,
-    that every file under it is twolink's)."""
-    return _owner_of(Path(os.path.abspath(path)) / "x") is not None
+    """Whether a twolink command holds ``path`` or a folder above it (it checked, as it
+    began, that every file under it is twolink's): this process, or another whose lock
+    is held (a killed command's lock and journal are not)."""
+    import fcntl
+
+    found = _owner_of(Path(os.path.abspath(path)) / "x")
+    if found is None:
+        return False
+    owner, fd = found
+    if fd is not None:
+        return True
+    try:
+        lfd = os.open(owner / LOCK_NAME, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(lfd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True  # its holder runs
+    finally:
+        os.close(lfd)  # releases a lock taken here
+    return False
 
 
 def note_written(path: str | os.PathLike) -> None:
@@ -238,15 +257,19 @@ def _claims(folder: Path) -> tuple[dict[str, str], set[str], dict[str, Any] | No
     return files, temporaries, record
 
 
-def foreign_entries(folder: Path) -> tuple[list[str], dict[str, Any] | None, list[Path]]:
+def foreign_entries(
+    folder: Path, inherited: dict[str, str] | None = None
+) -> tuple[list[str], dict[str, Any] | None, list[Path]]:
     """The entries under ``folder`` that twolink cannot prove it wrote (not listed by the
     folder's record or journal with their current SHA-256: a user's file, an edited one,
     a link, a pipe), the folder's record, and the temporaries it may remove. A folder
-    below with its own record or journal is judged by those."""
+    below with its own record or journal is judged by those (and by what the record above
+    lists inside it: ``inherited``)."""
     try:
         claims, temporaries, record = _claims(folder)
     except PlantedFile as exc:
         return [f"{OWNER_NAME} or {JOURNAL_NAME} ({exc.strerror})"], None, []
+    claims = {**(inherited or {}), **claims}
     foreign: list[str] = []
     removable: list[Path] = []
 
@@ -264,7 +287,10 @@ def foreign_entries(folder: Path) -> tuple[list[str], dict[str, Any] | None, lis
                 foreign.append(name + " (a link)")
             elif entry.is_dir(follow_symlinks=False):
                 if any(os.path.lexists(os.path.join(entry.path, n)) for n in OWN_NAMES[1:]):
-                    inner, _, more = foreign_entries(Path(entry.path))
+                    below = {
+                        k[len(name) + 1 :]: v for k, v in claims.items() if k.startswith(name + "/")
+                    }
+                    inner, _, more = foreign_entries(Path(entry.path), below)
                     foreign.extend(f"{name}/{n}" for n in inner)
                     removable.extend(more)
                 else:
