@@ -26,17 +26,19 @@ def _units() -> dict[str, str]:
     return {m.key: m.unit for m in METRICS}
 
 
-def amount(key: str, value: float) -> str:
-    """``value`` of metric ``key`` with its unit, small angles in mrad and times in ms."""
+def amount(key: str, value: float, digits: int = 3) -> str:
+    """``value`` of metric ``key`` with its unit (``digits`` significant), small angles in
+    mrad and times in ms."""
     known = _units()
     if key not in known:  # a metric of the caller's own: no unit known
-        return f"{value:.3g}"
+        return f"{value:.{digits}g}"
     unit = known[key]
     if unit in _SMALL and abs(value) < _SMALL[unit][0]:
         _, factor, unit = _SMALL[unit]
         value = value * factor
     sep = "" if unit == "%" else " "
-    return f"{value:.3g}{sep}{unit}"
+    text = f"{value:.0f}" if abs(value) >= 10**digits else f"{value:.{digits}g}"  # no 1e+02
+    return f"{text}{sep}{unit}"
 
 
 def _share(

@@ -76,7 +76,7 @@ def _name(r: Any) -> str:
 def _signed(key: str, value: float) -> str:
     from twolink.studies.claims_words import amount
 
-    return ("+" if value > 0 else "") + amount(key, value).replace("-", "−")
+    return ("+" if value > 0 else "") + amount(key, value, 2).replace("-", "−")
 
 
 def _rows(table: pd.DataFrame, verdict: str) -> list[Any]:
@@ -123,23 +123,17 @@ def describe(table: pd.DataFrame) -> str:
             more = f", but {'; '.join(shares)}" if shares else ""
             parts.append(f"{verdict} on {len(rows)}{more}")
     mixed = [r for r in open_ if _mixed(r)]
-    if mixed:
-        named = ", ".join(
-            f"{_name(r)} {_count(r, 'better')}/{_count(r, 'worse')}"
-            + (f" of {r.plants}" if r.plants != mixed[0].plants else "")
-            for r in mixed
-        )
-        parts.append(
-            f"mixed (plants better / worse beyond the tolerance, of {mixed[0].plants}) on {named}"
-        )
+    if mixed:  # a share shown each way: the reading in the table says both
+        parts.append(f"mixed on {len(mixed)} ({', '.join(_name(r) for r in mixed)})")
     by_reference = len(_rows(table, "set by the reference"))
     if by_reference:
         parts.append(f"{by_reference} set by the reference")
     return "; ".join(parts) or "nothing judged"
 
 
-def study_sentence(study: ClaimsStudy) -> str:
-    """The paper's claim on a study's plants, against each distinct opponent."""
+def study_sentence(study: ClaimsStudy, first: bool = True) -> str:
+    """The paper's claim on a study's plants, against each distinct opponent; the
+    ``first`` says what the claim is and what the brackets hold."""
     p = study.proposed
     clauses = []
     for opponent, table in study.claims.items():
@@ -151,9 +145,11 @@ def study_sentence(study: ClaimsStudy) -> str:
             f"against {opponent}{also}, met the spec {study.met.get(p, 0)} to "
             f"{study.met.get(opponent, 0)}: {describe(table)}"
         )
+    what = f" ({p} lowers Tp, Td, Ts, Tr, Mp, ess; typical-plant shift in brackets)"
     return (
-        f"**The paper's claim on {study.plants} plants, {study.label}** ({p} lowers Tp, Td, "
-        "Ts, Tr, Mp, ess; typical-plant shift in brackets): " + "; ".join(clauses) + "."
+        f"**The paper's claim on {study.plants} plants, {study.label}**{what if first else ''}: "
+        + "; ".join(clauses)
+        + "."
     )
 
 
@@ -285,7 +281,7 @@ def sentences(variant_lines: Sequence[str], studies: Sequence[ClaimsStudy]) -> l
     """The conclusions, in order: the paper's experiments, the claims per study, limit
     cycles, integral action; at most :data:`MOST`, no sentence twice."""
     out = list(variant_lines)
-    out += [study_sentence(s) for s in studies]
+    out += [study_sentence(s, first=k == 0) for k, s in enumerate(studies)]
     out += [x for x in (limit_cycle_sentence(studies), integral_sentence(studies)) if x]
     out = list(dict.fromkeys(out))
     if len(out) > MOST:
