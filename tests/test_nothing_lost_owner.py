@@ -395,6 +395,13 @@ def test_a_folder_swapped_for_a_link_gets_no_record_through_it(tmp_path):
         out.rename(tmp_path / "moved")
         out.symlink_to(elsewhere)
     assert list(elsewhere.iterdir()) == []
+    # and a write after the swap, before the record, goes nowhere either
+    out.unlink()
+    with pytest.raises(ForeignOutput, match="replaced"), owned_output(out, "demo"):
+        out.rename(tmp_path / "moved2")
+        out.symlink_to(elsewhere)
+        atomic_write_text(out / "b.txt", "ours")
+    assert list(elsewhere.iterdir()) == []
 
 
 def test_a_killed_commands_temporaries_are_removed_by_the_next(tmp_path):
@@ -509,3 +516,23 @@ def test_a_journal_with_another_name_is_never_appended_by_a_worker(tmp_path):
     with pytest.raises(ForeignOutput, match="journal"):
         note_written(out / "a.txt")
     assert other.read_text() == "theirs"
+
+
+def test_every_writer_goes_through_twolinks_own():
+    # A file written past twolink.foundation.io (shutil.copy, Path.write_text, a rename)
+    # is not in the journal, so the owner record would not list it and the next command
+    # would refuse its own folder (seen: the search's files copied into a reproduction).
+    import re
+
+    pattern = re.compile(
+        r"shutil\.(copy|move)\w*\(|\.write_text\(|\.write_bytes\(|os\.(rename|replace)\("
+    )
+    root = Path(__file__).resolve().parents[1]
+    offenders = []
+    for path in [*(root / "twolink").rglob("*.py"), *(root / "controllers").rglob("*.py")]:
+        if "foundation" in path.parts:
+            continue
+        for n, line in enumerate(path.read_text().splitlines(), 1):
+            if pattern.search(line) and "(f, tmp)" not in line:  # a copy into a temporary
+                offenders.append(f"{path.relative_to(root)}:{n}")
+    assert offenders == []

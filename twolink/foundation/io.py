@@ -162,6 +162,7 @@ from twolink.foundation.ownership import (  # noqa: E402  (one home; the old nam
     note_written,
     output_lock,
     owned_output,
+    refuse_swapped,
     show_names,
 )
 from twolink.foundation.ownership import write_failed as _write_failed  # noqa: E402
@@ -197,6 +198,7 @@ def refuse_links(path: str | os.PathLike) -> None:
     folder that holds it (the nearest real folder with twolink's lock file), is a
     symbolic link: nothing is written through a link planted inside an output folder.
     Outside an output folder only ``path`` itself is checked."""
+    refuse_swapped(path)
     path = Path(os.path.abspath(path))
     below = [path]
     for p in path.parents:

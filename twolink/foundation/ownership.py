@@ -183,6 +183,20 @@ def _journal_line(line: str, owner: Path, fd: int | None) -> None:
         os.close(jfd)
 
 
+def refuse_swapped(path: str | os.PathLike) -> None:
+    """Raise :class:`ForeignOutput` if a folder above ``path`` that this process holds is
+    no longer the folder it opened (swapped for a link or another folder meanwhile):
+    nothing is written through it."""
+    path = Path(os.path.abspath(path))
+    for p in (path, *path.parents):
+        held = _HELD.get(p)
+        if held is not None and not _same_folder(p, held[0]):
+            raise ForeignOutput(
+                f"{p}: was replaced (by a link or another folder) while twolink wrote into it; "
+                "nothing more is written there"
+            )
+
+
 def held_by_a_command(path: str | os.PathLike) -> bool:
     """Whether a twolink command holds ``path`` or a folder above it (it checked, as it
     began, that every file under it is twolink's): this process, or another whose lock

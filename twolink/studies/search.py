@@ -519,6 +519,8 @@ def report_section(manifest: Any, out: Path) -> list[str]:
     (the search is its own command, ``twolink search``: too slow for the reproduction)."""
     import shutil
 
+    from twolink.foundation.io import atomic_path
+
     spec = load_spec(manifest.path.parent / DEFAULT_SPEC.name)
     saved = load_search(spec)
     head = ["", "## The strongest fuzzy term (the table search)", ""]
@@ -531,8 +533,9 @@ def report_section(manifest: Any, out: Path) -> list[str]:
     target = out / "search"
     target.mkdir(parents=True, exist_ok=True)
     for f in sorted(folder_of(spec).iterdir()):
-        if f.is_file():
-            shutil.copyfile(f, target / f.name)
+        if f.is_file():  # by twolink's writer: never through a link, listed as twolink's
+            with atomic_path(target / f.name) as tmp:
+                shutil.copyfile(f, tmp)
     s = meta["settings"]
     lines = head + [
         f"Differential evolution over FCM-CTC's odd-symmetric rule table (25 integers), "
