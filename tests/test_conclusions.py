@@ -144,3 +144,33 @@ def test_at_most_eight_sentences_and_none_twice():
     assert len(out) == len(set(out)) <= MOST
     with pytest.raises(ValueError, match="at most 8"):
         sentences([f"line {k}" for k in range(9)], [])
+
+
+def _search_item(regime, inference, v1, v2, b1=0, w1=0, b2=0, w2=0, est=(0.0, 0.0)):
+    item = {"regime": regime, "inference": inference, "evaluations": 650}
+    for j, v, b, w, e in ((1, v1, b1, w1, est[0]), (2, v2, b2, w2, est[1])):
+        item |= {f"iae{j}_verdict": v, f"iae{j}_better": b, f"iae{j}_worse": w}
+        item |= {f"iae{j}_n": 200, f"iae{j}_estimate": e}
+    return item
+
+
+def test_the_search_sentence_answers_yes_only_where_every_regime_is_better_and_none_worse():
+    from twolink.studies.conclusions import search_sentence
+
+    assert search_sentence([]) is None
+    better = _search_item("raw", "mamdani", "better", "equivalent", b1=150, est=(-0.1, 0.0))
+    mixed = _search_item("raw", "mamdani", "worse", "better", 0, 159, 181, 0, (0.045, -0.34))
+    worse = _search_item("quintic", "mamdani", "equivalent", "worse", w2=137, est=(0, 0.0039))
+    assert search_sentence([better]).startswith(
+        "**Can a fuzzy term of this structure beat the best linear loop at equal effort?** Yes:"
+    )
+    said = search_sentence([mixed, worse])
+    assert "** Not outright: the best of 1300 rule tables" in said
+    assert "worse on θ1 IAE (+0.045 rad·s, 159 of 200 plants)" in said
+    assert "better on θ2 IAE (−0.34 rad·s, 181 of 200 plants)" in said
+    assert "with quintic moves, equivalent on θ1 IAE" in said
+    assert "** No:" in search_sentence([worse])
+    # per regime the inference with more plants better than worse speaks
+    other = _search_item("raw", "continuous", "better", "better", 120, 0, 130, 0, (-0.2, -0.3))
+    assert "** Yes:" in search_sentence([mixed, other])
+    assert "(−0.2 rad·s, 120 of 200 plants)" in search_sentence([mixed, other])

@@ -26,7 +26,14 @@ from typing import Any
 
 import pandas as pd
 
-__all__ = ["MOST", "ClaimsStudy", "limit_cycle_sentence", "study_sentence", "variant_sentence"]
+__all__ = [
+    "MOST",
+    "ClaimsStudy",
+    "limit_cycle_sentence",
+    "search_sentence",
+    "study_sentence",
+    "variant_sentence",
+]
 
 MOST = 8  # sentences
 
@@ -277,12 +284,58 @@ def variant_sentence(
     return head + said + "; " + spec + why + "."
 
 
-def sentences(variant_lines: Sequence[str], studies: Sequence[ClaimsStudy]) -> list[str]:
+_REGIME_WORDS = {"raw": "with the paper's raw steps", "quintic": "with quintic moves"}
+
+
+def search_sentence(items: Sequence[Mapping[str, Any]]) -> str | None:
+    """The table search's answer (:func:`twolink.studies.search.sentence_numbers`' items:
+    per regime and inference the best table's IAE against the best linear loop on the
+    held-out plants): can a fuzzy term of this structure beat the best linear loop at
+    equal effort? Per regime the better inference (more plants better less worse), each
+    joint's verdict with its typical-plant shift and its plants. None without a search."""
+    if not items:
+        return None
+    tables = sum(int(i["evaluations"]) for i in items)
+    parts, beats, helps = [], [], []
+    for regime in dict.fromkeys(i["regime"] for i in items):
+        mine = [i for i in items if i["regime"] == regime]
+        best = max(
+            mine,
+            key=lambda i: sum(
+                i.get(f"iae{j}_better", 0) - i.get(f"iae{j}_worse", 0) for j in (1, 2)
+            ),
+        )
+        verdicts = [best.get(f"iae{j}_verdict") for j in (1, 2)]
+        beats.append("better" in verdicts and "worse" not in verdicts)
+        helps.append("better" in verdicts)
+        said = []
+        for j in (1, 2):
+            v = verdicts[j - 1]
+            if v is None:
+                continue
+            size = f"{best[f'iae{j}_estimate']:+.2g} rad·s".replace("-", "−")
+            if v in ("better", "worse"):
+                size += f", {best[f'iae{j}_{v}']} of {best[f'iae{j}_n']} plants"
+            said.append(f"{v} on θ{j} IAE ({size})")
+        parts.append(f"{_REGIME_WORDS.get(regime, regime)}, {' and '.join(said)}")
+    answer = "Yes" if all(beats) else ("Not outright" if any(helps) else "No")
+    return (
+        "**Can a fuzzy term of this structure beat the best linear loop at equal effort?** "
+        f"{answer}: the best of {tables} rule tables searched within FCM-CTC's effort, "
+        "judged against CTC-best on held-out plants, is " + "; ".join(parts) + "."
+    )
+
+
+def sentences(
+    variant_lines: Sequence[str], studies: Sequence[ClaimsStudy], closing: Sequence[str] = ()
+) -> list[str]:
     """The conclusions, in order: the paper's experiments, the claims per study, limit
-    cycles, integral action; at most :data:`MOST`, no sentence twice."""
+    cycles, integral action, then ``closing`` (the table search's); at most :data:`MOST`,
+    no sentence twice."""
     out = list(variant_lines)
     out += [study_sentence(s, first=k == 0) for k, s in enumerate(studies)]
     out += [x for x in (limit_cycle_sentence(studies), integral_sentence(studies)) if x]
+    out += list(closing)
     out = list(dict.fromkeys(out))
     if len(out) > MOST:
         raise ValueError(f"{len(out)} conclusions, at most {MOST}")

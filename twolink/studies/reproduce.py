@@ -507,6 +507,7 @@ def _reproduce(
     from twolink.studies.design import design_or_load
     from twolink.studies.gains import report_section
     from twolink.studies.report_sections import design_section, oscillation_section
+    from twolink.studies.search import search_closing
 
     phase = _Phases(progress, 4)
     workers = workers or os.cpu_count() or 1
@@ -623,6 +624,7 @@ def _reproduce(
             lead_sections=claims,
             calibrated=calibrated,
             claims_tables=claim_tables,
+            closing=search_closing(out),
         ),
     )
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))

@@ -572,6 +572,17 @@ def load_output(out: Path) -> tuple[dict[str, Any], pd.DataFrame] | None:
     return json.loads((folder / "search.json").read_text()), pd.read_csv(folder / "heldout.csv")
 
 
+def search_closing(out: Path) -> list[str]:
+    """The conclusions' one sentence on the search (both regimes,
+    :func:`twolink.studies.conclusions.search_sentence`), from what the reproduction
+    copied into ``out/search/``; none where it copied no current search."""
+    from twolink.studies.conclusions import search_sentence
+
+    saved = load_output(out)
+    said = search_sentence(sentence_numbers(*saved)) if saved is not None else None
+    return [said] if said else []
+
+
 def conclusion_lines(out: Path) -> list[str]:
     """The conclusions' sentence per searched regime, from a reproduction's ``out/search/``
     (empty where the reproduction copied no current search): what the conclusions code
