@@ -117,6 +117,10 @@ def test_what_the_backend_cannot_run_is_refused_before_compiling():
         run_scenarios([load_scenario(BASE, delayed)], backend="mjx")
     with pytest.raises(ValueError, match="backend must be one of"):
         run_scenarios([load_scenario(BASE, {"duration": 0.1})], backend="gpu")
+    import twolink
+
+    with pytest.raises(ValueError, match="backend must be one of"):  # the library's run_sweep
+        twolink.run_sweep("runs/sweeps/robustness.toml", "unused", samples=1, backend="gpu")
     result = CliRunner().invoke(
         main, ["sweep", "runs/sweeps/robustness.toml", "--precision", "float32"]
     )

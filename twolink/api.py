@@ -68,12 +68,14 @@ def run_sweep(
     overrides: dict[str, Any] | None = None,
     progress: bool = False,
     plots: bool = False,
+    backend: str = "cpu",
 ) -> pd.DataFrame:
     """Run a sweep file (``twolink sweep FILE --out OUT``) on a process pool of
     ``workers`` (default: all cores; 1: in this process) and return its results table
     (one row per plant and controller; columns in docs/sweeps.md). Chunks already in
     ``out`` are reused. With a pool, a script needs Python's ``if __name__ ==
-    "__main__":`` guard, as for any process pool.
+    "__main__":`` guard, as for any process pool. ``backend="mjx"`` (or "mjx-float32")
+    runs it on MuJoCo's accelerator backend in this process (docs/batch.md).
 
     >>> import twolink
     >>> table = twolink.run_sweep("runs/sweeps/robustness.toml", "/tmp/sweep", samples=4)
@@ -90,6 +92,12 @@ def run_sweep(
     # one worker: in this process (no pool, so a plain script needs no __main__ guard)
     executor = "inprocess" if workers == 1 else "process"
     outcome = sweep.run_sweep(
-        plan, out, executor=executor, workers=workers, progress=progress, plots=plots
+        plan,
+        out,
+        executor=executor,
+        workers=workers,
+        progress=progress,
+        plots=plots,
+        backend=backend,
     )
     return outcome.results
