@@ -1167,7 +1167,7 @@ CLI_CASES = {
     ),
     "validate -n -1": (
         lambda tmp, out: ["validate", "-n", "-1"],
-        ["Invalid value for '-n' / '--samples'", "-1 is not in the range 1<=x<=1000000"],
+        ["Invalid value for '-n' / '--samples'", "-1 is not in the range 1<=x<=100000"],
     ),
     "validate --seed -1": (
         lambda tmp, out: ["validate", "-n", "1", "--seed", "-1"],

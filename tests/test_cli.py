@@ -123,11 +123,13 @@ def test_version_and_short_help():
         "coverage",
         "design",
         "fis",
+        "frontier",
         "gains",
         "models",
         "regimes",
         "reproduce",
         "run",
+        "search",
         "sweep",
         "validate",
     )
