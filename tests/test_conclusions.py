@@ -113,7 +113,15 @@ def test_integral_action_beating_both_is_said_and_counted():
     every.loc[hit & (every["metric"] == "iae_rad_s"), "verdict"] = "worse"
     s = ClaimsStudy(**{**s.__dict__, "every": every})
     (line,) = [x for x in sentences([], [s]) if x.startswith("**Integral")]
-    assert "CTC-I does not beat FCM-CTC, CTC and CTC-strong" in line and "CTC-strong 2/2" in line
+    assert "CTC-I beats FCM-CTC and CTC but not CTC-strong on" in line and "CTC-strong 2/2" in line
+    # and one it beats none of
+    every.loc[hit & (every["opponent"] != "CTC-strong"), "verdict"] = "worse"
+    every.loc[(every["proposed"] == "CTC-I") & (every["metric"] == "iae_rad_s"), "verdict"] = (
+        "worse"
+    )
+    s = ClaimsStudy(**{**s.__dict__, "every": every})
+    (line,) = [x for x in sentences([], [s]) if x.startswith("**Integral")]
+    assert "CTC-I beats none of FCM-CTC, CTC and CTC-strong on" in line
 
 
 def test_the_papers_experiments_sentence_names_every_unstable_loop():

@@ -197,10 +197,15 @@ def limit_cycle_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
     )
 
 
+def _names(names: Sequence[str]) -> str:
+    return ", ".join(names[:-1]) + f" and {names[-1]}" if len(names) > 1 else names[0]
+
+
 def integral_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
-    """Whether the controller with integral action beats the proposed one and every
-    opponent (better on some metrics, worse on none), per study: how many metrics better
-    and worse of how many, the largest gain against the proposed controller."""
+    """Which of the proposed controller and the opponents the controller with integral
+    action beats (better on some metrics, worse on none) and which not, per study: how
+    many metrics better and worse of how many, the largest gain against the proposed
+    controller."""
     name = next((s.integral for s in studies if s.integral), None)
     if name is None:
         return None
@@ -209,19 +214,23 @@ def integral_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
         if s.integral is None:
             continue
         against = [s.proposed] + [o for o in s.claims if o not in s.same_as]
-        counts, beats = [], True
+        counts, beaten, not_beaten = [], [], []
         for other in against:
             t = _pair(s.every, s.integral, other)
             better, worse = _rows(t, "better"), _rows(t, "worse")
-            beats &= bool(better) and not worse
+            (beaten if better and not worse else not_beaten).append(other)
             counts.append(f"{other} {len(better)}/{len(worse)}")
         t = _pair(s.every, s.integral, s.proposed)
         best = min(_rows(t, "better"), key=lambda r: r.estimate / r.tolerance, default=None)
         largest = f"; e.g. {_name(best)} {_signed(best.metric, best.estimate)}" if best else ""
-        verb = "beats" if beats else "does not beat"
-        names = ", ".join(against[:-1]) + f" and {against[-1]}" if len(against) > 1 else against[0]
+        if not not_beaten:
+            verb = f"beats {_names(beaten)}"
+        elif not beaten:
+            verb = f"beats none of {_names(not_beaten)}"
+        else:
+            verb = f"beats {_names(beaten)} but not {_names(not_beaten)}"
         parts.append(
-            f"{verb} {names} on {s.label} (metrics better/worse of {len(t)}: "
+            f"{verb} on {s.label} (metrics better/worse of {len(t)}: "
             f"{', '.join(counts)}{largest} against {s.proposed})"
         )
     return f"**Integral action:** {name} " + "; it ".join(parts) + "."
