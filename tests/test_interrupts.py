@@ -263,3 +263,33 @@ main(["swallowed"])
     proc = python_module(tmp_path, "swallowed_by_a_library", code)
     assert proc.returncode == 130 and "finished" not in proc.stdout, proc.stderr
     assert "interrupted" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def _deaf_task(seconds: float) -> None:
+    """A worker that cannot act on SIGTERM, as one waiting on the result queue's lock that
+    a terminated worker held."""
+    import signal as _signal
+    import time as _time
+
+    _signal.signal(_signal.SIGTERM, _signal.SIG_IGN)
+    _time.sleep(seconds)
+
+
+def test_an_abort_ends_a_worker_that_cannot_act_on_sigterm():
+    """Without the SIGKILL after the grace, the pool's shutdown waits for the deaf worker
+    (here 60 s; a worker blocked on a lock: forever)."""
+    import threading
+    import time
+
+    from twolink.foundation.executors import ABORT_GRACE_S, ProcessExecutor
+
+    pool = ProcessExecutor(workers=1, preload=[])
+    future = pool.submit(_deaf_task, 60.0)
+    time.sleep(1.0)  # the task is running
+    assert future.running()
+    start = time.monotonic()
+    aborted = threading.Thread(target=pool.abort, daemon=True)
+    aborted.start()
+    aborted.join(timeout=ABORT_GRACE_S + 20.0)
+    assert not aborted.is_alive(), "abort still waiting on a worker deaf to SIGTERM"
+    assert time.monotonic() - start >= ABORT_GRACE_S * 0.9  # SIGTERM first, SIGKILL after

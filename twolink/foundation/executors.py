@@ -250,9 +250,34 @@ class ProcessExecutor(SweepExecutor):
         if terminate is not None:
             terminate()
         else:
-            for process in list((getattr(self._pool, "_processes", None) or {}).values()):
+            for process in self._worker_processes():
                 process.terminate()
-        self._pool.shutdown(wait=True, cancel_futures=True)
+        # A worker terminated while it sent a result leaves the result queue's lock held,
+        # and a worker waiting on that lock never runs its SIGTERM handler; the pool's
+        # shutdown then waits for it forever (seen: 2 of 6 SIGTERMs to `reproduce` 4 s
+        # in). So the shutdown runs beside a watch that ends every worker still alive
+        # after ABORT_GRACE_S with SIGKILL (its temporaries: the next command removes them).
+        done = threading.Event()
+
+        def shut() -> None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            done.set()
+
+        threading.Thread(target=shut, name="twolink-pool-shutdown", daemon=True).start()
+        grace = time.monotonic() + ABORT_GRACE_S
+        while not done.wait(0.05):
+            for process in self._worker_processes():
+                if process.is_alive():
+                    if time.monotonic() < grace:
+                        process.terminate()  # one the pool started after the first pass
+                    else:
+                        process.kill()
+
+    def _worker_processes(self) -> list[Any]:
+        return list((getattr(self._pool, "_processes", None) or {}).values())
+
+
+ABORT_GRACE_S = 2.0  # s a worker has to act on SIGTERM before an abort sends SIGKILL
 
 
 class DaskExecutor(SweepExecutor):
