@@ -310,6 +310,13 @@ def test_an_interrupted_reproduction_resumes_per_run(tmp_path, reproduction):
     (runs[1] / "metrics.json").unlink()  # cut short
     config = runs[2] / "config.toml"  # another scenario in the same place
     config.write_text(config.read_text().replace("duration = 10.0", "duration = 9.0"))
+    # an edited file is not twolink's any more (issue 38): refused by name, nothing done
+    from twolink.foundation.ownership import ForeignOutput
+
+    with pytest.raises(ForeignOutput, match="config.toml .changed since twolink wrote it"):
+        reproduce(out=out, workers=2, progress=False)
+    assert all((p / "trajectory.npz").stat().st_mtime_ns == stamps[p] for p in runs[1:])
+    config.unlink()  # the user moves the edit away: the run is recomputed
     again = reproduce(out=out, workers=2, progress=False)
     assert not again.designed
     recomputed = {p for p in runs if (p / "trajectory.npz").stat().st_mtime_ns != stamps.get(p)}
