@@ -19,33 +19,10 @@ import signal
 from pathlib import Path
 
 import pytest
-from click.testing import CliRunner
+from cli_inputs import QUICK, STEP, SWEEP, invoke
 
 from twolink.foundation.io import JOURNAL_NAME, LOCK_NAME, OWNER_NAME, ForeignOutput
-from twolink.interface.cli import main
 
-REPO = Path(__file__).resolve().parents[1]
-STEP = REPO / "runs" / "paper" / "theta1_step.toml"
-BASE = (REPO / "runs" / "paper" / "base.toml").as_posix()
-QUICK = ["--set", "duration=0.05", "--no-trace", "--no-plots"]
-SWEEP = f"""name = "tiny_sweep"
-scenario = "{BASE}"
-samples = 2
-chunk_size = 1
-
-[overrides]
-duration = 0.05
-
-[reference.joint1]
-kind = "step"
-final = 1.0
-
-[parameters]
-m1 = {{ dist = "uniform", low = 0.8, high = 1.2 }}
-
-[controllers.ctc]
-kind = "ctc"
-"""
 EXIT_CODES = {0, 1, 2, 3}  # README, "Exit codes" (130 / 143: signals, not faults)
 
 
@@ -59,10 +36,6 @@ def no_hang():
     yield
     signal.alarm(0)
     signal.signal(signal.SIGALRM, previous)
-
-
-def invoke(*args):
-    return CliRunner().invoke(main, [str(a) for a in args])
 
 
 def ends_well(result, refused: bool = False) -> None:
