@@ -265,13 +265,17 @@ class ProcessExecutor(SweepExecutor):
 
         threading.Thread(target=shut, name="twolink-pool-shutdown", daemon=True).start()
         grace = time.monotonic() + ABORT_GRACE_S
+        signalled = {p.pid for p in self._worker_processes()}
         while not done.wait(0.05):
+            late = time.monotonic() >= grace
             for process in self._worker_processes():
-                if process.is_alive():
-                    if time.monotonic() < grace:
-                        process.terminate()  # one the pool started after the first pass
-                    else:
-                        process.kill()
+                if not process.is_alive():
+                    continue
+                if late:
+                    process.kill()
+                elif process.pid not in signalled:  # one the pool started after the first
+                    process.terminate()  # pass; once each: a second SIGTERM would re-enter
+                    signalled.add(process.pid)  # the handler while it removes temporaries
 
     def _worker_processes(self) -> list[Any]:
         return list((getattr(self._pool, "_processes", None) or {}).values())
