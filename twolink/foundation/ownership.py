@@ -605,9 +605,11 @@ def _write_record(dfd: int, record: dict[str, Any], path: Path) -> None:
         finally:
             os.close(fd)
         os.replace(tmp, OWNER_NAME, src_dir_fd=dfd, dst_dir_fd=dfd)
-    except OSError as exc:
+    except BaseException as exc:  # SIGTERM arrives as KeyboardInterrupt: no temporary left
         try:
             os.unlink(tmp, dir_fd=dfd)
         except OSError:
             pass
-        raise write_failed(path / OWNER_NAME, exc) from None
+        if isinstance(exc, OSError):
+            raise write_failed(path / OWNER_NAME, exc) from None
+        raise
