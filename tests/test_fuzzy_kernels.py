@@ -5,6 +5,9 @@ back to their numpy paths."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -95,3 +98,26 @@ def test_building_a_table_or_a_design_does_not_import_numba():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_a_fork_servers_warm_kernels_are_the_ones_the_batch_laws_call():
+    # The pools' preload (kernels_loaded) loads each kernel for the argument types the
+    # engines pass: a batch of every fuzzy law afterwards compiles no second version.
+    import subprocess
+    import sys
+
+    code = (
+        "from twolink.controllers.fuzzy import kernels, kernels_loaded; "
+        "import bench_batch as b; b.ARM_STEPS = 800; "
+        "before = {k: len(f.signatures) for k, f in kernels._compiled().items()}; "
+        "[b.batch_step_us(8, n) for n in ('FCM-CTC', 'FCM-CTC table', 'FCM-CTC continuous')]; "
+        "after = {k: len(f.signatures) for k, f in kernels._compiled().items()}; "
+        "print(before, after)"
+    )
+    bench = Path(__file__).resolve().parents[1] / "benchmarks"
+    env = {**os.environ, "PYTHONPATH": str(bench)}
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env
+    )
+    before, after = out.stdout.strip().split("} {")
+    assert before + "}" == "{" + after == "{'mamdani': 1, 'table': 1, 'continuous': 1}"

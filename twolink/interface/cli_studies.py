@@ -47,8 +47,10 @@ def regimes_command(
       twolink regimes                  # ~2-3 min on 2 cores
       twolink regimes -n 300 --out /tmp/regimes   # 10 plants per cell, quicker
     """
-    from twolink.figures.plots import save_figure
-    from twolink.foundation.executors import SWEEP_PRELOAD, open_executor
+    from twolink.foundation.executors import SWEEP_PRELOAD, open_executor, start_fork_server
+
+    if backend == "cpu":  # the workers' server imports on another core while we do
+        start_fork_server(SWEEP_PRELOAD)
     from twolink.foundation.io import atomic_write_text
     from twolink.simulation.config import ConfigError
     from twolink.studies import regimes
@@ -60,6 +62,10 @@ def regimes_command(
     except ConfigError as exc:
         fail_input(str(exc))
     own_output(out, "regimes", str(Path(study).resolve()))
+    # What the tables and the figure need, imported while the server still imports
+    from twolink.figures.plots import save_figure
+    from twolink.studies import claims  # noqa: F401
+
     if backend != "cpu":  # one batch per regime in this process: no pool
         with sweep_exits(out):
             results = regimes.run_regimes(study, out, samples, backend=backend)

@@ -55,23 +55,16 @@ def run_regimes(
     from twolink.studies.claims_studies import raw_steps
 
     raw = {"reference": raw_steps(read_toml(study).get("reference", {})), "name": "regimes_raw"}
-    results = {}
+    sweeps = []
     for regime, overrides in zip(REGIMES, ({}, raw), strict=True):
         if samples is not None:
             overrides = {**overrides, "samples": samples}
-        plan = sweep.load_sweep(study, overrides)
-        folder = out / regime.replace(" ", "_")
-        outcome = sweep.run_sweep(
-            plan,
-            folder,
-            pool=pool,
-            plots=False,
-            progress=progress,
-            replace_other=True,
-            backend=backend,
-        )
-        results[regime] = outcome.results
-    return results
+        sweeps.append((sweep.load_sweep(study, overrides), out / regime.replace(" ", "_")))
+    # both regimes on one pool at once: no worker waits for the first to end
+    outcomes = sweep.run_sweeps(
+        sweeps, pool=pool, plots=False, progress=progress, replace_other=True, backend=backend
+    )
+    return {regime: outcome.results for regime, outcome in zip(REGIMES, outcomes, strict=True)}
 
 
 def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:

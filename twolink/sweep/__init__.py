@@ -22,6 +22,7 @@ from twolink.sweep.execution import (
     SweepTaskError,
     run_chunk,
     run_sweep,
+    run_sweeps,
 )
 from twolink.sweep.figures import save_sweep_plots, sweep_figures
 from twolink.sweep.flexmap import (
@@ -66,6 +67,7 @@ __all__ = [
     "rigid_reference",
     "run_chunk",
     "run_sweep",
+    "run_sweeps",
     "save_sweep_plots",
     "summarize",
     "sweep_figures",

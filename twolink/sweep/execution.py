@@ -12,10 +12,10 @@ import hashlib
 import signal
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from concurrent import futures
-from contextlib import contextmanager
-from dataclasses import asdict, dataclass
+from contextlib import ExitStack, contextmanager
+from dataclasses import asdict, dataclass, field
 from itertools import pairwise
 from pathlib import Path
 from typing import Any
@@ -66,6 +66,7 @@ __all__ = [
     "run_chunk",
     "run_chunks",
     "run_sweep",
+    "run_sweeps",
 ]
 
 # ----------------------------------------------------------------------------- chunk files
@@ -135,14 +136,17 @@ class SweepInterrupted(Exception):
     signum : int
         The signal that stopped it.
     done, total : int
-        Chunks on disk and chunks in the sweep.
+        Chunks on disk and chunks in the sweep (in the sweeps, of :func:`run_sweeps`).
+    out : Path
+        The (first) sweep's folder.
     """
 
-    def __init__(self, signum: int, done: int, total: int, out: Path):
+    def __init__(self, signum: int, done: int, total: int, out: Path, *more: Path):
         self.signum, self.done, self.total, self.out = signum, done, total, out
+        kept = ", ".join(str(folder / "chunks") for folder in (out, *more))
         super().__init__(
             f"interrupted by {signal.Signals(signum).name}: {done}/{total} chunks are kept in "
-            f"{out / 'chunks'}; run the same command again to compute only the missing ones"
+            f"{kept}; run the same command again to compute only the missing ones"
         )
 
 
@@ -333,9 +337,46 @@ def run_sweep(
     ExecutorError, ValueError
         The executor cannot be started or its options are inconsistent.
     """
+    return run_sweeps(
+        [(plan, out)],
+        executor,
+        workers,
+        scheduler,
+        progress,
+        plots,
+        fresh,
+        pool,
+        replace_other,
+        backend,
+    )[0]
 
+
+def run_sweeps(
+    sweeps: Sequence[tuple[SweepPlan, str | Path]],
+    executor: str | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+    progress: bool = False,
+    plots: bool = True,
+    fresh: bool = False,
+    pool: SweepExecutor | None = None,
+    replace_other: bool = False,
+    backend: str = "cpu",
+) -> list[SweepOutcome]:
+    """:func:`run_sweep` of several sweeps at once, each ``(plan, out)`` into its own
+    folder: their chunks share one executor and one window of tasks, so that no worker
+    waits for one sweep to end before the next begins (the regime map's two regimes, the
+    reproduction's two claims sweeps). Each sweep's folder, chunks, table and outcome are
+    those :func:`run_sweep` gives it alone; the options apply to every sweep, the
+    executor's (``executor``, ``workers``, ``scheduler``) are the first plan's file's
+    where not given."""
     start = time.perf_counter()
-    out = Path(out)
+    jobs = [_Job(plan, Path(out)) for plan, out in sweeps]
+    if not jobs:
+        return []
+    folders = [job.out.resolve() for job in jobs]
+    if len(set(folders)) < len(folders):
+        raise ValueError(f"two sweeps into one folder: {[str(f) for f in folders]}")
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
     if backend != "cpu":  # one batch in this process: the device is the parallelism
@@ -344,73 +385,77 @@ def run_sweep(
         if not available():
             raise ValueError(f'backend {backend!r} needs MJX and JAX: pip install "twolink[mjx]"')
         executor, workers, scheduler, pool = "inprocess", 1, None, None
+    first = jobs[0].plan
     if executor is None:
-        executor = "dask" if scheduler else plan.execution.executor
-    workers = workers or plan.execution.workers
+        executor = "dask" if scheduler else first.execution.executor
+    workers = workers or first.execution.workers
     check_options(executor, workers, scheduler)
     # One sweep at a time per folder: a second one into it stops at once (OutputBusy).
-    with owned_output(out, "sweep", plan.file):
-        return _run_sweep(
-            plan,
-            out,
-            executor,
-            workers,
-            scheduler,
-            progress,
-            plots,
-            fresh,
-            start,
-            pool,
-            replace_other,
-            backend,
-        )
+    with ExitStack() as held:
+        for job in jobs:
+            held.enter_context(owned_output(job.out, "sweep", job.plan.file))
+        _compute(jobs, executor, workers, scheduler, progress, fresh, pool, replace_other, backend)
+        return [_finish(job, start, plots, progress) for job in jobs]
 
 
-def _run_sweep(
-    plan: SweepPlan,
-    out: Path,
+@dataclass
+class _Job:
+    """One sweep of :func:`run_sweeps`: its chunks on disk, those to compute, and those
+    computed (in parts where workers would idle: ``parts``, ``partial``)."""
+
+    plan: SweepPlan
+    out: Path
+    frames: dict[int, pd.DataFrame] = field(default_factory=dict)
+    reused: tuple[int, ...] = ()
+    missing: list[int] = field(default_factory=list)
+    computed: list[tuple[int, float]] = field(default_factory=list)  # (chunk, worker s)
+    parts: dict[int, int] = field(default_factory=dict)
+    partial: dict[int, list[ChunkResult]] = field(default_factory=dict)
+    workers: int = 0
+
+
+def _compute(
+    jobs: list[_Job],
     executor: str,
     workers: int | None,
     scheduler: str | None,
     progress: bool,
-    plots: bool,
     fresh: bool,
-    start: float,
     pool: SweepExecutor | None,
-    replace_other: bool = False,
-    backend: str = "cpu",
-) -> SweepOutcome:
-    """:func:`run_sweep` once its options are checked and its folder is held."""
+    replace_other: bool,
+    backend: str,
+) -> None:
+    """Prepare each sweep's folder, find its missing chunks and compute them, every sweep's
+    on one executor (``pool``, else one opened here)."""
     from tqdm import tqdm
 
-    _prepare_out(plan, out, fresh, replace_other)
-
-    frames: dict[int, pd.DataFrame] = {}
-    for c in range(plan.n_chunks):
-        frame = _valid_chunk(plan, out, c)
-        if frame is not None:
-            frames[c] = frame
-    reused = tuple(sorted(frames))
-    missing = [c for c in range(plan.n_chunks) if c not in frames]
-    computed: list[tuple[int, float]] = []  # (chunk, worker seconds)
+    for job in jobs:
+        plan = job.plan
+        _prepare_out(plan, job.out, fresh, replace_other)
+        for c in range(plan.n_chunks):
+            frame = _valid_chunk(plan, job.out, c)
+            if frame is not None:
+                job.frames[c] = frame
+        job.reused = tuple(sorted(job.frames))
+        job.missing = [c for c in range(plan.n_chunks) if c not in job.frames]
     stops = _StopSignals()
-    n_workers = 0
     bar = tqdm(
-        total=plan.samples,
-        initial=sum(len(plan.chunk_samples(c)) for c in reused),
+        total=sum(job.plan.samples for job in jobs),
+        initial=sum(len(j.plan.chunk_samples(c)) for j in jobs for c in j.reused),
         unit="sample",
         disable=not progress,
-        desc=plan.name,
+        desc=" + ".join(job.plan.name for job in jobs),
         file=sys.stderr,
     )
     try:
         with stops.installed():
             try:
-                if missing:
+                if any(job.missing for job in jobs):
                     ex = pool or open_executor(executor, workers, scheduler, SWEEP_PRELOAD)
-                    n_workers = ex.workers
+                    for job in jobs:
+                        job.workers = ex.workers if job.missing else 0
                     try:
-                        _drive(plan, out, ex, missing, frames, computed, bar, stops, backend)
+                        _drive(jobs, ex, bar, stops, backend)
                     except BaseException:
                         if pool is None:  # a lent pool is its owner's to stop
                             with interrupts_held():
@@ -420,10 +465,19 @@ def _run_sweep(
                         ex.shutdown(wait=True)
             except KeyboardInterrupt:
                 signum = stops.received[0] if stops.received else signal.SIGINT
-                raise SweepInterrupted(signum, len(frames), plan.n_chunks, out) from None
+                raise SweepInterrupted(
+                    signum,
+                    sum(len(job.frames) for job in jobs),
+                    sum(job.plan.n_chunks for job in jobs),
+                    *(job.out for job in jobs),
+                ) from None
     finally:
         bar.close()
 
+
+def _finish(job: _Job, start: float, plots: bool, progress: bool) -> SweepOutcome:
+    """Write a computed sweep's table, summary and plots; its outcome."""
+    plan, out, frames = job.plan, job.out, job.frames
     results = pd.concat([frames[c] for c in range(plan.n_chunks)], ignore_index=True)
     results.attrs = dict(frames[0].attrs)  # concat keeps attrs only where all agree
     _classify(plan, results)
@@ -443,11 +497,11 @@ def _run_sweep(
         table=table,
         results=results,
         summary=summary,
-        computed=tuple(c for c, _ in computed),
-        reused=reused,
+        computed=tuple(c for c, _ in job.computed),
+        reused=job.reused,
         wall_s=wall_s,
-        busy_s=sum(w for _, w in computed),
-        workers=n_workers,
+        busy_s=sum(w for _, w in job.computed),
+        workers=job.workers,
     )
 
 
@@ -488,71 +542,77 @@ def _whole(
 
 
 def _drive(
-    plan: SweepPlan,
-    out: Path,
-    ex: SweepExecutor,
-    missing: list[int],
-    frames: dict[int, pd.DataFrame],
-    computed: list[tuple[int, float]],
-    bar: Any,
-    stops: _StopSignals,
-    backend: str = "cpu",
+    jobs: list[_Job], ex: SweepExecutor, bar: Any, stops: _StopSignals, backend: str = "cpu"
 ) -> None:
     """Keep a bounded window of tasks in flight; write each chunk as it finishes. A task is
     one chunk on a pool (the unit of resuming and of spreading over workers); in-process,
-    as many chunks as the executor has threads, stepped at once."""
+    as many chunks as the executor has threads, stepped at once. The sweeps' tasks queue
+    one sweep after the other, in one window."""
     group = ex.workers if ex.name == "inprocess" else 1
-    if backend != "cpu":  # every chunk in one batch (run_chunks)
-        group = len(missing)
-    tasks: list[tuple[Any, ...]] = [
-        (run_chunks, plan, missing[i : i + group], group, backend)
-        for i in range(0, len(missing), group)
-    ]
-    parts = dict.fromkeys(missing, 1)
-    if ex.name != "inprocess" and backend == "cpu" and len(missing) < ex.workers:
-        tasks = []  # fewer chunks than workers: each chunk in parts, one a worker
-        for c in missing:
+    missing = sum(len(job.missing) for job in jobs)
+    # fewer chunks than workers (of all the sweeps): each chunk in parts, a worker each
+    split = ex.name != "inprocess" and backend == "cpu" and missing < ex.workers
+    tasks: list[tuple[_Job, tuple[Any, ...]]] = []
+    for job in jobs:
+        plan = job.plan
+        job.parts = dict.fromkeys(job.missing, 1)
+        if backend != "cpu":  # every chunk of a sweep in one batch (run_chunks)
+            group = len(job.missing)
+        if not split:
+            tasks += [
+                (job, (run_chunks, plan, job.missing[i : i + group], group, backend))
+                for i in range(0, len(job.missing), group)
+            ]
+            continue
+        for c in job.missing:
             samples = plan.chunk_samples(c)
-            cuts = np.linspace(samples.start, samples.stop, -(-ex.workers // len(missing)) + 1)
+            cuts = np.linspace(samples.start, samples.stop, -(-ex.workers // missing) + 1)
             edges = sorted({int(round(x)) for x in cuts})
-            parts[c] = len(edges) - 1
-            tasks += [(run_chunk_part, plan, c, a, b) for a, b in pairwise(edges)]
+            job.parts[c] = len(edges) - 1
+            tasks += [(job, (run_chunk_part, plan, c, a, b)) for a, b in pairwise(edges)]
     todo = iter(tasks)
-    partial: dict[int, list[ChunkResult]] = {}
     # Enough queued work that no worker waits on the client, little to cancel on Ctrl-C.
     window = 1 if ex.name == "inprocess" else 2 * ex.workers
-    pending: set[futures.Future] = set()
+    pending: dict[futures.Future, _Job] = {}
 
     def fill() -> None:
         while len(pending) < window:
             task = next(todo, None)
             if task is None:
                 return
-            pending.add(ex.submit(*task))
+            job, call = task
+            pending[ex.submit(*call)] = job
 
     fill()
     while pending:
         if stops.received:  # its KeyboardInterrupt was dropped (by a library, on its way)
             raise KeyboardInterrupt
-        done, pending = futures.wait(pending, return_when=futures.FIRST_COMPLETED)
+        done, _ = futures.wait(pending, return_when=futures.FIRST_COMPLETED)
         for future in done:
+            job = pending.pop(future)
             try:
                 results: list[ChunkResult] = future.result()
             except futures.BrokenExecutor:
                 raise
             except Exception as exc:  # outside run_chunk's per-sample net: a real bug
                 raise SweepTaskError(f"a chunk task failed: {_error_text(exc)}") from exc
-            for result in _whole(results, parts, partial):
-                with interrupts_held():
-                    frame = _chunk_frame(plan, result.rows)
-                    _seal(plan, write_table(_chunk_path(out, result.chunk), frame))
-                    samples = plan.chunk_samples(result.chunk)
-                    append_line(
-                        out / "computed.log",
-                        f"{result.chunk} samples={samples.start}-{samples.stop - 1} "
-                        f"wall_s={result.wall_s:.3f} pid={result.pid} executor={ex.name}",
-                    )
-                frames[result.chunk] = frame
-                computed.append((result.chunk, result.wall_s))
-                bar.update(len(plan.chunk_samples(result.chunk)))
+            for result in _whole(results, job.parts, job.partial):
+                _write_chunk(job, result, ex.name)
+                bar.update(len(job.plan.chunk_samples(result.chunk)))
         fill()
+
+
+def _write_chunk(job: _Job, result: ChunkResult, executor: str) -> None:
+    """A whole chunk's file, seal and log line, written together (interrupts held)."""
+    plan = job.plan
+    with interrupts_held():
+        frame = _chunk_frame(plan, result.rows)
+        _seal(plan, write_table(_chunk_path(job.out, result.chunk), frame))
+        samples = plan.chunk_samples(result.chunk)
+        append_line(
+            job.out / "computed.log",
+            f"{result.chunk} samples={samples.start}-{samples.stop - 1} "
+            f"wall_s={result.wall_s:.3f} pid={result.pid} executor={executor}",
+        )
+    job.frames[result.chunk] = frame
+    job.computed.append((result.chunk, result.wall_s))
