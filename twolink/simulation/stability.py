@@ -45,7 +45,15 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Linearisation", "closed_loop_growth", "internal_state", "linearise"]
+__all__ = [
+    "Linearisation",
+    "Setup",
+    "closed_loop_growth",
+    "internal_state",
+    "judge",
+    "linearise",
+    "prepare",
+]
 
 EPSILON = 1e-6  # rad, rad/s: the differences' step; the smooth map is smooth far beyond it
 # A one-sided difference that changes by more than this (relative to the Jacobian's
@@ -90,24 +98,18 @@ def linearise(scenario, plant, controller, eps: float = EPSILON, near: Any = Non
     run's outcome lies. The rest state is sought from the target and, failing that, from
     ``near`` (a run's last link and rotor angles, ``(q, motor_q)``): a loop with a model
     error may rest far from the target (CTC at a low ωn: a radian off)."""
-    from twolink.arm.plant import holding_motor_q
-    from twolink.simulation.outcome import reference_end
-
-    if not scenario.sensor.ideal:
-        return Linearisation(math.nan, "a sensor with dynamics of its own: not linearised")
-    t_hold = reference_end(scenario.reference)
-    if not math.isfinite(t_hold):
-        return Linearisation(math.nan, "a reference that never rests: no rest state")
-    t_hold += 1.0
-    fields = internal_state(controller)
-    controller = copy.copy(controller)  # the caller's keeps its state; ours is reset
-    target = np.array(scenario.reference.final, dtype=float)
-    flexible = plant.flexible
-    needs_motor = bool(getattr(controller, "needs_motor", False))
-    substeps = round(scenario.control_dt / plant.dt)
-    nq = plant.model.nq
-    n_plant = 2 * nq
-    n = n_plant + 2 * len(fields)
+    setup = prepare(scenario, controller, near, plant.flexible, plant.model.nq, plant.dt)
+    if isinstance(setup, Linearisation):
+        return setup
+    fields, n, n_plant, nq, substeps = (
+        setup.fields,
+        setup.n,
+        setup.n_plant,
+        setup.nq,
+        setup.substeps,
+    )
+    t_hold, controller = setup.t_hold, setup.controller
+    needs_motor = setup.needs_motor
 
     def call(x: np.ndarray) -> tuple[float, float]:
         q, qd = tuple(x[:2]), tuple(x[nq : nq + 2])
@@ -152,6 +154,76 @@ def linearise(scenario, plant, controller, eps: float = EPSILON, near: Any = Non
                 return None
         return None
 
+    starts = setup.starts
+    x = next((r for r in map(rest_state, starts) if r is not None), None)
+    if x is None:
+        return Linearisation(math.nan, "no rest state found near the target")
+    central = differences(x, eps, 0)
+    one_sided = {s: differences(x, eps, s) for s in (1, -1)}
+    finer = {s: differences(x, eps / 8, s) for s in (1, -1)}
+    return judge(central, one_sided, finer, scenario.control_dt)
+
+
+def judge(
+    central: np.ndarray, one_sided: dict[int, np.ndarray], finer: dict[int, np.ndarray], dt: float
+) -> Linearisation:
+    """The answer from the differences at the rest state: the central Jacobian, the
+    one-sided ones (``{1: forward, -1: backward}``) at the same step and at an 8-fold
+    smaller one (``finer``); ``dt`` the control period. A jump (a one-sided difference
+    that does not converge) gives NaN, a kink the largest σ of all three."""
+    scale = max(1.0, float(np.abs(central).max()))
+    for side, jac in one_sided.items():
+        if np.abs(finer[side] - jac).max() > JUMP_TOLERANCE * scale:
+            return Linearisation(
+                math.nan, "the law jumps at its rest state (a relay): no linearisation"
+            )
+    note = ""
+    jacs = [central]
+    if max(np.abs(j - central).max() for j in one_sided.values()) > KINK_TOLERANCE * scale:
+        note = "a kink at the rest state: the largest σ of its one-sided linearisations"
+        jacs += list(one_sided.values())
+    rho = max(float(np.max(np.abs(np.linalg.eigvals(j)))) for j in jacs)
+    sigma = math.log(rho) / dt if rho > 0 else -math.inf
+    return Linearisation(sigma, note)
+
+
+@dataclass(frozen=True)
+class Setup:
+    """What a linearisation of one loop starts from (:func:`prepare`)."""
+
+    controller: Any  # a reset copy of the caller's
+    fields: tuple[str, ...]  # its own state's names (:func:`internal_state`)
+    needs_motor: bool
+    nq: int  # the plant's positions: 2 rigid, 4 flexible (links, then rotors)
+    n_plant: int  # 2 nq
+    n: int  # the state: the plant's and the controller's own, 2 floats per field
+    substeps: int  # plant steps per control period
+    t_hold: float  # the instant the controller is called at: the reference at rest
+    starts: tuple[np.ndarray, ...]  # where Newton's search starts: the target, then near
+
+
+def prepare(
+    scenario, controller, near: Any, flexible: bool, nq: int, dt: float
+) -> Setup | Linearisation:
+    """The start of :func:`linearise` for the plant of ``scenario`` (``flexible``, its
+    ``nq`` positions, its timestep ``dt``), or the answer where there is nothing to
+    linearise (NaN and why)."""
+    from twolink.arm.plant import holding_motor_q
+    from twolink.simulation.outcome import reference_end
+
+    if not scenario.sensor.ideal:
+        return Linearisation(math.nan, "a sensor with dynamics of its own: not linearised")
+    t_hold = reference_end(scenario.reference)
+    if not math.isfinite(t_hold):
+        return Linearisation(math.nan, "a reference that never rests: no rest state")
+    t_hold += 1.0
+    fields = internal_state(controller)
+    controller = copy.copy(controller)  # the caller's keeps its state; ours is reset
+    target = np.array(scenario.reference.final, dtype=float)
+    needs_motor = bool(getattr(controller, "needs_motor", False))
+    n_plant = 2 * nq
+    n = n_plant + 2 * len(fields)
+
     def start(q: Any, motor_q: Any, own: np.ndarray) -> np.ndarray:
         x = np.zeros(n)
         x[:2] = q
@@ -171,29 +243,14 @@ def linearise(scenario, plant, controller, eps: float = EPSILON, near: Any = Non
     own0 = np.zeros(2 * len(fields))
     if fields:
         x0 = start(target, motor0, own0)
-        plant.set_state(x0[:nq], x0[nq:n_plant])
-        call(x0)
+        q, qd = tuple(x0[:2]), tuple(x0[nq : nq + 2])
+        if needs_motor:
+            controller(t_hold, q, qd, tuple(x0[2:4]), tuple(x0[nq + 2 : nq + 4]))
+        else:
+            controller(t_hold, q, qd)
         own0 = np.array([v for name in fields for v in getattr(controller, name)], dtype=float)
     starts = [start(target, motor0, own0)]
     if near is not None:
         starts.append(start(near[0], near[1], own0))
-    x = next((r for r in map(rest_state, starts) if r is not None), None)
-    if x is None:
-        return Linearisation(math.nan, "no rest state found near the target")
-    central = differences(x, eps, 0)
-    one_sided = {s: differences(x, eps, s) for s in (1, -1)}
-    scale = max(1.0, float(np.abs(central).max()))
-    for side, jac in one_sided.items():
-        finer = differences(x, eps / 8, side)
-        if np.abs(finer - jac).max() > JUMP_TOLERANCE * scale:
-            return Linearisation(
-                math.nan, "the law jumps at its rest state (a relay): no linearisation"
-            )
-    note = ""
-    jacs = [central]
-    if max(np.abs(j - central).max() for j in one_sided.values()) > KINK_TOLERANCE * scale:
-        note = "a kink at the rest state: the largest σ of its one-sided linearisations"
-        jacs += list(one_sided.values())
-    rho = max(float(np.max(np.abs(np.linalg.eigvals(j)))) for j in jacs)
-    sigma = math.log(rho) / scenario.control_dt if rho > 0 else -math.inf
-    return Linearisation(sigma, note)
+    substeps = round(scenario.control_dt / dt)
+    return Setup(controller, fields, needs_motor, nq, n_plant, n, substeps, t_hold, tuple(starts))
