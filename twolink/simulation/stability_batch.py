@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -47,9 +47,11 @@ from twolink.simulation.stability import (
     prepare,
 )
 
-__all__ = ["MAX_LANES", "linearise_many"]
+__all__ = ["linearise_many"]
 
-MAX_LANES = 160  # lanes per model: building one grows faster than linearly with its arms
+MAX_ARMS = 600  # runs per model: building one grows faster than linearly with its arms
+SHRINK = 3  # a model is rebuilt when fewer than a third of its runs are still searched
+SLOTS = 128  # arms a model is given at least, where it has few runs (copies of each)
 NO_REST = "no rest state found near the target"
 
 
@@ -80,29 +82,32 @@ def _batchable() -> dict[type, tuple[str, ...]]:
 
 @dataclass(eq=False)
 class _Run:
-    """One run to linearise: its setup, its batch arm and the answer once known."""
+    """One run to linearise and its search: from its first start, then (where that
+    fails) from its second, as alone; then its finer differences and its answer."""
 
     index: int
     scenario: Any
     controller: Any  # the caller's (the batch law is built from it)
+    near: Any
     setup: Setup
     arm: Any  # twolink.simulation.batch.Arm
-    lanes: list[_Lane] = field(default_factory=list)
-
-
-@dataclass(eq=False)
-class _Lane:
-    """One Newton search of a run, from one of its starts."""
-
-    run: _Run
-    start: int
-    x: np.ndarray
-    steps: int = 0  # Newton steps taken
-    phase: str = "newton"  # then "finer" (converged) or "failed" / "done"
+    start: int = 0  # the start searched from
+    x: Any = None  # the search's point
+    steps: int = 0  # Newton steps taken from this start
+    phase: str = "newton"  # then "finer" (converged), then "done"
     base: Any = None  # Φ(x) at the rest state
     central: Any = None  # its central differences
     one_sided: Any = None  # and one-sided ones ({1: forward, -1: backward})
     answer: Any = None  # the Linearisation (or the exception raised computing it)
+
+    def fail(self) -> None:
+        """This start's search failed: the next start, or no rest state."""
+        self.start += 1
+        self.steps = 0
+        if self.start < len(self.setup.starts):
+            self.x = self.setup.starts[self.start].copy()
+        else:
+            self.phase, self.answer = "done", Linearisation(math.nan, NO_REST)
 
 
 def linearise_many(
@@ -127,24 +132,25 @@ def linearise_many(
             if kinds.get(type(c), None) != setup.fields or (setup.needs_motor and not flexible):
                 out[i] = linearise(s, _plant(s), c, eps, near)  # no batch form: alone
                 continue
-            run = _Run(i, s, c, setup, _arm(s))
+            run = _Run(i, s, c, near, setup, _arm(s), x=setup.starts[0].copy())
         except Exception as exc:  # this run's error, as alone
             out[i] = exc
             continue
         key = (s.timestep, setup.substeps, setup.t_hold, nq, setup.n, s.control_dt)
         groups.setdefault(key, []).append(run)
     for runs in groups.values():
-        per_model = max(1, MAX_LANES // 2)
-        for lo in range(0, len(runs), per_model):
-            block = runs[lo : lo + per_model]
+        for lo in range(0, len(runs), MAX_ARMS):
+            block = runs[lo : lo + MAX_ARMS]
             try:
                 _search(block, eps)
                 for run in block:
-                    out[run.index] = _answer(run)
+                    out[run.index] = run.answer
             except Exception:  # e.g. MuJoCo refuses the model: each run alone
                 for run in block:
                     try:
-                        out[run.index] = _alone(run, eps)
+                        out[run.index] = linearise(
+                            run.scenario, _plant(run.scenario), run.controller, eps, run.near
+                        )
                     except Exception as exc:
                         out[run.index] = exc
     return out
@@ -156,57 +162,27 @@ def _plant(s: Any) -> Any:
     return build_plant(s)
 
 
-def _alone(run: _Run, eps: float) -> Linearisation:
-    """The single path's answer for a run (its ``near`` is its second start's state)."""
-    s, setup = run.scenario, run.setup
-    near = None
-    if len(setup.starts) > 1:
-        x = setup.starts[1]
-        near = (x[:2], x[2:4] if setup.nq == 4 else ())
-    return linearise(s, _plant(s), run.controller, eps, near)
-
-
-def _answer(run: _Run) -> Linearisation | Exception:
-    """The first start's answer where its search converged, else the second's."""
-    for lane in run.lanes:
-        if lane.phase == "done":
-            return lane.answer
-    return Linearisation(math.nan, NO_REST)
-
-
 def _search(runs: list[_Run], eps: float) -> None:
-    """Every run's Newton searches, its finer differences and its answer (on its lanes)."""
-    for run in runs:
-        run.lanes = [_Lane(run, k, x.copy()) for k, x in enumerate(run.setup.starts)]
+    """Every run's search, finer differences and answer, a round at a time."""
     model = None
-    while live := [lane for run in runs for lane in _live(run)]:
-        if model is None or len(live) < len(model.lanes) // 2:
+    while live := [run for run in runs if run.phase != "done"]:
+        if model is None or len(live) * SHRINK < len(model.runs):
             model = _Model(live)  # fewer arms step faster
         _round(model, live, eps)
 
 
-def _live(run: _Run) -> list[_Lane]:
-    """The lanes of a run still to evaluate: the second start's only until the first has
-    converged (the answer is then the first's, as alone)."""
-    first = run.lanes[0]
-    if first.phase in ("finer", "done"):
-        return [first] if first.phase == "finer" else []
-    return [lane for lane in run.lanes if lane.phase in ("newton", "finer")]
-
-
-def _round(model: _Model, live: list[_Lane], eps: float) -> None:
-    """Evaluate Φ at every live lane's points (its Newton point and its 2n central
-    perturbations, or its 2n finer one-sided ones) and move each lane on."""
+def _round(model: _Model, live: list[_Run], eps: float) -> None:
+    """Evaluate Φ at every live run's points (its Newton point and its 2n central
+    perturbations, or its 2n finer one-sided ones) and move each run on."""
     n = model.setup.n
-    slot = {id(lane): k for k, lane in enumerate(model.lanes)}
-    points = np.zeros((len(model.lanes), 2 * n + 1, n))  # a slot out of use rests at 0
-    newton = [lane for lane in live if lane.phase == "newton"]
-    finer = [lane for lane in live if lane.phase == "finer"]
-    for lanes, step in ((newton, eps), (finer, eps / 8)):
-        if not lanes:
+    points = np.zeros((len(model.runs), 2 * n + 1, n))  # a slot out of use rests at 0
+    newton = [run for run in live if run.phase == "newton"]
+    finer = [run for run in live if run.phase == "finer"]
+    for runs, step in ((newton, eps), (finer, eps / 8)):
+        if not runs:
             continue
-        rows = [slot[id(lane)] for lane in lanes]
-        x = np.array([lane.x for lane in lanes])[:, None, :]
+        rows = [model.slot[id(run)] for run in runs]
+        x = np.array([run.x for run in runs])[:, None, :]
         dx = np.eye(n) * step  # row i: the single path's dx of x_i
         points[rows, 0] = x[:, 0]
         if step == eps:  # the central differences' points, as alone
@@ -215,17 +191,17 @@ def _round(model: _Model, live: list[_Lane], eps: float) -> None:
         else:  # the one-sided differences' (x + side dx)
             points[rows, 1 : 1 + n] = x + 1 * dx
             points[rows, 1 + n :] = x + -1 * dx
-    values = model.advance(points, 0 if newton else 1)  # Φ(x) of a finer lane is known
-    for lane in finer:
-        _finish(lane, values[slot[id(lane)]], n, eps)
+    values = model.advance(points, 0 if newton else 1)  # Φ(x) of a finer run is known
+    for run in finer:
+        _finish(run, values[model.slot[id(run)]], n, eps)
     if newton:
-        _newton_steps(newton, values[[slot[id(lane)] for lane in newton]], n, eps)
+        _newton_steps(newton, values[[model.slot[id(run)] for run in newton]], n, eps)
 
 
-def _newton_steps(lanes: list[_Lane], v: np.ndarray, n: int, eps: float) -> None:
-    """One step of each lane's search (``rest_state`` of the single path) from Φ at its
-    point and its perturbations, ``v`` (lanes, 2n + 1, n)."""
-    x = np.array([lane.x for lane in lanes])
+def _newton_steps(runs: list[_Run], v: np.ndarray, n: int, eps: float) -> None:
+    """One step of each run's search (``rest_state`` of the single path) from Φ at its
+    point and its perturbations, ``v`` (runs, 2n + 1, n)."""
+    x = np.array([run.x for run in runs])
     residual = v[:, 0] - x
     plus, minus = v[:, 1 : 1 + n], v[:, 1 + n :]
     central = ((plus - minus) / (2 * eps)).transpose(0, 2, 1)  # column i: along x_i
@@ -237,60 +213,65 @@ def _newton_steps(lanes: list[_Lane], v: np.ndarray, n: int, eps: float) -> None
         delta = np.linalg.solve(central[move] - np.eye(n), residual[move][..., None])[..., 0]
     except np.linalg.LinAlgError:  # some are singular: each alone, as the single path
         delta = None
-    for k, lane in enumerate(lanes):
+    for k, run in enumerate(runs):
         if not finite[k]:
-            lane.phase = "failed"
+            run.fail()
         elif rest[k]:
-            lane.phase = "finer"
-            lane.base = v[k, 0]
-            lane.central = central[k]
-            lane.one_sided = {  # at the same points as the central differences
-                1: ((plus[k] - lane.base) / (1 * eps)).T,
-                -1: ((minus[k] - lane.base) / (-1 * eps)).T,
+            run.phase = "finer"
+            run.base = v[k, 0]
+            run.central = central[k]
+            run.one_sided = {  # at the same points as the central differences
+                1: ((plus[k] - run.base) / (1 * eps)).T,
+                -1: ((minus[k] - run.base) / (-1 * eps)).T,
             }
     for j, k in enumerate(move):
-        lane = lanes[k]
+        run = runs[k]
         if delta is not None:
-            lane.x = x[k] - delta[j]
+            run.x = x[k] - delta[j]
         else:
             try:
-                lane.x = x[k] - np.linalg.solve(central[k] - np.eye(n), residual[k])
+                run.x = x[k] - np.linalg.solve(central[k] - np.eye(n), residual[k])
             except np.linalg.LinAlgError:
-                lane.phase = "failed"
+                run.fail()
                 continue
-        lane.steps += 1
-        if lane.steps == NEWTON_STEPS:
-            lane.phase = "failed"
+        run.steps += 1
+        if run.steps == NEWTON_STEPS:
+            run.fail()
 
 
-def _finish(lane: _Lane, v: np.ndarray, n: int, eps: float) -> None:
-    """The answer of a converged lane from Φ at its finer points ``v`` (row 0 unused)."""
+def _finish(run: _Run, v: np.ndarray, n: int, eps: float) -> None:
+    """The answer of a converged run from Φ at its finer points ``v`` (row 0 unused)."""
     finer = {
-        1: ((v[1 : 1 + n] - lane.base) / (1 * (eps / 8))).T,
-        -1: ((v[1 + n :] - lane.base) / (-1 * (eps / 8))).T,
+        1: ((v[1 : 1 + n] - run.base) / (1 * (eps / 8))).T,
+        -1: ((v[1 + n :] - run.base) / (-1 * (eps / 8))).T,
     }
     try:
-        lane.answer = judge(lane.central, lane.one_sided, finer, lane.run.scenario.control_dt)
+        run.answer = judge(run.central, run.one_sided, finer, run.scenario.control_dt)
     except Exception as exc:  # as alone: the run's error
-        lane.answer = exc
-    lane.phase = "done"
+        run.answer = exc
+    run.phase = "done"
 
 
 class _Model:
-    """The batch model of a set of lanes: one arm per lane, each its run's arm, with the
-    batch laws of the lanes' controllers (called at the hold instant)."""
+    """The batch model of a set of runs: ``reps`` arms per run, each the run's arm, with
+    the batch laws of the runs' controllers (called at the hold instant). A step
+    evaluates ``reps`` of each run's points at once."""
 
-    def __init__(self, lanes: list[_Lane]) -> None:
+    def __init__(self, runs: list[_Run]) -> None:
         import mujoco
 
         from twolink.arm.plant import add_arm, new_spec
         from twolink.controllers.batch import batch_laws
         from twolink.simulation.batch import model_gravity
 
-        self.lanes = lanes
-        runs = [lane.run for lane in lanes]
+        self.runs = runs
+        self.slot = {id(run): k for k, run in enumerate(runs)}
         setup = runs[0].setup
-        arms = [run.arm for run in runs]
+        # few runs: a copy of each per point, so a round takes fewer steps (a step costs
+        # ~0.2 ms whatever its arms, an arm ~1 µs a step and ~0.05 ms to build)
+        self.reps = max(1, min(2 * setup.n + 1, SLOTS // len(runs)))
+        slots = [run for run in runs for _ in range(self.reps)]
+        arms = [run.arm for run in slots]
         g_model = model_gravity([a.params.g for a in arms])
         spec = new_spec(runs[0].scenario.timestep, g_model, "twolink_linearise")
         for i, a in enumerate(arms):  # as the batch engine builds its arms
@@ -332,13 +313,32 @@ class _Model:
         self.setup = setup
         self.times = np.array([setup.t_hold, setup.t_hold])  # called at instant 1: no reset
         self.laws = [
-            (idx, law, _StateAdapter(law, [runs[i].setup.fields for i in idx]))
-            for idx, law in batch_laws([run.controller for run in runs], self.times)
+            (idx, law, _StateAdapter(law, [slots[i].setup.fields for i in idx]))
+            for idx, law in batch_laws([run.controller for run in slots], self.times)
         ]
+        for _, law, _ in self.laws:
+            for part in [law, *(part for _, part in getattr(law, "parts", ()))]:
+                if _compiles(getattr(part, "engine", None)):
+                    part.engine = _Compiled(part.engine)
 
     def advance(self, points: np.ndarray, first: int = 0) -> np.ndarray:
-        """Φ at ``points`` (lanes, k, n): each lane's k-th point on its arm, one step of
-        the model per k from ``first`` on (the rows before it are left empty)."""
+        """Φ at ``points`` (runs, k, n): each run's k-th point (from ``first`` on; the
+        rows before it are left empty) on its arm, ``reps`` of them a step."""
+        runs, count, n = points.shape
+        reps = self.reps
+        steps = -(-(count - first) // reps)
+        padded = np.zeros((runs, steps * reps, n))  # a slot out of use rests at 0
+        padded[:, : count - first] = points[:, first:]
+        # slot (run, r) takes the points r, r + reps, ...: one per step
+        layout = padded.reshape(runs, steps, reps, n).transpose(0, 2, 1, 3)
+        values = self._steps(layout.reshape(runs * reps, steps, n))
+        values = values.reshape(runs, reps, steps, n).transpose(0, 2, 1, 3)
+        out = np.empty_like(points)
+        out[:, first:] = values.reshape(runs, steps * reps, n)[:, : count - first]
+        return out
+
+    def _steps(self, points: np.ndarray) -> np.ndarray:
+        """Φ at ``points`` (slots, k, n): one step of the model per k."""
         import mujoco
 
         setup = self.setup
@@ -347,7 +347,7 @@ class _Model:
         model, data = self.model, self.data
         qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
         own_width = n - n_plant
-        for k in range(first, points.shape[1]):
+        for k in range(points.shape[1]):
             x = points[:, k]
             qpos[self.q_index] = x[:, :2]
             qvel[self.v_index] = x[:, nq : nq + 2]
@@ -429,3 +429,25 @@ class _StateAdapter:
             tau = law(1, *args)
             return tau, np.concatenate([law.held, law.z], axis=1)
         return law(1, *args), own[:, :0]
+
+
+def _compiles(engine: Any) -> bool:
+    """Whether ``engine`` is the exact Mamdani engine and its compiled kernel is at hand."""
+    from twolink.controllers.fuzzy import kernels
+    from twolink.controllers.fuzzy.engine import MamdaniEngine
+
+    return type(engine) is MamdaniEngine and kernels.available()
+
+
+class _Compiled:
+    """A Mamdani engine whose batch call is its compiled kernel at any size: the batch
+    laws call the pure-Python path for up to 64 inputs (``kernels.MIN_INPUTS``: a numba
+    import spared), the kernel beyond; both equal the single loop's path to the bit
+    (``controllers/fuzzy/kernels.py``), the kernel at ~1/20 of the cost."""
+
+    def __init__(self, engine: Any) -> None:
+        self.engine = engine
+        self.evaluate_batch = self.evaluate_compiled = engine.evaluate_compiled
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.engine, name)
