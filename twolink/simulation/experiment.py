@@ -416,38 +416,95 @@ def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None)
     value and to the target), error measures (integrals, max |e|), torque, oscillation,
     the settling window's error and growth, and the loop's linear growth rate at its rest
     state (every law, every plant: :mod:`twolink.simulation.stability`), of ``controller``
-    (default: the scenario's; a sweep's arms carry their own)."""
+    (default: the scenario's; a sweep's arms carry their own). :func:`measure_runs` measures
+    many runs at once, linearising their loops together."""
     growth = math.nan
     if controller is None:
         controller = build_controller(s)
     if traj.ok:  # every law, every plant (twolink.simulation.stability)
         from twolink.simulation.stability import closed_loop_growth
 
-        end = (traj.q[-1], traj.motor_q[-1] if len(traj.motor_q) else ())
-        growth = closed_loop_growth(s, build_plant(s), controller, near=end)
-    steps = []
-    to_target = []
-    for j, target in enumerate(s.reference.final):
-        moves = np.isfinite(target) and target != s.q0[j]
-        steps.append(step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j]) if moves else None)
-        to_target.append(
-            step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j], final_value=target).settling_time
-            if moves
-            else math.nan
+        growth = closed_loop_growth(s, build_plant(s), controller, near=rest_guess(traj))
+    return Measured.of(s, traj, controller).finish(growth)
+
+
+def rest_guess(traj: Trajectory) -> tuple[Any, Any]:
+    """Where a run's loop may rest, for its linearisation: its last link and rotor angles."""
+    return (traj.q[-1], traj.motor_q[-1] if len(traj.motor_q) else ())
+
+
+@dataclass(frozen=True)
+class Measured:
+    """A run measured but for its loop's linear growth rate (which the settling window's
+    growth depends on, ``_tail``): :meth:`finish` with it gives :func:`measure`'s metrics."""
+
+    metrics: dict[str, Any]  # RunMetrics' fields but linear_growth and the tail's
+    tails: tuple[dict[str, Any], dict[str, Any]]  # the tail without and with ``settling``
+
+    @classmethod
+    def of(cls, s: Scenario, traj: Trajectory, controller: Controller) -> Measured:
+        steps = []
+        to_target = []
+        for j, target in enumerate(s.reference.final):
+            moves = np.isfinite(target) and target != s.q0[j]
+            steps.append(step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j]) if moves else None)
+            to_target.append(
+                step_metrics(
+                    traj.t, traj.q[:, j], target, y0=s.q0[j], final_value=target
+                ).settling_time
+                if moves
+                else math.nan
+            )
+        metrics = dict(
+            step=(steps[0], steps[1]),
+            errors=error_measures(traj.t, traj.e),
+            torque=torque_measures(traj.tau),
+            status=traj.status,
+            message=traj.message,
+            fuzzy_active=fuzzy_active_share(controller, traj),
+            oscillation=_oscillation(s, traj),
+            settling_target=(to_target[0], to_target[1]),
+            max_twist=max_twist(traj),
         )
-    return RunMetrics(
-        step=(steps[0], steps[1]),
-        errors=error_measures(traj.t, traj.e),
-        torque=torque_measures(traj.tau),
-        status=traj.status,
-        message=traj.message,
-        **_tail(s, traj, settling=growth < 0),
-        linear_growth=(growth, growth),
-        fuzzy_active=fuzzy_active_share(controller, traj),
-        oscillation=_oscillation(s, traj),
-        settling_target=(to_target[0], to_target[1]),
-        max_twist=max_twist(traj),
-    )
+        return cls(metrics, _tails(s, traj))
+
+    def finish(self, growth: float) -> RunMetrics:
+        """The run's metrics, its loop's growth rate σ [1/s] given (NaN: none)."""
+        tail = self.tails[1] if growth < 0 else self.tails[0]
+        return RunMetrics(**self.metrics, **tail, linear_growth=(growth, growth))
+
+
+def measure_runs(
+    runs: Iterator[tuple[Scenario, Trajectory, Controller]],
+) -> list[RunMetrics | Exception]:
+    """:func:`measure` of many runs, ``(scenario, trajectory, controller)`` (a trajectory
+    is dropped once measured: an iterator of them keeps one in memory at a time), with
+    their loops linearised together (:func:`twolink.simulation.stability_batch.linearise_many`:
+    the same answers, at a fraction of the cost). A run whose measuring raises gets the
+    exception :func:`measure` would raise."""
+    from twolink.simulation.stability_batch import linearise_many
+
+    measured: list[Measured | Exception] = []
+    requests, asked = [], []
+    for i, (s, traj, controller) in enumerate(runs):
+        try:
+            measured.append(Measured.of(s, traj, controller))
+        except Exception as exc:
+            measured.append(exc)
+        if traj.ok:  # its linearisation's error, if any, comes first, as in measure
+            requests.append((s, controller, rest_guess(traj)))
+            asked.append(i)
+    growth: dict[int, Any] = dict(zip(asked, linearise_many(requests), strict=True))
+    out: list[RunMetrics | Exception] = []
+    for i, part in enumerate(measured):
+        answer = growth.get(i)
+        if isinstance(answer, Exception):
+            out.append(answer)
+        elif isinstance(part, Exception):
+            out.append(part)
+        else:
+            out.append(part.finish(math.nan if answer is None else answer.sigma))
+    return out
 
 
 def _oscillation(s: Scenario, traj: Trajectory) -> tuple[float, float]:
@@ -489,11 +546,17 @@ def _tail(s: Scenario, traj: Trajectory, settling: bool = False) -> dict[str, tu
     its growth, per joint, all against the target (twolink.simulation.outcome); with
     ``settling`` (the loop's linearisation at its rest state is stable) a trend that
     accelerates away at the end is a transient not yet turned, not growth (NaN)."""
-    from twolink.simulation.outcome import reference_end, settling_window, tail_growth
+    return _tails(s, traj)[1 if settling else 0]
+
+
+def _tails(s: Scenario, traj: Trajectory) -> tuple[dict[str, Any], dict[str, Any]]:
+    """:func:`_tail` without and with ``settling``, from one pass over the record."""
+    from twolink.simulation.outcome import reference_end, settling_window, tail_growths
 
     if not len(traj.t):
         nan = (math.nan, math.nan)
-        return {"final_error": nan, "tail_error": nan, "tail_growth": nan}
+        empty = {"final_error": nan, "tail_error": nan, "tail_growth": nan}
+        return empty, dict(empty)
     target = np.array(s.reference.final, dtype=float)
     off = np.where(np.isfinite(target), target - traj.q, traj.e)  # a sine: e itself
     window = settling_window(s.duration)
@@ -503,12 +566,14 @@ def _tail(s: Scenario, traj: Trajectory, settling: bool = False) -> dict[str, tu
         mean = np.abs(off[tail]).mean(axis=0)  # over the window, not one sample
     since = reference_end(s.reference) if hasattr(s.reference, "joint1") else -math.inf
     since = since if math.isfinite(since) else -math.inf
-    growth = tail_growth(traj.t, off, window, since, settling)
-    return {
-        "final_error": tuple(float(x) for x in mean),  # type: ignore[dict-item]
-        "tail_error": tuple(float(x) for x in worst),  # type: ignore[dict-item]
-        "tail_growth": tuple(float(x) for x in growth),  # type: ignore[dict-item]
+    common = {
+        "final_error": tuple(float(x) for x in mean),
+        "tail_error": tuple(float(x) for x in worst),
     }
+    return tuple(  # type: ignore[return-value]
+        {**common, "tail_growth": tuple(float(x) for x in growth)}
+        for growth in tail_growths(traj.t, off, window, since)
+    )
 
 
 def max_twist(traj: Trajectory) -> tuple[float, float]:

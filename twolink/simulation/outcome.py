@@ -46,7 +46,7 @@ from typing import Any
 
 import numpy as np
 
-from twolink.simulation.swings import GROWTH_FLOOR_RAD, growth_rate, settling_window
+from twolink.simulation.swings import GROWTH_FLOOR_RAD, growth_rates, settling_window
 
 __all__ = [
     "GROWTH_FLOOR_RAD",
@@ -60,6 +60,7 @@ __all__ = [
     "reference_end",
     "settling_window",
     "tail_growth",
+    "tail_growths",
 ]
 
 OUTCOMES = ("met spec", "off target", "undecided", "diverged", "error")
@@ -260,8 +261,16 @@ def tail_growth(
     swing slower than it shows, or with ``settling`` a transient accelerating away on its
     way to a stable rest state) or has fewer than 6 samples in the window; inf where the
     error is not finite."""
+    free, settled = tail_growths(t, x, window, since)
+    return settled if settling else free
+
+
+def tail_growths(
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`tail_growth` without and with ``settling``, from one pass over the record."""
     x = np.asarray(x, dtype=float)
     k = x.shape[1] if x.ndim == 2 else 1
     with np.errstate(over="ignore"):
-        rate = growth_rate(t, x.reshape(len(t), k), window, since, settling)
-        return np.exp(rate * window)
+        rates = growth_rates(t, x.reshape(len(t), k), window, since)
+        return np.exp(rates[0] * window), np.exp(rates[1] * window)

@@ -24,6 +24,7 @@ __all__ = [
     "ending_swings",
     "envelope",
     "growth_rate",
+    "growth_rates",
     "half_swings",
     "last",
     "settling_window",
@@ -265,12 +266,22 @@ def growth_rate(
     Capped at ±:data:`MAX_RATE`; inf where ``x`` is not finite (a run that blew up); NaN
     for fewer than 6 samples in the window.
     """
+    free, settling_rates = growth_rates(t, x, window, since)
+    return settling_rates if settling else free
+
+
+def growth_rates(
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`growth_rate` without and with ``settling``, from one pass over the record
+    (what a run measured before its linearisation is known keeps)."""
     x = np.asarray(x, dtype=float)
     columns = x.reshape(len(t), -1)
     out = np.full(columns.shape[1], np.nan)
+    rising = np.zeros(columns.shape[1], bool)  # a trend accelerating away
     tail = last(t, window) if len(t) else np.zeros(0, bool)
     if tail.sum() < 6:
-        return out
+        return out, out.copy()
     for j in range(columns.shape[1]):
         col = columns[:, j]
         w = col[tail]
@@ -283,6 +294,7 @@ def growth_rate(
             # a ripple is not judged; one swing alone gives no rate (NaN: cannot tell)
             out[j] = rate if size >= GROWTH_FLOOR_RAD else 0.0
         else:
-            rate = _trend_rate(t[tail], w)
-            out[j] = math.nan if settling and rate > 0 else rate
-    return np.where(np.isinf(out), out, np.clip(out, -MAX_RATE, MAX_RATE))
+            out[j] = rate = _trend_rate(t[tail], w)
+            rising[j] = rate > 0
+    free = np.where(np.isinf(out), out, np.clip(out, -MAX_RATE, MAX_RATE))
+    return free, np.where(rising, math.nan, free)

@@ -12,7 +12,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from twolink.simulation.config import scenario_from_dict
-from twolink.simulation.experiment import build_controller, iter_scenarios, measure
+from twolink.simulation.experiment import (
+    build_controller,
+    iter_scenarios,
+    measure,
+    measure_runs,
+)
 from twolink.simulation.vocabulary import joint_values
 from twolink.sweep.plan import SweepPlan, gains
 from twolink.sweep.results import METRIC_COLUMNS, STATUS_ERROR
@@ -122,13 +127,32 @@ def _chunk_arms(
 
 
 def _measure_arms(rows: list[Any], arms: list[tuple[int, Any, Any]], backend: str) -> None:
-    """Simulate the arms and fill their rows, measured as each batch ends: one trajectory
-    at a time is ever held."""
+    """Simulate the arms and fill their rows, measured as each batch ends (one trajectory
+    at a time is ever held), their loops linearised together at the end
+    (:func:`twolink.simulation.experiment.measure_runs`: :func:`measure`'s metrics)."""
     runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms], backend)
-    for k, traj in runs:
-        r, s, controller = arms[k]
+    done: list[tuple[int, bool, str, str]] = []  # (row, ok, status, message) per arm run
+
+    def measured():
+        for k, traj in runs:
+            r, s, controller = arms[k]
+            if isinstance(traj, Exception):
+                i, name, head = rows[r]
+                rows[r] = _measured_row(i, name, head, s, traj)
+                continue
+            done.append((r, traj.ok, traj.status, traj.message))
+            yield s, traj, controller
+
+    for (r, ok, status, message), metrics in zip(done, measure_runs(measured()), strict=True):
         i, name, head = rows[r]
-        rows[r] = _measured_row(i, name, head, s, traj, controller)
+        if isinstance(metrics, Exception):
+            if ok:
+                rows[r] = _error_row(i, name, head, _error_text(metrics))
+                continue
+            values = _NAN_METRICS  # diverged too early to measure anything
+        else:
+            values = _metric_values(metrics)
+        rows[r] = (i, name, *head, *values, status, message)
 
 
 def run_chunks(
