@@ -26,7 +26,6 @@ from twolink.studies.regimes import DEFAULT_STUDY
 from twolink.sweep import chunks
 
 
-
 def regimes_runs(samples: range, total: int = 150) -> list[tuple]:
     """(scenario, controller) of the regime map's samples (4 controllers each)."""
     plan = sw.load_sweep(DEFAULT_STUDY, {"samples": total})
