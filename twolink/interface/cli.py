@@ -7,6 +7,7 @@ permission, file-size limit), 130 Ctrl-C, 143 SIGTERM (docs/reliability.md).
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import threading
@@ -14,7 +15,12 @@ from pathlib import Path
 
 import click
 
-from twolink.foundation.executors import EXECUTORS, SWEEP_PRELOAD, open_executor
+from twolink.foundation.executors import (
+    EXECUTORS,
+    SWEEP_PRELOAD,
+    open_executor,
+    start_fork_server,
+)
 from twolink.foundation.interrupts import (
     CTRL_C_RECEIVED,
     forget_escaped_interrupt,
@@ -499,6 +505,8 @@ def reproduce(
       twolink reproduce                          # into results/reproduce
       twolink reproduce --out /tmp/r --no-trace  # elsewhere, without recordings
     """
+    if (workers or os.cpu_count() or 1) > 1:  # the workers' server imports beside us
+        start_fork_server()
     from twolink.simulation.config import ConfigError, parse_set
     from twolink.studies.reproduce import DEFAULT_MANIFEST
     from twolink.studies.reproduce import reproduce as run_reproduction

@@ -32,41 +32,24 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
     fair linear opponent beside the baseline (:mod:`twolink.studies.frontier`). Returns the
     report's sections and, per study, its tables for the conclusions
     (:class:`twolink.studies.conclusions.ClaimsStudy`)."""
+    from twolink import sweep
     from twolink.studies import frontier, search
 
-    sections: list[str] = []
-    tables = []
-    for variant in (None, *(v for v in manifest.variants if v.raw_steps)):
-        more, studies = _claims_study(manifest, out, pool, progress, variant)
-        sections += more
-        tables += studies
-    # after the claims: where the fair opponent comes from, and the strongest fuzzy term
-    sections += frontier.report_section(manifest, out, pool) + search.report_section(manifest, out)
-    return sections, tables
-
-
-def _claims_study(
-    manifest: Manifest, out: Path, pool: Any, progress: bool, variant: Any = None
-) -> tuple[list[str], Any]:
-    """One claims study into ``out/claims_study[_VARIANT]``: the paper's claim judged on
-    its plants (``claims[_VARIANT].csv``), every controller against the baseline
-    (``claims_all[_VARIANT].csv``); the report's sections on them."""
-
-    from twolink import sweep
-    from twolink.foundation.io import atomic_write_text
-    from twolink.studies import report
-    from twolink.studies.claims import paired_claims, paired_claims_many
-
-    study = manifest.claims_study
-    suffix, regime = ("", "") if variant is None else (f"_{variant.name}", variant.title)
-    # the fair linear opponent: the best linear loop at the proposed controller's effort
-    opponent = fair_opponent(manifest, variant, pool)
-    plan = regime_plan(manifest, variant, {"controllers": {OPPONENT: opponent.controller()}})
+    variants = (None, *(v for v in manifest.variants if v.raw_steps))
+    plans = []
+    for variant in variants:
+        # the fair linear opponent: the best linear loop at the proposed controller's effort
+        opponent = fair_opponent(manifest, variant, pool)
+        overrides = {"controllers": {OPPONENT: opponent.controller()}}
+        plans.append((opponent, regime_plan(manifest, variant, overrides)))
     try:
-        # the reproduction's own folder: a changed sweep file's results are replaced
-        outcome = sweep.run_sweep(
-            plan,
-            out / f"claims_study{suffix}",
+        # every regime's sweep at once on the pool, each into the reproduction's own
+        # folder (a changed sweep file's results are replaced)
+        outcomes = sweep.run_sweeps(
+            [
+                (plan, out / f"claims_study{_suffix(v)}")
+                for v, (_, plan) in zip(variants, plans, strict=True)
+            ],
             pool=pool,
             plots=False,
             progress=progress,
@@ -77,6 +60,34 @@ def _claims_study(
 
         CTRL_C_RECEIVED.append(exc.signum)  # the command ends as that signal asks (130/143)
         raise KeyboardInterrupt from None  # the reproduction's own stop
+    sections: list[str] = []
+    tables = []
+    for variant, (opponent, plan), outcome in zip(variants, plans, outcomes, strict=True):
+        more, studies = _claims_study(manifest, out, variant, opponent, plan, outcome)
+        sections += more
+        tables += studies
+    # after the claims: where the fair opponent comes from, and the strongest fuzzy term
+    sections += frontier.report_section(manifest, out, pool) + search.report_section(manifest, out)
+    return sections, tables
+
+
+def _suffix(variant: Any) -> str:
+    return "" if variant is None else f"_{variant.name}"
+
+
+def _claims_study(
+    manifest: Manifest, out: Path, variant: Any, opponent: Any, plan: Any, outcome: Any
+) -> tuple[list[str], Any]:
+    """One claims study, its sweep ``outcome`` in ``out/claims_study[_VARIANT]``: the
+    paper's claim judged on its plants (``claims[_VARIANT].csv``), every controller
+    against the baseline (``claims_all[_VARIANT].csv``); the report's sections on them."""
+
+    from twolink.foundation.io import atomic_write_text
+    from twolink.studies import report
+    from twolink.studies.claims import paired_claims, paired_claims_many
+
+    study = manifest.claims_study
+    suffix, regime = _suffix(variant), "" if variant is None else variant.title
     refs = reference_values(plan.nominal_scenario(), plan.joints)
     table = paired_claims(
         outcome.results, manifest.proposed, manifest.baseline, joints=plan.joints,
