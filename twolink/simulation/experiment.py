@@ -536,9 +536,36 @@ def fuzzy_active_share(controller: Controller | None, traj: Trajectory) -> tuple
     e, de = traj.e, traj.de
     if engine is None or not len(traj.t) or not (np.isfinite(e).all() and np.isfinite(de).all()):
         return (math.nan, math.nan)
-    u = engine(controller.ke * e, controller.kde * de)  # type: ignore[union-attr]
+    u = _fuzzy_output(engine, controller.ke * e, controller.kde * de)  # type: ignore[union-attr]
     share = np.mean(np.abs(np.asarray(u)) > FUZZY_ACTS, axis=0)
     return (float(share[0]), float(share[1]))
+
+
+# |u| this close to FUZZY_ACTS is decided by the engine's own numpy path (below)
+_UNDECIDED = 1e-10
+
+
+def _fuzzy_output(engine: Any, e: np.ndarray, de: np.ndarray) -> np.ndarray:
+    """``engine(e, de)`` as far as :func:`fuzzy_active_share` reads it (|u| against
+    :data:`FUZZY_ACTS`), at a fraction of the cost where the engine's compiled kernel is
+    loaded (a sweep's worker: the batch laws load it; a single run never imports numba).
+    The kernel equals the engines' pure-Python path to the bit, and their numpy path, which
+    ``engine(e, de)`` takes here, to 1e-12 (the exact Mamdani engine; the table and the
+    continuous inference to the bit; ``controllers/fuzzy/kernels.py``): where some |u| lies
+    within 1e-10 of the threshold the numpy path decides, so the share is the same."""
+    import sys
+
+    compiled = getattr(engine, "evaluate_compiled", None)
+    if compiled is None or "numba" not in sys.modules:
+        return engine(e, de)
+    from twolink.controllers.fuzzy import kernels
+
+    if not kernels.available():
+        return engine(e, de)
+    u = compiled(e, de)
+    if np.any(np.abs(np.abs(u) - FUZZY_ACTS) <= _UNDECIDED):
+        return engine(e, de)
+    return u
 
 
 def _tail(s: Scenario, traj: Trajectory, settling: bool = False) -> dict[str, tuple[float, float]]:

@@ -1,0 +1,89 @@
+"""Measuring many runs at once (``measure_runs``, a sweep's chunks) gives every run what
+``measure`` gives it alone, and the fuzzy term's share read through the compiled kernel
+is the one the engine's numpy path gives (it decides where |u| is near the threshold)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.test_stability import rigid
+from twolink import sweep as sw
+from twolink.simulation import experiment as ex
+from twolink.simulation.experiment import (
+    FUZZY_ACTS,
+    build_controller,
+    fuzzy_active_share,
+    measure,
+    measure_runs,
+    run_scenario,
+)
+from twolink.studies.regimes import DEFAULT_STUDY
+from twolink.sweep import chunks
+
+
+def same_metrics(a, b) -> bool:
+    def equal(x, y):
+        if isinstance(x, float):
+            return x == y or (math.isnan(x) and math.isnan(y))
+        if isinstance(x, tuple):
+            return len(x) == len(y) and all(equal(u, v) for u, v in zip(x, y, strict=True))
+        if hasattr(x, "__dataclass_fields__"):
+            return all(equal(getattr(x, f), getattr(y, f)) for f in x.__dataclass_fields__)
+        return x == y
+
+    return equal(a, b)
+
+
+def test_many_runs_are_measured_as_each_alone():
+    runs = []
+    for kind in ("ctc", "ctc_integral", "fcm_ctc"):
+        extra = {"rule_base": "designed"} if kind == "fcm_ctc" else {}
+        s = rigid(kind, **extra)
+        runs.append((s, run_scenario(s), build_controller(s)))
+    s = rigid("ctc", kp=1e9, kd=1.0, torque_limit=1e12)  # diverges: measured, no growth
+    runs.append((s, run_scenario(s), build_controller(s)))
+    assert not runs[-1][1].ok
+    for (s, traj, c), got in zip(runs, measure_runs(iter(runs)), strict=True):
+        assert same_metrics(got, measure(s, traj, c))
+
+
+def test_the_fuzzy_share_through_the_kernel_is_the_numpy_paths():
+    pytest.importorskip("numba")  # the kernel is used where numba is loaded (a sweep worker)
+    from twolink.controllers.fuzzy import kernels
+
+    assert kernels.available()
+    plan = sw.load_sweep(DEFAULT_STUDY, {"samples": 30})
+    _, arms = chunks._chunk_arms(plan, 0, range(0, 8))
+    fuzzy = [(s, c) for _, s, c in arms if getattr(c, "engine", None) is not None]
+    assert len(fuzzy) == 16  # FCM-CTC (the exact Mamdani engine) and its continuous form
+    acting = 0
+    for s, c in fuzzy:
+        traj = run_scenario(s, c)
+        u = c.engine(c.ke * traj.e, c.kde * traj.de)  # the numpy path, as before
+        expected = np.mean(np.abs(u) > FUZZY_ACTS, axis=0)
+        assert fuzzy_active_share(c, traj) == (float(expected[0]), float(expected[1]))
+        acting += bool(expected.any())
+    assert acting  # the term acts somewhere: the shares are not all 0
+
+
+class Edge:
+    """An engine whose kernel says |u| is just above the threshold, where its numpy path
+    (the call) says it is just below: the numpy path must decide."""
+
+    def __call__(self, e, de):
+        return np.full(np.shape(e), FUZZY_ACTS * (1 - 1e-6))
+
+    def evaluate_compiled(self, e, de):
+        return np.full(np.shape(e), FUZZY_ACTS * (1 + 1e-6))
+
+
+def test_near_the_threshold_the_engines_numpy_path_decides(monkeypatch):
+    pytest.importorskip("numba")
+    e = np.zeros((10, 2))
+    assert np.array_equal(ex._fuzzy_output(Edge(), e, e), Edge()(e, e))
+    far = Edge()
+    far.evaluate_compiled = lambda e, de: np.full(np.shape(e), 0.5)
+    assert np.array_equal(ex._fuzzy_output(far, e, e), np.full((10, 2), 0.5))
