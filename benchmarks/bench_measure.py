@@ -1,0 +1,115 @@
+"""What measuring a sweep's runs costs: the per-run path (``measure`` of each run, its
+loop linearised alone) against a chunk's runs measured together (``measure_runs``: the
+loops linearised on one batch model, ``linearise_many``; the fuzzy share through the
+compiled kernel), in the same process on the same runs: a chunk simulated and measured
+each way (one trajectory at a time, as a sweep's chunk), the simulation alone, and the
+linearisations alone each way.
+
+The runs are a chunk of the regime map's plan (``twolink regimes``: 4 controllers a
+sample, g x 1.1, 4 s); ``--samples 15`` is the half chunk of a 30-sample plan (60 runs,
+what ``run_chunk_part`` computes in ``regimes -n 30 --workers 2``), ``--samples 150`` a
+whole chunk of the full map (600 runs). Every figure is a median over ``--repeats``; the
+answers of both paths are checked equal (σ and every metric) before timing.
+
+    python benchmarks/bench_measure.py [--samples 15 150] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import time
+
+import numba  # noqa: F401  (a sweep worker has it loaded: the batch laws use it)
+
+from twolink.simulation import experiment as ex
+from twolink.simulation.stability import linearise
+from twolink.simulation.stability_batch import linearise_many
+from twolink.studies.regimes import DEFAULT_STUDY
+from twolink.sweep import chunks, load_sweep
+
+
+def timed(f, repeats: int) -> float:
+    """Median wall time of ``f()`` [s]."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        f()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def numpy_share(engine, e, de):
+    """The fuzzy share's engine call before: the engine's numpy path."""
+    return engine(e, de)
+
+
+def case(samples: int, repeats: int) -> dict[str, float]:
+    plan = load_sweep(DEFAULT_STUDY, {"samples": max(30, samples)})
+    _, arms = chunks._chunk_arms(plan, 0, range(samples))
+    scenarios, controllers = [s for _, s, _ in arms], [c for _, _, c in arms]
+    items = []  # what the linearisations start from: no trajectory is held
+
+    def simulate():  # one trajectory at a time, as a chunk
+        items.clear()
+        for k, traj in ex.iter_scenarios(scenarios, controllers):
+            items.append((scenarios[k], controllers[k], ex.rest_guess(traj)))
+
+    def per_run():  # the chunk before: each run measured alone as it comes
+        original = ex._fuzzy_output
+        ex._fuzzy_output = numpy_share
+        try:
+            return [ex.measure(scenarios[k], t, controllers[k]) for k, t in _runs()]
+        finally:
+            ex._fuzzy_output = original
+
+    def _runs():
+        return ex.iter_scenarios(scenarios, controllers)
+
+    def together():  # the chunk now
+        return ex.measure_runs((scenarios[k], t, controllers[k]) for k, t in _runs())
+
+    simulate()  # warm: numba's kernels, MuJoCo
+    old, new = per_run(), together()
+    assert all(repr(a) == repr(b) for a, b in zip(old, new, strict=True)), "answers differ"
+    n = len(arms)
+    sim = timed(simulate, repeats) / n
+    out = {
+        "runs": n,
+        "simulate": sim,
+        "simulate + measure each alone": timed(per_run, repeats) / n,
+        "simulate + measure_runs": timed(together, repeats) / n,
+        "linearise, each alone": timed(
+            lambda: [linearise(s, ex.build_plant(s), c, near=nr) for s, c, nr in items], repeats
+        )
+        / n,
+        "linearise_many": timed(lambda: linearise_many(items), repeats) / n,
+    }
+    out["measuring alone"] = out["simulate + measure each alone"] - sim
+    out["measuring together"] = out["simulate + measure_runs"] - sim
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--samples", type=int, nargs="+", default=[15, 150])
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    print("| ms per run | " + " | ".join(f"{s} samples" for s in args.samples) + " |")
+    print("|---|" + "---:|" * len(args.samples))
+    results = [case(s, args.repeats) for s in args.samples]
+    keys = [k for k in results[0] if k != "runs"]
+    print("| runs | " + " | ".join(str(r["runs"]) for r in results) + " |")
+    for key in keys:
+        print(f"| {key} | " + " | ".join(f"{1e3 * r[key]:.3f}" for r in results) + " |")
+    ratio = [r["measuring alone"] / r["measuring together"] for r in results]
+    lin = [r["linearise, each alone"] / r["linearise_many"] for r in results]
+    print("| measuring, alone / together | " + " | ".join(f"{x:.1f}x" for x in ratio) + " |")
+    print("| linearising, alone / together | " + " | ".join(f"{x:.1f}x" for x in lin) + " |")
+    if any(math.isnan(x) for x in ratio):
+        raise SystemExit("no timing")
+
+
+if __name__ == "__main__":
+    main()
