@@ -28,8 +28,12 @@ JOINT_COLOURS = ("tab:blue", "tab:orange")
 def save_figure(fig: Figure, path: str | Path, dpi: int = 110) -> None:
     """Save a figure as PNG atomically and close it. A figure with a layout engine
     (constrained layout, or a placeholder on one laid out by hand) is saved as laid out: a
-    tight bounding box would draw it twice."""
-    tight = "tight" if fig.get_layout_engine() is None else None
+    tight bounding box would draw it twice. One laid out by hand is drawn once (matplotlib
+    draws a figure with a layout engine once before it prints it; the same pixels)."""
+    engine = fig.get_layout_engine()
+    tight = "tight" if engine is None else None
+    if isinstance(engine, PlaceHolderLayoutEngine):  # laid out by hand (fixed_layout):
+        fig.set_layout_engine(None)  # with an engine, savefig draws it once more first
     with atomic_path(path, suffix=".png") as tmp:
         # the mark that lets a later run overwrite this file (twolink.foundation.io.WRITTEN_BY)
         mark = {"Software": "written by twolink"}

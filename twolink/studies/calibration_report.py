@@ -228,17 +228,24 @@ def table_values(shipped: Shipped | None) -> dict[int, dict[str, dict[str, float
     return out
 
 
-def report_section(path: Path, out: Path, shipped: Shipped | None = None) -> list[str]:
+def report_section(
+    path: Path, out: Path, shipped: Shipped | None = None, draw: Any = None
+) -> list[str]:
     """The calibration's part of the report: the shipped parameters rerun here (a few
     runs; ``shipped`` if already rerun), paper / calibrated per metric, the profile figure
-    and the analytic check."""
+    and the analytic check. ``draw(function, *args)`` draws the figure (the reproduction:
+    a task of its pool); default: here."""
     path = Path(path)
     shipped = shipped or rerun_shipped(path)
     head = ["", "## Calibrated against the paper", ""]
     if shipped is None:
         return [*head, f"No calibration shipped: run `twolink calibrate --install` ({path.name})."]
     study, result, current, rows = shipped.study, shipped.result, shipped.current, shipped.rows
-    profile_figure(study, result, out / "figures" / "calibration_profile.png")
+    figure = out / "figures" / "calibration_profile.png"
+    if draw is None:
+        profile_figure(study, result, figure)
+    else:
+        draw(profile_figure, study, result, figure)
     fit, total = fit_counts(study, rows)
     whole = ", ".join(
         f"Table {r.table} {r.controller}"

@@ -545,9 +545,11 @@ def load_study(study: GainStudy, path: Path | None = None) -> tuple[pd.DataFrame
     return pd.read_csv(path), Choice(**meta["choice"])
 
 
-def report_section(path: Path, out: Path, pool: Any) -> list[str]:
+def report_section(path: Path, out: Path, pool: Any, draw: Any = None) -> list[str]:
     """The gain study's part of the report: its rule, trade-off figure and choice, from its
-    shipped table (rerun on ``pool`` when stale), and whether the gains in use are its."""
+    shipped table (rerun on ``pool`` when stale), and whether the gains in use are its.
+    ``draw(function, *args)`` draws the figure (the reproduction: a task of its pool, so
+    that the main process never draws); default: here."""
     import twolink.studies.gains as gains
     from twolink.sweep import load_sweep
 
@@ -559,7 +561,9 @@ def report_section(path: Path, out: Path, pool: Any) -> list[str]:
     else:
         (table, choice), where = saved, f"`{gains.table_path(study).name}`, shipped and current"
     gains.save_study(table, study, choice, out / "gains" / "gains.csv")
-    gains.tradeoff_figure(table, study, choice, out / "figures" / "gain_tradeoff.png")
+    (draw or _draw_here)(
+        gains.tradeoff_figure, table, study, choice, out / "figures" / "gain_tradeoff.png"
+    )
     used = load_sweep(study.sweep, {"samples": 1}).base.get("controller", {})
     kp, kd = choice.wn**2, 2 * choice.zeta * choice.wn
     in_use = used.get("kp") == kp and used.get("kd") == kd and used.get("ki") == choice.ki
@@ -599,3 +603,7 @@ def report_section(path: Path, out: Path, pool: Any) -> list[str]:
         "asks for the same torque at every ωn. The steps of the experiments above are "
         "therefore quintic moves.",
     ]
+
+
+def _draw_here(function: Any, *args: Any) -> None:
+    function(*args)

@@ -41,6 +41,7 @@ from twolink.studies.manifest import (
     Variant,
     load_manifest,
 )
+from twolink.studies.reproduce_figures import design_figures, response_figure
 from twolink.studies.run_folder import portable_config, write_run
 
 
@@ -547,8 +548,12 @@ def _reproduce(
         )
         # A task, not drawn here: the main process then never imports matplotlib, and
         # the runs do not wait for the validity sweep.
-        design_evidence = pool.submit(_design_figures, result, out)
+        design_evidence = pool.submit(design_figures, result, out)
         drawing = [design_evidence]
+
+        def draw(function: Any, *args: Any) -> None:  # a figure, as a task of the pool
+            drawing.append(pool.submit(function, *args))
+
         claims: list[str] = []
         claim_tables: list[Any] = []
         # The runs' bar advances as their batches finish, while the claims sweeps (on
@@ -575,6 +580,12 @@ def _reproduce(
         )
         if trace:
             drawing.append(pool.submit(_combined_recording, out, specs))
+        # the gain study's figure next (the slowest figure, ~1.5 s), then the responses
+        gain_section = (
+            report_section(manifest.gain_study, out, pool, draw)
+            if manifest.gain_study is not None
+            else []
+        )
         figures: dict[str, str] = {}
         for variant in manifest.variants:
             for exp in manifest.experiments:
@@ -587,22 +598,20 @@ def _reproduce(
                 label = exp.label
                 title = f"{label}: {exp.title}\n({variant.title})"
                 drawing.append(
-                    pool.submit(_response_figure, out, runs, exp.joint, title, out / name)
+                    pool.submit(response_figure, out, runs, exp.joint, title, out / name)
                 )
                 figures[f"{variant.name}/{exp.key}"] = name
         trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
         shown = hero(specs, trajectories, (manifest.proposed, manifest.baseline))
         if shown is not None:  # the README's figure: where the pair differ most
-            drawing.append(pool.submit(_response_figure, out, *shown, out / HERO_FIGURE))
-        sections = oscillation_section(specs, scenarios, trajectories, rows)
-        if manifest.gain_study is not None:
-            sections += report_section(manifest.gain_study, out, pool)
+            drawing.append(pool.submit(response_figure, out, *shown, out / HERO_FIGURE))
+        sections = oscillation_section(specs, scenarios, trajectories, rows) + gain_section
         calibrated = None
         if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
             from twolink.studies import calibration_report
 
             shipped = calibration_report.rerun_shipped(manifest.calibration)
-            sections += calibration_report.report_section(manifest.calibration, out, shipped)
+            sections += calibration_report.report_section(manifest.calibration, out, shipped, draw)
             calibrated = calibration_report.table_values(shipped)
         validity = design_evidence.result()
         sections += design_section(result, specs, scenarios, rows, validity)
@@ -638,48 +647,6 @@ def centre_rules(result: Any) -> list[str]:
     from twolink.controllers.fuzzy.engine import rule_label
 
     return [rule_label(result.engine.rules[k]) for k in result.kept]
-
-
-def _design_figures(result: Any, out: Path) -> list[Any]:
-    """The design's evidence (a worker task): phase plane with centres, membership
-    functions, the control surfaces of the heuristic, the paper's and the designed rule
-    base, and the cluster-validity sweep, which it returns
-    (:func:`twolink.studies.validity.validity_sweep`: c = 2..10, PC, PE, XB)."""
-    from twolink.controllers import fuzzy
-    from twolink.figures import plots
-    from twolink.studies.validity import validity_figure, validity_sweep
-
-    validity = validity_sweep(result.points, result.weights)
-
-    designed_engine = result.engine.with_rules(result.rules)
-    plots.save_figure(plots.phase_plane_figure(result), out / "figures/design_phase_plane.png")
-    plots.save_figure(plots.membership_figure(result.engine), out / "figures/membership.png")
-    plots.save_figure(
-        plots.control_surface_figure(
-            {
-                "7x7 heuristic": result.engine,
-                "paper Table 1": fuzzy.paper_fuzzy_pd(),
-                "FCM-designed": designed_engine,
-            }
-        ),
-        out / "figures/control_surfaces.png",
-    )
-    plots.save_figure(
-        validity_figure(validity, result.clustering.n_clusters),
-        out / "figures/design_validity.png",
-    )
-    return validity
-
-
-def _response_figure(out: Path, runs: dict[str, str], joint: int, title: str, path: Path) -> None:
-    """One experiment's response under each controller, read from its run folders (a
-    worker task)."""
-    from twolink.figures import plots
-
-    trajs = {
-        name: Trajectory.load(out / folder / "trajectory.npz") for name, folder in runs.items()
-    }
-    plots.save_figure(plots.response_figure(trajs, joint, title), path)
 
 
 def _combined_recording(out: Path, specs: list[RunSpec]) -> None:
