@@ -87,3 +87,25 @@ def test_near_the_threshold_the_engines_numpy_path_decides(monkeypatch):
     far = Edge()
     far.evaluate_compiled = lambda e, de: np.full(np.shape(e), 0.5)
     assert np.array_equal(ex._fuzzy_output(far, e, e), np.full((10, 2), 0.5))
+
+
+def test_settling_time_alone_is_step_metrics_ts():
+    from twolink.simulation.metrics import settling_time, step_metrics
+
+    t = np.linspace(0.0, 4.0, 4001)
+    rng = np.random.default_rng(3)
+    signals = [
+        1.0 - np.exp(-3 * t) * np.cos(5 * t),  # settles with overshoot
+        0.9 * (1.0 - np.exp(-3 * t)),  # settles off the target (10 % short): never within 2 %
+        1.0 - np.exp(-3 * t) + 0.01 * rng.standard_normal(t.size),  # noisy
+        np.where(t < 3.999, 1.0, np.nan),  # not finite at the end
+        0.5 + 0.5 * np.sin(3 * t),  # never settles
+    ]
+    for y in signals:
+        for target, y0 in ((1.0, 0.0), (0.98, 0.1), (-1.0, 0.5)):
+            expected = step_metrics(t, y, target, y0=y0, final_value=target).settling_time
+            got = settling_time(t, y, target, y0)
+            assert got == expected or (math.isnan(got) and math.isnan(expected))
+            expected = step_metrics(t, y, target, y0=y0, final_value=0.9).settling_time
+            got = settling_time(t, y, target, y0, final_value=0.9)
+            assert got == expected or (math.isnan(got) and math.isnan(expected))

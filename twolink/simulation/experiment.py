@@ -26,6 +26,7 @@ from twolink.simulation.metrics import (
     error_measures,
     metrics_dict,
     oscillation_amplitude,
+    settling_time,
     step_metrics,
     torque_measures,
 )
@@ -448,12 +449,9 @@ class Measured:
         for j, target in enumerate(s.reference.final):
             moves = np.isfinite(target) and target != s.q0[j]
             steps.append(step_metrics(traj.t, traj.q[:, j], target, y0=s.q0[j]) if moves else None)
+            # Ts to the target: step_metrics(..., final_value=target).settling_time
             to_target.append(
-                step_metrics(
-                    traj.t, traj.q[:, j], target, y0=s.q0[j], final_value=target
-                ).settling_time
-                if moves
-                else math.nan
+                settling_time(traj.t, traj.q[:, j], target, s.q0[j]) if moves else math.nan
             )
         metrics = dict(
             step=(steps[0], steps[1]),
@@ -589,8 +587,9 @@ def _tails(s: Scenario, traj: Trajectory) -> tuple[dict[str, Any], dict[str, Any
     window = settling_window(s.duration)
     tail = traj.t >= traj.t[-1] - window - 1e-12
     with np.errstate(invalid="ignore"):
-        worst = np.abs(off[tail]).max(axis=0)
-        mean = np.abs(off[tail]).mean(axis=0)  # over the window, not one sample
+        size = np.abs(off[tail])
+        worst = size.max(axis=0)
+        mean = size.mean(axis=0)  # over the window, not one sample
     since = reference_end(s.reference) if hasattr(s.reference, "joint1") else -math.inf
     since = since if math.isfinite(since) else -math.inf
     common = {

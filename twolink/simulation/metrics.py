@@ -28,6 +28,7 @@ __all__ = [
     "error_measures",
     "metrics_dict",
     "oscillation_amplitude",
+    "settling_time",
     "settling_window",
     "tail_mean",
     "step_metrics",
@@ -273,10 +274,7 @@ def step_metrics(
     ess = float(np.mean(np.abs(target - y[last(t, ess_window)])))
 
     y_final = float(y[-1]) if final_value is None else _check_scalar("final_value", final_value)
-    # Strict "<" inside the band, as python-control; Ts = the sample after the last one outside.
-    outside = np.flatnonzero(~(np.abs(y - y_final) < settling_threshold * abs(step)))
-    settled = int(outside[-1]) + 1 if outside.size else 0
-    settling = float(t[settled]) if settled <= y.shape[0] - 2 else math.nan
+    settling = _settling(t, y, y_final, settling_threshold * abs(step))
 
     return StepMetrics(
         peak_time=peak_time,
@@ -286,6 +284,29 @@ def step_metrics(
         overshoot=overshoot,
         steady_state_error=ess,
     )
+
+
+def _settling(t: np.ndarray, y: np.ndarray, y_final: float, band: float) -> float:
+    """Ts: the first sample time after which ``|y - y_final| < band`` holds to the end
+    (strict "<" inside the band, as python-control: the sample after the last one
+    outside), NaN unless at least the last two samples are inside."""
+    outside = np.flatnonzero(~(np.abs(y - y_final) < band))
+    settled = int(outside[-1]) + 1 if outside.size else 0
+    return float(t[settled]) if settled <= y.shape[0] - 2 else math.nan
+
+
+def settling_time(
+    t: np.ndarray, y: np.ndarray, target: float, y0: float = 0.0, final_value: float = math.nan
+) -> float:
+    """``step_metrics(t, y, target, y0, final_value=final_value).settling_time`` alone
+    (default ``final_value``: the target), without the other metrics: for inputs
+    :func:`step_metrics` has already accepted (a run's second Ts, to its target)."""
+    y = np.asarray(y, dtype=float)
+    target, y0 = float(target), float(y0)
+    final = target if math.isnan(final_value) else _check_scalar("final_value", final_value)
+    if not np.isfinite(y).all():
+        return math.nan  # as step_metrics: Ts needs the whole record
+    return _settling(np.asarray(t, dtype=float), y, final, 0.02 * abs(target - y0))
 
 
 def step_metrics_per_joint(
