@@ -109,3 +109,43 @@ def test_settling_time_alone_is_step_metrics_ts():
             expected = step_metrics(t, y, target, y0=y0, final_value=0.9).settling_time
             got = settling_time(t, y, target, y0, final_value=0.9)
             assert got == expected or (math.isnan(got) and math.isnan(expected))
+
+
+def test_errors_torques_and_maxima_are_the_plain_numpy_forms_bit_for_bit():
+    # error_measures and torque_measures sum several (N, k) arrays in one reduction and
+    # take maxima on transposed copies (cheaper); each must equal the plain form exactly
+    from twolink.simulation import metrics as me
+
+    def plain_errors(t, e):
+        tt = t if e.ndim == 1 else t[:, None]
+        a = np.abs(e)
+        return [me._trapezoid(f, t) for f in (a, e * e, tt * a)] + [np.max(a, axis=0)]
+
+    def plain_torque(tau):
+        with np.errstate(over="ignore"):
+            rms = np.sqrt(np.mean(tau * tau, axis=0))
+        return [np.max(np.abs(tau), axis=0), rms, np.sum(np.abs(np.diff(tau, axis=0)), axis=0)]
+
+    def bits(values):
+        return [np.asarray(v, dtype=float).tobytes() for v in values]
+
+    rng = np.random.default_rng(7)
+    for trial in range(300):
+        n = int(rng.choice([1, 2, 3, 17, 1000, 4001, 8193]))
+        k = int(rng.integers(1, 4))
+        shape = (n,) if trial % 10 == 0 else (n, k)
+        x = rng.standard_normal(shape) * 10.0 ** rng.uniform(-8, 8)
+        if trial % 5 == 1:
+            x.flat[rng.integers(0, x.size)] = np.nan
+        if trial % 5 == 2:
+            x.flat[rng.integers(0, x.size)] = -np.inf
+        if trial % 5 == 3:
+            x[...] = -0.0
+        t = np.cumsum(rng.uniform(1e-4, 1e-2, n)) - (5.0 if trial % 3 == 0 else 0.0)
+        got = me.error_measures(t, x)
+        assert bits([got.iae, got.ise, got.itae, got.max_abs]) == bits(plain_errors(t, x))
+        got = me.torque_measures(x)
+        assert bits([got.peak, got.rms, got.variation]) == bits(plain_torque(x))
+        if x.ndim == 2:
+            m = np.abs(x)
+            assert me.column_max(m).tobytes() == np.max(m, axis=0).tobytes()

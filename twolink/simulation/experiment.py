@@ -23,6 +23,7 @@ from twolink.simulation.config import (
     resolve_rule_base,
 )
 from twolink.simulation.metrics import (
+    column_max,
     error_measures,
     metrics_dict,
     oscillation_amplitude,
@@ -535,7 +536,9 @@ def fuzzy_active_share(controller: Controller | None, traj: Trajectory) -> tuple
     if engine is None or not len(traj.t) or not (np.isfinite(e).all() and np.isfinite(de).all()):
         return (math.nan, math.nan)
     u = _fuzzy_output(engine, controller.ke * e, controller.kde * de)  # type: ignore[union-attr]
-    share = np.mean(np.abs(np.asarray(u)) > FUZZY_ACTS, axis=0)
+    acts = np.abs(np.asarray(u)) > FUZZY_ACTS
+    # np.mean(acts, axis=0): a count, exact in any order, over the samples
+    share = np.count_nonzero(np.ascontiguousarray(acts.T), axis=1) / acts.shape[0]
     return (float(share[0]), float(share[1]))
 
 
@@ -588,7 +591,7 @@ def _tails(s: Scenario, traj: Trajectory) -> tuple[dict[str, Any], dict[str, Any
     tail = traj.t >= traj.t[-1] - window - 1e-12
     with np.errstate(invalid="ignore"):
         size = np.abs(off[tail])
-        worst = size.max(axis=0)
+        worst = column_max(size)
         mean = size.mean(axis=0)  # over the window, not one sample
     since = reference_end(s.reference) if hasattr(s.reference, "joint1") else -math.inf
     since = since if math.isfinite(since) else -math.inf
