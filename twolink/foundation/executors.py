@@ -127,9 +127,20 @@ SWEEP_PRELOAD = [
 WORKER_PRELOAD += _MEASURING
 
 
+_IN_POOL_WORKER = False
+
+
+def in_pool_worker() -> bool:
+    """Whether this process is a :class:`ProcessExecutor`'s worker (its signal handlers are
+    the pool's: a sweep run as its task leaves them alone)."""
+    return _IN_POOL_WORKER
+
+
 def _worker_init(command: int) -> None:
     """Set up a pool worker: it ignores Ctrl-C, leaves no temporary behind when stopped,
     and dies with the command."""
+    global _IN_POOL_WORKER
+    _IN_POOL_WORKER = True
     # A terminal's Ctrl-C reaches the whole process group; only the parent should act on it.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, _stop_worker)

@@ -157,6 +157,7 @@ from twolink.foundation.ownership import (  # noqa: E402  (one home; the old nam
     OutputBusy,
     WriteFailed,
     check_ownership,
+    discard_pending_records,
     held_by_a_command,
     note_temporary,
     note_written,
@@ -320,7 +321,9 @@ def _pending(
 
 
 def discard_pending() -> None:
-    """Remove this process's temporary files and folders that are still being written."""
+    """Remove this process's temporary files and folders that are still being written
+    (owner records' included)."""
+    discard_pending_records()
     with _PENDING_LOCK:
         for tmp in list(_PENDING):
             if tmp.is_dir():

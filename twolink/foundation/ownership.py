@@ -590,11 +590,40 @@ def _finish(
         # the command's own error (a full disk) is the one to report; the journal stays
 
 
+# Owner records this process is writing: (folder fd, temporary's name). A pool worker
+# stopped by SIGTERM, or whose command is gone, removes them with its other temporaries
+# (io.discard_pending): a worker stopped inside _write_record (a flexible study's folder,
+# 4.5 s into `reproduce`) left '..twolink-owner.json.PID.tmp', and the rerun refused it.
+_RECORDS: set[tuple[int, str]] = set()
+_RECORDS_LOCK = threading.RLock()  # re-entrant: the worker's SIGTERM handler runs here too
+
+
+def discard_pending_records() -> None:
+    """Remove the temporaries of the owner records this process is writing."""
+    with _RECORDS_LOCK:
+        for dfd, tmp in list(_RECORDS):
+            try:
+                os.unlink(tmp, dir_fd=dfd)
+            except OSError:
+                pass
+            _RECORDS.discard((dfd, tmp))
+
+
 def _write_record(dfd: int, record: dict[str, Any], path: Path) -> None:
     import json
 
     data = (json.dumps(record, indent=1) + "\n").encode()
     tmp = f".{OWNER_NAME}.{os.getpid()}.tmp"
+    with _RECORDS_LOCK:  # known before it exists: removed however the process ends
+        _RECORDS.add((dfd, tmp))
+    try:
+        _write_record_via(dfd, tmp, data, path)
+    finally:
+        with _RECORDS_LOCK:
+            _RECORDS.discard((dfd, tmp))
+
+
+def _write_record_via(dfd: int, tmp: str, data: bytes, path: Path) -> None:
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644, dir_fd=dfd)
         try:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import signal
 import sys
+import threading
 import time
 from collections.abc import Iterator, Sequence
 from concurrent import futures
@@ -27,6 +28,7 @@ from twolink.foundation.executors import (
     SWEEP_PRELOAD,
     SweepExecutor,
     check_options,
+    in_pool_worker,
     open_executor,
 )
 from twolink.foundation.interrupts import interrupts_held
@@ -251,34 +253,66 @@ def _prepare_out(plan: SweepPlan, out: Path, fresh: bool, replace_other: bool = 
 
 
 class _StopSignals:
-    """SIGINT and SIGTERM as KeyboardInterrupt, recorded (the first decides the exit code).
+    """SIGINT and SIGTERM recorded (the first decides the exit code), acted on where the
+    sweep can stop cleanly.
+
+    While the driver waits for its tasks (:meth:`waiting`), the handler only records: the
+    driver raises KeyboardInterrupt at its next turn (within :data:`STOP_POLL_S`), so the
+    signal never lands in a library's callback or ``__del__``, where Python prints
+    "Exception ignored" and drops it. Elsewhere (an in-process chunk, a pool starting) it
+    raises at once, as a Ctrl-C does.
 
     A chunk file and its log line are written with both held back
     (:func:`twolink.foundation.interrupts.interrupts_held`): a handler runs in the main thread,
     whichever thread the signal reached, so a deferred handler, not a signal mask, is
     what keeps them together.
+
+    Not in a pool worker (a sweep run as a worker's task: the reproduction's flexible-joint
+    studies): its SIGINT stays ignored and its SIGTERM ends it at once
+    (:func:`twolink.foundation.executors.in_pool_worker`). Taken over, the abort's SIGTERM
+    unwound the worker's sweep, which wrote its folder's record after the command had
+    stopped, stayed alive until the abort's SIGKILL, and printed "Exception ignored" where
+    the KeyboardInterrupt hit numba's compiler.
     """
 
     def __init__(self) -> None:
         self.received: list[int] = []
+        self._waiting = False
 
     def _handler(self, signum: int, frame: Any) -> None:
         self.received.append(signum)
-        raise KeyboardInterrupt
+        if not self._waiting:
+            raise KeyboardInterrupt
+
+    @contextmanager
+    def waiting(self) -> Iterator[None]:
+        """A block in which the handler only records (the caller checks :meth:`check`)."""
+        self._waiting = True
+        try:
+            yield
+        finally:
+            self._waiting = False
+
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if a signal was received (also one a library dropped)."""
+        if self.received:
+            raise KeyboardInterrupt
 
     @contextmanager
     def installed(self) -> Iterator[None]:
-        """Install the handlers for SIGINT and SIGTERM (main thread only; else no-op)."""
-        try:
-            old = {s: signal.signal(s, self._handler) for s in (signal.SIGINT, signal.SIGTERM)}
-        except ValueError:  # not the main thread: leave signals to the caller
-            yield
+        """Install the handlers for SIGINT and SIGTERM (main thread, not a pool worker)."""
+        if threading.current_thread() is not threading.main_thread() or in_pool_worker():
+            yield  # leave signals to the caller, or to the worker's own handlers
             return
+        old = {s: signal.signal(s, self._handler) for s in (signal.SIGINT, signal.SIGTERM)}
         try:
             yield
         finally:
             for s, handler in old.items():
                 signal.signal(s, handler)
+
+
+STOP_POLL_S = 0.1  # s between the driver's checks for a signal while it waits for tasks
 
 
 def run_sweep(
@@ -585,9 +619,11 @@ def _drive(
 
     fill()
     while pending:
-        if stops.received:  # its KeyboardInterrupt was dropped (by a library, on its way)
-            raise KeyboardInterrupt
-        done, _ = futures.wait(pending, return_when=futures.FIRST_COMPLETED)
+        stops.check()
+        with stops.waiting():
+            done, _ = futures.wait(
+                pending, timeout=STOP_POLL_S, return_when=futures.FIRST_COMPLETED
+            )
         for future in done:
             job = pending.pop(future)
             try:
