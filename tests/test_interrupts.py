@@ -293,3 +293,41 @@ def test_an_abort_ends_a_worker_that_cannot_act_on_sigterm():
     aborted.join(timeout=ABORT_GRACE_S + 20.0)
     assert not aborted.is_alive(), "abort still waiting on a worker deaf to SIGTERM"
     assert time.monotonic() - start >= ABORT_GRACE_S * 0.9  # SIGTERM first, SIGKILL after
+
+
+def test_a_dropped_ctrl_c_resent_after_the_command_stopped_is_ignored(tmp_path):
+    # A Ctrl-C dropped in a __del__ is resent 50 ms later; the command may have stopped on
+    # it by then (a second signal, a phase's or a sweep's check). Resent after the command
+    # restored Python's handler, it raised a KeyboardInterrupt into the code after it (at
+    # exit: "Exception ignored ... KeyboardInterrupt" or a traceback).
+    code = """
+import os, signal, time, weakref
+from twolink.interface.cli import main
+
+class Thing:
+    pass
+
+def callback(ref):
+    os.kill(os.getpid(), signal.SIGINT)
+    for _ in range(10):  # the handler runs here, inside the callback: dropped
+        pass
+
+@main.command()
+def twice():
+    thing = Thing()
+    ref = weakref.ref(thing, callback)
+    del thing
+    os.kill(os.getpid(), signal.SIGINT)  # the command stops on this one, at once
+    for _ in range(10**7):
+        pass
+
+try:
+    main(["twice"])
+except SystemExit as exc:
+    print("exit", exc.code)
+time.sleep(0.5)  # the resend (50 ms) would land here
+print("after")
+"""
+    proc = python_module(tmp_path, "resent_late", code)
+    assert proc.stdout.split() == ["exit", "130", "after"], proc.stdout + proc.stderr
+    assert "Traceback" not in proc.stderr and "Exception ignored" not in proc.stderr

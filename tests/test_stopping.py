@@ -206,3 +206,46 @@ def test_a_signal_while_the_driver_waits_is_acted_on_at_its_next_turn():
             for _ in range(1000):
                 pass
     assert stops.received == [signal.SIGTERM, signal.SIGINT]
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("delay", [3.0, 4.5, 6.0])
+@pytest.mark.slow
+def test_sigterm_ends_reproduce_and_its_workers_at_once_with_one_clean_line(tmp_path, delay):
+    # Wherever it lands (imports, the design, the runs, the flexible studies' sweeps in the
+    # workers, numba compiling there: a fresh cache). Before, the studies' workers turned
+    # the abort's SIGTERM into a KeyboardInterrupt: the fork server and its workers then
+    # outlived the command by 10-13 s (3 of 3), and one left an owner record's temporary.
+    from twolink.foundation.io import check_ownership
+    from twolink.studies.manifest import DEFAULT_MANIFEST
+
+    out = tmp_path / "out"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"))
+    with open(tmp_path / "stderr", "w+") as err:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "twolink", *COMMANDS["reproduce"](out)],
+            stdout=subprocess.DEVNULL,
+            stderr=err,
+            env=env,
+        )
+        end = time.monotonic() + delay
+        workers: set[int] = set()
+        while time.monotonic() < end:
+            workers |= descendants(proc.pid)
+            time.sleep(0.05)
+        workers |= descendants(proc.pid)
+        os.kill(proc.pid, signal.SIGTERM)
+        sent = time.monotonic()
+        proc.wait(timeout=60)
+        while [w for w in workers if alive(w)] and time.monotonic() < sent + 30:
+            time.sleep(0.05)
+        gone = time.monotonic() - sent
+        err.seek(0)
+        text = err.read()
+    assert proc.returncode == 143, text
+    assert text.splitlines()[-1].startswith("terminated (SIGTERM): files written so far")
+    assert "Traceback" not in text and "Exception ignored" not in text, text
+    assert gone < 5.0, f"the command's processes were gone {gone:.1f} s after SIGTERM"
+    assert not [p for p in out.rglob("*") if p.name.endswith((".tmp", ".old"))]
+    if out.exists():  # the rerun would not be refused
+        check_ownership(out, "reproduce", str(DEFAULT_MANIFEST.resolve()))

@@ -44,24 +44,57 @@ def raise_if_dropped() -> None:
         raise KeyboardInterrupt
 
 
+# Set while a command ends (its one line written, its handlers restored): a signal then, or
+# a dropped Ctrl-C resent then, is moot, and a KeyboardInterrupt would cut the line short or
+# escape as a traceback.
+_ENDING = threading.Event()
+_RESEND_PENDING = threading.Event()
+
+
 def on_ctrl_c(signum: int, frame: Any) -> None:
-    """The command line's SIGINT handler: record the Ctrl-C, and raise it."""
+    """The command line's SIGINT handler: record the Ctrl-C, and raise it (not once the
+    command is ending, :func:`command_ending`)."""
+    if _ENDING.is_set():
+        return
     CTRL_C_RECEIVED.append(signum)
     raise KeyboardInterrupt
+
+
+def command_starting() -> None:
+    """A command starts: signals are raised again (:func:`command_ending` is over)."""
+    _ENDING.clear()
+
+
+def command_ending() -> None:
+    """The command has stopped (or finished): later signals, and Ctrl-Cs still to be resent,
+    are ignored until its handlers are restored."""
+    _ENDING.set()
 
 
 def resend_dropped_ctrl_c(unraisable: Any) -> None:
     """A KeyboardInterrupt raised where Python cannot raise (a weakref callback, a
     ``__del__``) is printed as "Exception ignored" and dropped, and the command would go
-    on: send the Ctrl-C again, to land in the command's own code."""
+    on: send the Ctrl-C again, to land in the command's own code (once for several drops
+    in a row, and not once the command is ending: it has acted on the Ctrl-C by then,
+    e.g. at a phase's check, and one resent after its handlers were restored raised a
+    KeyboardInterrupt into the code after it)."""
     if isinstance(unraisable.exc_value, KeyboardInterrupt):
+        if _ENDING.is_set() or _RESEND_PENDING.is_set():
+            return
+        _RESEND_PENDING.set()
         # From another thread, a moment later: any signal sent from here would have its
         # handler run here, where raising is moot.
-        resend = threading.Timer(0.05, _thread.interrupt_main, (signal.SIGINT,))
+        resend = threading.Timer(0.05, _resend)
         resend.daemon = True
         resend.start()
     else:
         sys.__unraisablehook__(unraisable)
+
+
+def _resend() -> None:
+    _RESEND_PENDING.clear()
+    if not _ENDING.is_set():
+        _thread.interrupt_main(signal.SIGINT)
 
 
 @contextmanager

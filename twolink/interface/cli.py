@@ -23,6 +23,8 @@ from twolink.foundation.executors import (
 )
 from twolink.foundation.interrupts import (
     CTRL_C_RECEIVED,
+    command_ending,
+    command_starting,
     forget_escaped_interrupt,
     on_ctrl_c,
     resend_dropped_ctrl_c,
@@ -41,6 +43,7 @@ from twolink.interface.cli_output import fail_input as _fail_input
 
 def interrupted_exit() -> None:
     """End an interrupted command: one line, exit 130 (Ctrl-C) or 143 (SIGTERM)."""
+    command_ending()  # a signal more, or a Ctrl-C resent, no longer raises
     signum = CTRL_C_RECEIVED[0] if CTRL_C_RECEIVED else signal.SIGINT
     what = "terminated (SIGTERM)" if signum == signal.SIGTERM else "interrupted"
     click.echo(f"{what}: files written so far are whole; rerun to complete", err=True)
@@ -60,6 +63,7 @@ class _Group(click.Group):
     def main(self, *args, standalone_mode: bool = True, **kwargs):
         if not standalone_mode:
             return super().main(*args, standalone_mode=False, **kwargs)
+        command_starting()
         previous = signal.getsignal(signal.SIGINT)
         # Not where Ctrl-C is ignored, and only where handlers can be set (the main thread).
         main_thread = threading.current_thread() is threading.main_thread()
@@ -88,6 +92,7 @@ class _Group(click.Group):
                 raise
             interrupted_exit()
         finally:
+            command_ending()  # before the handlers go: a resend now would find Python's
             if signal.getsignal(signal.SIGINT) is on_ctrl_c:
                 signal.signal(signal.SIGINT, previous)
             if signal.getsignal(signal.SIGTERM) is on_ctrl_c:

@@ -24,11 +24,13 @@ def sweep_exits(out: Path) -> Iterator[None]:
     from concurrent import futures
 
     from twolink.foundation.executors import ExecutorError
+    from twolink.foundation.interrupts import command_ending
     from twolink.sweep import SweepInterrupted, SweepTaskError
 
     try:
         yield
     except SweepInterrupted as exc:
+        command_ending()  # a signal more, or a Ctrl-C resent, no longer raises
         click.echo(f"\n{exc}", err=True)
         sys.exit(128 + exc.signum)
     except (ExecutorError, SweepTaskError, futures.BrokenExecutor) as exc:
