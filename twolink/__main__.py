@@ -1,5 +1,5 @@
 """``python -m twolink``: the same command line as ``twolink``."""
 
-from twolink.interface.cli import main
+from twolink.interface.entry import run
 
-main(prog_name="twolink")
+run()
