@@ -16,6 +16,11 @@ Every figure is a ratio to something timed in the same run:
 
     python benchmarks/bench_scale.py --workers [--samples 600] [--max-workers 16]
     python benchmarks/bench_scale.py --mjx [--arms 1000 10000] [--duration 0.5]
+    python benchmarks/bench_scale.py --limits [--repeats 2] [--only regimes]
+
+* ``--limits``: issue 41's three commands (``regimes -n 30 --workers 2``, ``reproduce
+  --no-trace`` into a new folder, the full ``regimes``), each in yardsticks timed just
+  before and after it, beside its limit.
 """
 
 from __future__ import annotations
@@ -81,6 +86,30 @@ def scaling(samples: int, max_workers: int) -> None:
         for w, t in zip(counts, times, strict=True):
             print(f"  W={w:>2}: speed-up {times[0] / t:5.2f}, efficiency {times[0] / (w * t):.2f}")
         print()
+
+
+# Issue 41's limits, in yardsticks, on a quiet 2-core machine (--limits)
+LIMITS = {
+    "regimes -n 30 --workers 2": (["regimes", "-n", "30", "--workers", "2"], 0.75),
+    "reproduce --no-trace": (["reproduce", "--no-trace"], 5.0),
+    "regimes (the full map)": (["regimes"], 15.0),
+}
+
+
+def limits(repeats: int, only: list[str] | None) -> None:
+    """Each command of :data:`LIMITS` ``repeats`` times into a new folder, a yardstick timed
+    just before and just after each run (their mean is that run's unit)."""
+    print(f"{'command':<28} {'wall [s]':>8} {'yardstick [s]':>13} {'yardsticks':>10} {'limit':>6}")
+    for name, (argv, limit) in LIMITS.items():
+        if only and not any(o in name for o in only):
+            continue
+        for _ in range(repeats):
+            before = yardstick_s()
+            with tempfile.TemporaryDirectory() as tmp:
+                took = command_s([*argv, "--out", str(Path(tmp) / "out")])
+            unit = (before + yardstick_s()) / 2
+            print(f"{name:<28} {took:8.2f} {unit:13.2f} {took / unit:10.2f} {limit:6.2f}",
+                  flush=True)  # fmt: skip
 
 
 def arms_and_controllers(n: int, name: str):
@@ -159,6 +188,9 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=600, help="regimes -n")
     parser.add_argument("--max-workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--mjx", action="store_true", help="time the MJX backend")
+    parser.add_argument("--limits", action="store_true", help="issue 41's three commands")
+    parser.add_argument("--only", nargs="+", help="--limits: the commands naming these words")
+    parser.add_argument("--repeats", type=int, default=2, help="--limits: runs of each")
     parser.add_argument("--arms", type=int, nargs="+", default=[1000, 10000])
     parser.add_argument("--duration", type=float, default=0.5, help="s per arm (--mjx)")
     parser.add_argument("--precision", nargs="+", default=["float64", "float32"])
@@ -166,8 +198,10 @@ def main() -> None:
         "--cpu-max", type=int, default=1000, help="CPU engine batch size (per core)"
     )
     args = parser.parse_args()
-    if not (args.workers or args.mjx):
-        parser.error("choose --workers and/or --mjx")
+    if not (args.workers or args.mjx or args.limits):
+        parser.error("choose --workers, --mjx and/or --limits")
+    if args.limits:
+        limits(args.repeats, args.only)
     if args.mjx:
         accelerator(args.arms, args.duration, args.precision, args.cpu_max)
     if args.workers:
