@@ -431,8 +431,9 @@ def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None)
 
 
 def rest_guess(traj: Trajectory) -> tuple[Any, Any]:
-    """Where a run's loop may rest, for its linearisation: its last link and rotor angles."""
-    return (traj.q[-1], traj.motor_q[-1] if len(traj.motor_q) else ())
+    """Where a run's loop may rest, for its linearisation: its last link and rotor angles
+    (copies: a view would keep the run's whole record alive)."""
+    return (traj.q[-1].copy(), traj.motor_q[-1].copy() if len(traj.motor_q) else ())
 
 
 @dataclass(frozen=True)
