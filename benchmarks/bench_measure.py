@@ -2,14 +2,16 @@
 loop linearised alone) against a chunk's runs measured together (``measure_runs``: the
 loops linearised on one batch model, ``linearise_many``; the fuzzy share through the
 compiled kernel), in the same process on the same runs: a chunk simulated and measured
-each way (one trajectory at a time, as a sweep's chunk), the simulation alone, and the
+each way (one trajectory at a time, as a sweep's chunk; the measuring is the chunk's time
+less the time spent making its trajectories), the simulation alone, and the
 linearisations alone each way.
 
 The runs are a chunk of the regime map's plan (``twolink regimes``: 4 controllers a
 sample, g x 1.1, 4 s); ``--samples 15`` is the half chunk of a 30-sample plan (60 runs,
 what ``run_chunk_part`` computes in ``regimes -n 30 --workers 2``), ``--samples 150`` a
-whole chunk of the full map (600 runs). Every figure is a median over ``--repeats``; the
-answers of both paths are checked equal (σ and every metric) before timing.
+whole chunk of the full map (600 runs). Every figure is a median over ``--repeats``, the tasks
+interleaved (a machine whose load drifts slows them alike); the answers of both paths are
+checked equal (σ and every metric) before timing.
 
     python benchmarks/bench_measure.py [--samples 15 150] [--repeats 3]
 """
@@ -56,38 +58,62 @@ def case(samples: int, repeats: int) -> dict[str, float]:
         for k, traj in ex.iter_scenarios(scenarios, controllers):
             items.append((scenarios[k], controllers[k], ex.rest_guess(traj)))
 
+    clock = {"simulating": 0.0, "measuring": 0.0}  # of the last chunk computed
+
+    def _runs():  # the chunk's trajectories, the time spent making them counted apart
+        runs = ex.iter_scenarios(scenarios, controllers)
+        while True:
+            start = time.perf_counter()
+            try:
+                run = next(runs)
+            except StopIteration:
+                return
+            finally:
+                clock["simulating"] += time.perf_counter() - start
+            yield run
+
     def per_run():  # the chunk before: each run measured alone as it comes
         original = ex._fuzzy_output
         ex._fuzzy_output = numpy_share
+        clock["simulating"] = 0.0
+        start = time.perf_counter()
         try:
             return [ex.measure(scenarios[k], t, controllers[k]) for k, t in _runs()]
         finally:
             ex._fuzzy_output = original
-
-    def _runs():
-        return ex.iter_scenarios(scenarios, controllers)
+            clock["measuring"] = time.perf_counter() - start - clock["simulating"]
 
     def together():  # the chunk now
-        return ex.measure_runs((scenarios[k], t, controllers[k]) for k, t in _runs())
+        clock["simulating"] = 0.0
+        start = time.perf_counter()
+        out = ex.measure_runs((scenarios[k], t, controllers[k]) for k, t in _runs())
+        clock["measuring"] = time.perf_counter() - start - clock["simulating"]
+        return out
 
     simulate()  # warm: numba's kernels, MuJoCo
     old, new = per_run(), together()
     assert all(repr(a) == repr(b) for a, b in zip(old, new, strict=True)), "answers differ"
     n = len(arms)
-    sim = timed(simulate, repeats) / n
-    out = {
-        "runs": n,
-        "simulate": sim,
-        "simulate + measure each alone": timed(per_run, repeats) / n,
-        "simulate + measure_runs": timed(together, repeats) / n,
-        "linearise, each alone": timed(
-            lambda: [linearise(s, ex.build_plant(s), c, near=nr) for s, c, nr in items], repeats
-        )
-        / n,
-        "linearise_many": timed(lambda: linearise_many(items), repeats) / n,
+    tasks = {
+        "simulate": simulate,
+        "simulate + measure each alone": per_run,
+        "simulate + measure_runs": together,
+        "linearise, each alone": lambda: [
+            linearise(s, ex.build_plant(s), c, near=nr) for s, c, nr in items
+        ],
+        "linearise_many": lambda: linearise_many(items),
     }
-    out["measuring alone"] = out["simulate + measure each alone"] - sim
-    out["measuring together"] = out["simulate + measure_runs"] - sim
+    times: dict[str, list[float]] = {name: [] for name in tasks}
+    times["measuring alone"], times["measuring together"] = [], []
+    for _ in range(repeats):  # interleaved: a machine whose load drifts slows all alike
+        for name, task in tasks.items():
+            times[name].append(timed(task, 1))
+            if task is per_run:
+                times["measuring alone"].append(clock["measuring"])
+            if task is together:
+                times["measuring together"].append(clock["measuring"])
+    out: dict[str, float] = {"runs": n}
+    out.update({name: statistics.median(ts) / n for name, ts in times.items()})
     return out
 
 
