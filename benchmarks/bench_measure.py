@@ -11,7 +11,8 @@ sample, g x 1.1, 4 s); ``--samples 15`` is the half chunk of a 30-sample plan (6
 what ``run_chunk_part`` computes in ``regimes -n 30 --workers 2``), ``--samples 150`` a
 whole chunk of the full map (600 runs). Every figure is a median over ``--repeats``, the tasks
 interleaved (a machine whose load drifts slows them alike); the answers of both paths are
-checked equal (σ and every metric) before timing.
+checked equal (σ and every metric) before timing. The yardstick: a bare single-arm
+``mj_step`` (``bench_batch.bare_step_us``), timed before and after.
 
     python benchmarks/bench_measure.py [--samples 15 150] [--repeats 3]
 """
@@ -21,9 +22,15 @@ from __future__ import annotations
 import argparse
 import math
 import statistics
+import sys
 import time
+from pathlib import Path
 
 import numba  # noqa: F401  (a sweep worker has it loaded: the batch laws use it)
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import bench_batch  # noqa: E402
 
 from twolink.simulation import experiment as ex
 from twolink.simulation.stability import linearise
@@ -124,7 +131,9 @@ def main() -> None:
     args = parser.parse_args()
     print("| ms per run | " + " | ".join(f"{s} samples" for s in args.samples) + " |")
     print("|---|" + "---:|" * len(args.samples))
+    before = bench_batch.bare_step_us()
     results = [case(s, args.repeats) for s in args.samples]
+    step_us = 0.5 * (before + bench_batch.bare_step_us())
     keys = [k for k in results[0] if k != "runs"]
     print("| runs | " + " | ".join(str(r["runs"]) for r in results) + " |")
     for key in keys:
@@ -133,6 +142,12 @@ def main() -> None:
     lin = [r["linearise, each alone"] / r["linearise_many"] for r in results]
     print("| measuring, alone / together | " + " | ".join(f"{x:.1f}x" for x in ratio) + " |")
     print("| linearising, alone / together | " + " | ".join(f"{x:.1f}x" for x in lin) + " |")
+    print(
+        "| measuring together, in bare single-arm mj_step calls | "
+        + " | ".join(f"{1e6 * r['measuring together'] / step_us:.0f}" for r in results)
+        + " |"
+    )
+    print(f"\nyardstick: a bare single-arm mj_step {step_us:.2f} µs (before and after, mean)")
     if any(math.isnan(x) for x in ratio):
         raise SystemExit("no timing")
 
