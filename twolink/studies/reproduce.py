@@ -516,13 +516,8 @@ def _reproduce(
     # The pool starts first: its workers import while the design runs. Left by Ctrl-C or
     # any failure, it stops its tasks at once (SweepExecutor.__exit__); written files are whole.
     with open_executor(kind, workers) as pool:
-        phase("design: the FCM rule base (reused when its inputs are unchanged)")
-        result, designed = design_or_load(config, out / "design")
-        rule_base = out / "design" / "rule_base.toml"
-        specs = plan(
-            manifest, rule_base, result.clustering.centers, overrides, centre_rules(result)
-        )
-        scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
+        # The flexible-joint studies first: they need nothing of the design (their FCM-CTC
+        # is the shipped designed rule base), so the workers start while it runs here.
         study = (
             pool.submit(flexible_study, manifest.flexible_study, out)
             if manifest.flexible_study is not None
@@ -533,6 +528,13 @@ def _reproduce(
             if manifest.flexible_model_error
             else None
         )
+        phase("design: the FCM rule base (reused when its inputs are unchanged)")
+        result, designed = design_or_load(config, out / "design")
+        rule_base = out / "design" / "rule_base.toml"
+        specs = plan(
+            manifest, rule_base, result.clustering.centers, overrides, centre_rules(result)
+        )
+        scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
         phase(
             f"runs: {len(specs)} experiments x controllers x variants, as batches of arms"
             + (" (and the flexible-joint study)" if study else "")
