@@ -249,3 +249,59 @@ def test_sigterm_ends_reproduce_and_its_workers_at_once_with_one_clean_line(tmp_
     assert not [p for p in out.rglob("*") if p.name.endswith((".tmp", ".old"))]
     if out.exists():  # the rerun would not be refused
         check_ownership(out, "reproduce", str(DEFAULT_MANIFEST.resolve()))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.slow
+def test_sigterm_to_the_whole_process_group_ends_a_sweep_with_exit_143_and_one_line(tmp_path):
+    # As `timeout` or a service manager stop a command: its workers get the SIGTERM too and
+    # end at once, breaking the pool while the command acts on its own. The stop must win:
+    # exit 143 and its line, not BrokenProcessPool's traceback and exit 1.
+    # A long poll: the broken pool, not the poll's end, wakes the driver's wait.
+    code = (
+        "import sys; import twolink.sweep.execution as ex; ex.STOP_POLL_S = 60.0; "
+        "from twolink.interface.cli import main; main(sys.argv[1:], prog_name='twolink')"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, *COMMANDS["sweep"](tmp_path / "out")],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own process group, as a service's
+    )
+    deadline = time.monotonic() + 120
+    while len(descendants(proc.pid)) < 3:  # the pool is up and working (as above)
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < deadline, "no pool workers appeared"
+        time.sleep(0.05)
+    time.sleep(1.0)
+    os.killpg(proc.pid, signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 143, err
+    assert "interrupted by SIGTERM" in err and "Traceback" not in err, err
+
+
+_SLOW_SERVER = """
+import os, sys
+from multiprocessing import forkserver
+from twolink.foundation.executors import start_fork_server
+
+start_fork_server(["slow_import"])  # the server imports for 60 s, as numba compiling
+print(forkserver._forkserver._forkserver_pid, flush=True)
+os._exit(0)  # the command ends (any way) while its server still imports
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_a_fork_server_still_importing_ends_with_its_command(tmp_path):
+    # The server notices its command's end only once its imports are done: with a fresh
+    # numba cache it outlived a SIGTERM'd `reproduce` by 2-12 s (the workers' check above).
+    (tmp_path / "slow_import.py").write_text("import time\ntime.sleep(60)\n")
+    with open(tmp_path / "pid", "w+") as pid:  # not a pipe: the server would hold it
+        subprocess.run([sys.executable, "-c", _SLOW_SERVER], cwd=tmp_path, stdout=pid, timeout=60)
+        pid.seek(0)
+        server = int(pid.read())
+    deadline = time.monotonic() + 5.0
+    while alive(server) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert not alive(server), "the fork server outlived its command"

@@ -619,11 +619,14 @@ def _drive(
 
     fill()
     while pending:
-        stops.check()
         with stops.waiting():
             done, _ = futures.wait(
                 pending, timeout=STOP_POLL_S, return_when=futures.FIRST_COMPLETED
             )
+        # Also one a library dropped on its way; and before the tasks' results: a SIGTERM
+        # to the whole process group ends the workers too, and their broken pool is the
+        # signal's doing (exit 143, not BrokenProcessPool's traceback).
+        stops.check()
         for future in done:
             job = pending.pop(future)
             try:
