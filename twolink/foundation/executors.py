@@ -125,6 +125,9 @@ SWEEP_PRELOAD = [
     *_MEASURING,
 ]
 WORKER_PRELOAD += _MEASURING
+# Imported first by every fork server: it ends with the command, also while it imports.
+SERVER_WATCH = "twolink.foundation.server_watch"
+_COMMAND_PID = "TWOLINK_FORK_SERVER_COMMAND"  # server_watch.COMMAND_PID (not imported here)
 
 
 _IN_POOL_WORKER = False
@@ -238,8 +241,18 @@ def start_fork_server(preload: list[str] | None = None) -> None:
     if "forkserver" in multiprocessing.get_all_start_methods():
         context = multiprocessing.get_context("forkserver")
         if not _fork_server_started():
-            context.set_forkserver_preload(WORKER_PRELOAD if preload is None else preload)
-        multiprocessing.forkserver.ensure_running()
+            modules = WORKER_PRELOAD if preload is None else preload
+            context.set_forkserver_preload([SERVER_WATCH, *modules])
+        # The server learns which command to end with from its environment.
+        previous = os.environ.get(_COMMAND_PID)
+        os.environ[_COMMAND_PID] = str(os.getpid())
+        try:
+            multiprocessing.forkserver.ensure_running()
+        finally:
+            if previous is None:
+                os.environ.pop(_COMMAND_PID, None)
+            else:
+                os.environ[_COMMAND_PID] = previous
 
 
 def _fork_server_started() -> bool:
