@@ -4,26 +4,24 @@ loops' map Φ evaluated for all of them on one MuJoCo model and the controllers'
 
 Alone, a linearisation is ~150 evaluations of Φ, each a Python call of the controller and
 a MuJoCo step of a single arm (~25 µs each: ~4 ms a run, more than its simulation). Here
-every run's Newton search for its rest state is a *lane*, one from the target and one from
-the run's last state (``near``) where it has one, both searched at once (alone the second
-starts only where the first fails: the answer is the first's where it converges, so it is
-the same). A lane is one arm of a batch model (:func:`twolink.arm.plant.add_arm`, as the
-batch engine builds its arms); each round evaluates Φ at a lane's point and its 2n
-perturbations as 2n + 1 steps of that model, one point of every lane per step, with the
-controllers' batch laws (``controllers/batch.py``, equal to the single laws to the bit,
-``tests/test_batch_limits.py``), whose own state (CTC-I's integrators, feedback
-linearisation's held torque) is set from the point and read back as the single path sets
-and reads the controller's attributes. The arithmetic on the results (the residual, the
-differences, the Newton step, the tests for a jump and a kink, the eigenvalues) is the
-single path's, in the same order; a lane that converges takes one more round for its
-finer one-sided differences, and leaves the model. When fewer than half of a model's
-lanes still search, the model is rebuilt with those alone (a model's cost per step grows
-with its arms).
+every run is an arm of one batch model (:func:`twolink.arm.plant.add_arm`, as the batch
+engine builds its arms; a model with few runs holds several copies of each, ``SLOTS``),
+under its controller's batch law (``controllers/batch.py``, equal to the single laws to
+the bit, ``tests/test_batch_limits.py``), whose own state (CTC-I's integrators, feedback
+linearisation's held torque) is set from each point and read back as the single path sets
+and reads the controller's attributes. A round evaluates Φ at every run's Newton point and
+its 2n perturbations (or, once its search has converged, its 2n finer one-sided ones),
+one point of every arm per step of the model. The arithmetic on the results (the
+residual, the differences, the Newton step, the tests for a jump and a kink, the
+eigenvalues) is the single path's, in the same order; a run searches from its second
+start (``near``) only where the first fails, as alone. When fewer than a third of a
+model's runs are still searching, the model is rebuilt with those alone, more copies of
+each (a step costs ~0.2 ms whatever its arms: the fewer steps a round, the better).
 
 The answer equals the single path's to the bit: MuJoCo steps an arm of a batch as it does
 alone where the arm is at its model's gravity (``docs/batch.md``), so runs of different g
 get models of their own (one tilted into a model of another g agrees to rounding only,
-~1e-9 in σ once the differences amplify it). Laws without a batch form, and any model
+~2e-9 in σ once the differences amplify it, measured). Laws without a batch form, and any model
 that cannot be built, take the single path, run by run (``tests/test_stability_batch.py``).
 """
 
@@ -138,7 +136,7 @@ def linearise_many(
             out[i] = exc
             continue
         # one model per gravity: an arm off its model's g would be tilted, equal only to
-        # rounding (~1e-9 in σ, the differences amplifying it), not to the bit
+        # rounding (~2e-9 in σ, the differences amplifying it), not to the bit
         key = (s.timestep, setup.substeps, setup.t_hold, nq, setup.n, s.control_dt, arm.params.g)
         groups.setdefault(key, []).append(run)
     for runs in groups.values():
