@@ -128,8 +128,8 @@ def test_a_sweep_in_a_pool_worker_ignores_ctrl_c_and_ends_with_its_worker_on_sig
     # The sweep used to take both signals over in the worker: a Ctrl-C stopped the
     # worker's sweep, and the abort's SIGTERM unwound it (SweepInterrupted), writing its
     # folder's record after the command had stopped and keeping the worker alive until
-    # the abort's SIGKILL, 2 s later; a KeyboardInterrupt that hit numba's compiler there
-    # was printed as "Exception ignored".
+    # the abort's SIGKILL, 2 s later (one was seen landing in numba's compiler, whose
+    # callbacks print such a one as "Exception ignored").
     from concurrent.futures.process import BrokenProcessPool
 
     from cli_inputs import SWEEP

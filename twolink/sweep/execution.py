@@ -270,9 +270,10 @@ class _StopSignals:
     Not in a pool worker (a sweep run as a worker's task: the reproduction's flexible-joint
     studies): its SIGINT stays ignored and its SIGTERM ends it at once
     (:func:`twolink.foundation.executors.in_pool_worker`). Taken over, the abort's SIGTERM
-    unwound the worker's sweep, which wrote its folder's record after the command had
-    stopped, stayed alive until the abort's SIGKILL, and printed "Exception ignored" where
-    the KeyboardInterrupt hit numba's compiler.
+    unwound the worker's sweep by a KeyboardInterrupt (seen landing in numba's compiler,
+    whose callbacks print such a one as "Exception ignored" and drop it), which wrote its
+    folder's record after the command had stopped and kept the worker alive until the
+    abort's SIGKILL.
     """
 
     def __init__(self) -> None:
