@@ -1,7 +1,7 @@
 """SIGTERM a reproduction at given moments and measure how it ends (docs/sweeps.md,
 "Stopping and resuming").
 
-    python benchmarks/sigterm_probe.py --delays 3,4.5,6 [--fresh-numba] [--group]
+    python benchmarks/sigterm_probe.py --delays 3,4.5,6 [--fresh-numba] [--group] [--trace]
         [--tree PATH ...]
 
 Each trial starts ``python -m twolink reproduce --workers 2 --no-trace`` into a fresh
@@ -13,7 +13,8 @@ temporaries left in the folder, and what was still running 2.5 s after the signa
 ``--fresh-numba`` gives each trial its own empty NUMBA_CACHE_DIR (the compiled fuzzy
 kernels are then compiled in the fork server and the workers, as on a fresh clone);
 ``--group`` sends the SIGTERM to the command's whole process group (as ``timeout`` or a
-service manager do). Several ``--tree`` (checkouts, e.g. ``git archive <commit> | tar -x
+service manager do); ``--trace`` keeps the recordings (rerun), as a plain ``twolink
+reproduce`` does. Several ``--tree`` (checkouts, e.g. ``git archive <commit> | tar -x
 -C DIR``) run alternately, so they share the machine's load.
 """
 
@@ -67,7 +68,7 @@ def _command_line(pid: int) -> str:
         return "?"
 
 
-def trial(tree: Path, delay_s: float, fresh_numba: bool, group: bool) -> dict:
+def trial(tree: Path, delay_s: float, fresh_numba: bool, group: bool, trace: bool) -> dict:
     """How one SIGTERM ``delay_s`` into a reproduction run from ``tree`` ended."""
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "r"
@@ -77,7 +78,7 @@ def trial(tree: Path, delay_s: float, fresh_numba: bool, group: bool) -> dict:
         cmd = [sys.executable, "-m", "twolink", "reproduce", "--out", str(out), "--workers", "2"]
         with open(Path(tmp) / "stderr", "w+") as err:
             proc = subprocess.Popen(
-                [*cmd, "--no-trace"],
+                cmd if trace else [*cmd, "--no-trace"],
                 cwd=tree,  # `python -m` imports twolink from here
                 stdout=subprocess.DEVNULL,
                 stderr=err,
@@ -112,6 +113,7 @@ def trial(tree: Path, delay_s: float, fresh_numba: bool, group: bool) -> dict:
     return {
         "tree": str(tree),
         "delay_s": delay_s,
+        "trace": trace,
         "exit": proc.returncode,
         "exit_s": round(exited, 2),
         "all_gone_s": round(gone, 2),
@@ -128,10 +130,14 @@ def main() -> None:
     parser.add_argument("--tree", type=Path, action="append", help="a checkout (default: this)")
     parser.add_argument("--fresh-numba", action="store_true", help="an empty numba cache each")
     parser.add_argument("--group", action="store_true", help="SIGTERM the process group")
+    parser.add_argument("--trace", action="store_true", help="with the recordings")
     args = parser.parse_args()
     for delay_s in (float(d) for d in args.delays.split(",")):
         for tree in args.tree or [REPO]:
-            print(json.dumps(trial(tree, delay_s, args.fresh_numba, args.group)), flush=True)
+            print(
+                json.dumps(trial(tree, delay_s, args.fresh_numba, args.group, args.trace)),
+                flush=True,
+            )
 
 
 if __name__ == "__main__":
