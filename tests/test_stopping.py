@@ -213,9 +213,9 @@ def test_a_signal_while_the_driver_waits_is_acted_on_at_its_next_turn():
 @pytest.mark.slow
 def test_sigterm_ends_reproduce_and_its_workers_at_once_with_one_clean_line(tmp_path, delay):
     # Wherever it lands (imports, the design, the runs, the flexible studies' sweeps in the
-    # workers, numba compiling there: a fresh cache). Before, the studies' workers turned
-    # the abort's SIGTERM into a KeyboardInterrupt: the fork server and its workers then
-    # outlived the command by 10-13 s (3 of 3), and one left an owner record's temporary.
+    # workers, numba compiling there and in the fork server: a fresh cache). Before, the
+    # fork server, still compiling its preloaded kernels, outlived the command by 3-12 s
+    # (every time), and a flexible study's worker could leave an owner record's temporary.
     from twolink.foundation.io import check_ownership
     from twolink.studies.manifest import DEFAULT_MANIFEST
 
