@@ -255,6 +255,17 @@ def start_fork_server(preload: list[str] | None = None) -> None:
                 os.environ[_COMMAND_PID] = previous
 
 
+def prestart_fork_server(preload: list[str] | None = None) -> None:
+    """:func:`start_fork_server` at a command's very start, where it is only a head start:
+    an error there (no usable temporary folder, a full disk) is left for the pool's own
+    start, which meets it after the command has checked its output folder (exit 3,
+    naming what it cannot write)."""
+    try:
+        start_fork_server(preload)
+    except OSError:
+        pass
+
+
 def _fork_server_started() -> bool:
     return getattr(multiprocessing.forkserver._forkserver, "_forkserver_pid", None) is not None
 

@@ -19,7 +19,7 @@ from twolink.foundation.executors import (
     EXECUTORS,
     SWEEP_PRELOAD,
     open_executor,
-    start_fork_server,
+    prestart_fork_server,
 )
 from twolink.foundation.interrupts import (
     CTRL_C_RECEIVED,
@@ -511,7 +511,7 @@ def reproduce(
       twolink reproduce --out /tmp/r --no-trace  # elsewhere, without recordings
     """
     if (workers or os.cpu_count() or 1) > 1:  # the workers' server imports beside us
-        start_fork_server()
+        prestart_fork_server()
     from twolink.simulation.config import ConfigError, parse_set
     from twolink.studies.reproduce import DEFAULT_MANIFEST
     from twolink.studies.reproduce import reproduce as run_reproduction

@@ -47,10 +47,10 @@ def regimes_command(
       twolink regimes                  # ~2-3 min on 2 cores
       twolink regimes -n 300 --out /tmp/regimes   # 10 plants per cell, quicker
     """
-    from twolink.foundation.executors import SWEEP_PRELOAD, open_executor, start_fork_server
+    from twolink.foundation.executors import SWEEP_PRELOAD, open_executor, prestart_fork_server
 
     if backend == "cpu":  # the workers' server imports on another core while we do
-        start_fork_server(SWEEP_PRELOAD)
+        prestart_fork_server(SWEEP_PRELOAD)
     from twolink.foundation.io import atomic_write_text
     from twolink.simulation.config import ConfigError
     from twolink.studies import regimes
