@@ -44,7 +44,7 @@ def regimes_command(
 
     \b
     Examples:
-      twolink regimes                  # ~2-3 min on 2 cores
+      twolink regimes                  # ~1.5 min on 2 cores
       twolink regimes -n 300 --out /tmp/regimes   # 10 plants per cell, quicker
     """
     from twolink.foundation.executors import SWEEP_PRELOAD, open_executor, prestart_fork_server
