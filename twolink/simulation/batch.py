@@ -61,6 +61,31 @@ def model_gravity(gs: Sequence[float]) -> float:
     return max(gs, key=abs, default=0.0)
 
 
+def batch_model(arms: Sequence[Arm], timestep: float, name: str = "twolink_batch"):
+    """One MuJoCo model of ``arms``, ``arm{i}_`` their names' prefixes, under the gravity
+    of :func:`model_gravity` (the batch engine's, and the batch linearisation's)."""
+    g_model = model_gravity([a.params.g for a in arms])
+    spec = new_spec(timestep, g_model, name)
+    for i, a in enumerate(arms):
+        # No geoms (nothing renders a batch) and no actuators (see force_index): each
+        # costs ~5 % of a step.
+        add_arm(
+            spec,
+            a.params,
+            a.flexibility,
+            a.payload,
+            prefix=f"arm{i}_",
+            model_g=g_model,
+            visual=False,
+            motors=False,
+        )
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        why = " ".join(str(exc).split()).removeprefix("Error: ")
+        raise ValueError(f"MuJoCo cannot build this batch of arms: {why}") from None
+
+
 class BatchPlant:
     """N arms in one MuJoCo model. ``q_index``/``v_index``: (N, 2) addresses of each
     arm's link angles in ``qpos``/``qvel``, and ``force_index`` the (N, 2) ``qfrc_applied``
@@ -69,26 +94,7 @@ class BatchPlant:
     def __init__(self, arms: Sequence[Arm], timestep: float = 1e-3) -> None:
         if not arms:
             raise ValueError("a batch needs at least one arm")
-        g_model = model_gravity([a.params.g for a in arms])
-        spec = new_spec(timestep, g_model, "twolink_batch")
-        for i, a in enumerate(arms):
-            # No geoms (nothing renders a batch) and no actuators (see force_index): each
-            # costs ~5 % of a step.
-            add_arm(
-                spec,
-                a.params,
-                a.flexibility,
-                a.payload,
-                prefix=f"arm{i}_",
-                model_g=g_model,
-                visual=False,
-                motors=False,
-            )
-        try:
-            self.model = spec.compile()
-        except ValueError as exc:
-            why = " ".join(str(exc).split()).removeprefix("Error: ")
-            raise ValueError(f"MuJoCo cannot build this batch of arms: {why}") from None
+        self.model = batch_model(arms, timestep)
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
         self.arms = list(arms)

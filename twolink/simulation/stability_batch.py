@@ -262,9 +262,8 @@ class _Model:
     def __init__(self, runs: list[_Run]) -> None:
         import mujoco
 
-        from twolink.arm.plant import add_arm, new_spec
         from twolink.controllers.batch import batch_laws
-        from twolink.simulation.batch import model_gravity
+        from twolink.simulation.batch import batch_model
 
         self.runs = runs
         self.slot = {id(run): k for k, run in enumerate(runs)}
@@ -274,24 +273,7 @@ class _Model:
         self.reps = max(1, min(2 * setup.n + 1, SLOTS // len(runs)))
         slots = [run for run in runs for _ in range(self.reps)]
         arms = [run.arm for run in slots]
-        g_model = model_gravity([a.params.g for a in arms])
-        spec = new_spec(runs[0].scenario.timestep, g_model, "twolink_linearise")
-        for i, a in enumerate(arms):  # as the batch engine builds its arms
-            add_arm(
-                spec,
-                a.params,
-                a.flexibility,
-                a.payload,
-                prefix=f"arm{i}_",
-                model_g=g_model,
-                visual=False,
-                motors=False,
-            )
-        try:
-            self.model = spec.compile()
-        except ValueError as exc:
-            why = " ".join(str(exc).split()).removeprefix("Error: ")
-            raise ValueError(f"MuJoCo cannot build this batch of arms: {why}") from None
+        self.model = batch_model(arms, runs[0].scenario.timestep, "twolink_linearise")
         self.data = mujoco.MjData(self.model)
         joint = mujoco.mjtObj.mjOBJ_JOINT
 
