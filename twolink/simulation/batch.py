@@ -229,15 +229,10 @@ def simulate_batch(
     n_arms = plant.n_arms
     if len(controllers) != n_arms or len(durations) != n_arms:
         raise ValueError(f"need one controller and one duration per arm ({n_arms})")
-    steps = np.array([control_steps(d, control_dt, plant.dt)[0] for d in durations])
-    substeps = control_steps(durations[0], control_dt, plant.dt)[1]
-    n_max = int(steps.max())
-    q0 = np.zeros((n_arms, 2)) if q0 is None else np.asarray(q0, dtype=float)
-    qd0 = np.zeros((n_arms, 2)) if qd0 is None else np.asarray(qd0, dtype=float)
-    noisy = noise is not None and any(n is not None for n in noise)
-    noise_all = _stack_noise(noise, steps, n_max) if noisy else None
-
-    times = np.arange(n_max + 1) * control_dt
+    steps, substeps, times, q0, qd0, noise_all = schedule(
+        n_arms, plant.dt, durations, control_dt, q0, qd0, noise
+    )
+    n_max = len(times) - 1
     for c in controllers:
         c.reset()
     laws = batch_laws(controllers, times)
@@ -343,6 +338,29 @@ def simulate_batch(
         controllers,
         plant.flexible,
     )
+
+
+def schedule(
+    n_arms: int,
+    dt: float,
+    durations: Sequence[float],
+    control_dt: float,
+    q0: np.ndarray | None,
+    qd0: np.ndarray | None,
+    noise: Sequence[np.ndarray | None] | None,
+) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """What a batch run of ``n_arms`` steps through, on either engine: each arm's control
+    periods, the plant steps per period, the control instants of the longest run, the
+    initial states (default zeros) and the noise stacked as (steps + 1, N, 2) (None
+    where no arm has any)."""
+    steps = np.array([control_steps(d, control_dt, dt)[0] for d in durations])
+    substeps = control_steps(durations[0], control_dt, dt)[1]
+    n_max = int(steps.max())
+    q0 = np.zeros((n_arms, 2)) if q0 is None else np.asarray(q0, dtype=float)
+    qd0 = np.zeros((n_arms, 2)) if qd0 is None else np.asarray(qd0, dtype=float)
+    noisy = noise is not None and any(n is not None for n in noise)
+    noise_all = _stack_noise(noise, steps, n_max) if noisy else None
+    return steps, substeps, np.arange(n_max + 1) * control_dt, q0, qd0, noise_all
 
 
 def _stack_noise(noise: Sequence[np.ndarray | None], steps: np.ndarray, n_max: int) -> np.ndarray:

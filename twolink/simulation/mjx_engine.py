@@ -44,7 +44,6 @@ from twolink.simulation.sim import (
     STATUS_DIVERGED,
     STATUS_OK,
     Bounds,
-    control_steps,
     state_message,
     torque_message,
 )
@@ -153,7 +152,7 @@ def prepare_batch_mjx(
     ``finish(run(carry))`` its BatchResult; ``run`` is compiled at its first call (the
     benchmarks time the second). ``models``: the arms' :func:`arm_model`, if at hand."""
     from twolink.controllers.batch import batch_laws, on_namespace
-    from twolink.simulation.batch import _stack_noise
+    from twolink.simulation.batch import schedule
 
     if precision not in PRECISIONS:
         raise ValueError(f"precision must be one of {list(PRECISIONS)}, got {precision!r}")
@@ -167,14 +166,10 @@ def prepare_batch_mjx(
     models = [arm_model(a, timestep) for a in arms] if models is None else models
     first = BatchPlant(arms[:1], timestep)  # a single arm's addresses
     dt = first.dt
-    steps = np.array([control_steps(d, control_dt, dt)[0] for d in durations])
-    substeps = control_steps(durations[0], control_dt, dt)[1]
-    n_max = int(steps.max())
-    q0 = np.zeros((n_arms, 2)) if q0 is None else np.asarray(q0, dtype=float)
-    qd0 = np.zeros((n_arms, 2)) if qd0 is None else np.asarray(qd0, dtype=float)
-    noisy = noise is not None and any(n is not None for n in noise)
-    noise_all = _stack_noise(noise, steps, n_max) if noisy else None
-    times = np.arange(n_max + 1) * control_dt
+    steps, substeps, times, q0, qd0, noise_all = schedule(
+        n_arms, dt, durations, control_dt, q0, qd0, noise
+    )
+    n_max = len(times) - 1
     for c in controllers:
         c.reset()
     laws = []
