@@ -25,6 +25,12 @@ from pathlib import Path
 import numpy as np
 
 from twolink.controllers.fuzzy.engine import MamdaniEngine
+from twolink.controllers.fuzzy.fis_sections import (
+    numbers,
+    read_sections,
+    variable_range,
+    variable_section,
+)
 from twolink.controllers.fuzzy.membership import FuzzyVariable, MembershipFunction
 from twolink.controllers.fuzzy.rulebase import Rule
 
@@ -122,46 +128,15 @@ def write_fis(path: str | Path, engine: MamdaniEngine, name: str = "twolink", sc
 
 # ----------------------------------------------------------------------------- reading
 
-_SECTION = re.compile(r"^\[(\w+)\]$")
 _MF = re.compile(r"^MF(\d+)\s*=\s*'([^']*)'\s*:\s*'(\w+)'\s*,\s*\[([^\]]*)\]$")
 _RULE = re.compile(r"^([-\d\s.]+),([-\d\s.]+)\(([-\d.eE+]+)\)\s*:\s*(\d+)$")
-
-
-def _numbers(text: str, where: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(x) for x in text.replace(",", " ").split())
-    except ValueError:
-        raise ValueError(f"{where}: not a list of numbers: [{text}]") from None
 
 
 def parse_fis(text: str, source: str = "<fis>") -> FisSystem:
     """Read ``.fis`` text (the format, not what twolink can run: see
     :func:`engine_from_fis`). Errors name the source, the section and the line."""
-    sections: dict[str, dict[str, str] | list[str]] = {}
-    current = None
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
-        if not line or line.startswith(("%", "#")):
-            continue
-        if m := _SECTION.match(line):
-            current = m.group(1)
-            sections[current] = [] if current == "Rules" else {}
-            continue
-        if current is None:
-            raise ValueError(f"{source}: line {number}: {line!r} before any [section]")
-        body = sections[current]
-        if isinstance(body, list):
-            body.append(f"{number}\t{line}")
-        elif m := _MF.match(line):
-            body[f"MF{m.group(1)}"] = line
-        else:
-            key, sep, value = line.partition("=")
-            if not sep:
-                raise ValueError(f"{source}: line {number}: expected KEY=VALUE, got {line!r}")
-            body[key.strip()] = value.strip().strip("'")
-    system = sections.get("System")
-    if not isinstance(system, dict):
-        raise ValueError(f"{source}: no [System] section")
+    sections = read_sections(text, source, _MF, trailing_comments=False)
+    system = sections["System"]
 
     def count(key: str) -> int:
         try:
@@ -170,27 +145,21 @@ def parse_fis(text: str, source: str = "<fis>") -> FisSystem:
             raise ValueError(f"{source}: [System] {key}: missing or not an integer") from None
 
     def variable(section: str) -> FisVariable:
-        body = sections.get(section)
-        if not isinstance(body, dict):
-            raise ValueError(f"{source}: no [{section}] section")
-        where = f"{source}: [{section}]"
-        rng = _numbers(body.get("Range", "").strip("[]"), f"{where} Range")
-        if len(rng) != 2 or not rng[0] < rng[1]:
-            raise ValueError(f"{where} Range: need [low high] with low < high")
+        body, where = variable_section(sections, section, source)
+        rng = variable_range(body, where)
         mfs = []
         for n in range(1, int(body.get("NumMFs", "0")) + 1):
             line = body.get(f"MF{n}")
             m = _MF.match(line or "")
             if not m:
                 raise ValueError(f"{where}: MF{n} missing or not 'label':'type',[params]")
-            mfs.append((m.group(2), m.group(3), _numbers(m.group(4), f"{where} MF{n}")))
-        return FisVariable(body.get("Name", section), (rng[0], rng[1]), tuple(mfs))
+            mfs.append((m.group(2), m.group(3), numbers(m.group(4), f"{where} MF{n}")))
+        return FisVariable(body.get("Name", section), rng, tuple(mfs))
 
     inputs = tuple(variable(f"Input{i}") for i in range(1, count("NumInputs") + 1))
     outputs = tuple(variable(f"Output{i}") for i in range(1, count("NumOutputs") + 1))
     rules = []
-    for entry in sections.get("Rules", []):
-        number, line = entry.split("\t", 1)
+    for number, line in sections.get("Rules", []):
         m = _RULE.match(line)
         if not m:
             raise ValueError(f"{source}: line {number}: not a rule 'i j, k (w) : c': {line!r}")

@@ -32,6 +32,13 @@ from pathlib import Path
 
 import numpy as np
 
+from twolink.controllers.fuzzy.fis_sections import (
+    numbers,
+    read_sections,
+    variable_range,
+    variable_section,
+)
+
 __all__ = ["Fis", "FisMF", "FisRule", "FisTerm", "FisVar", "parse_matlab_fis", "read_fis"]
 
 MAX_FIS_BYTES = 1 << 20
@@ -307,16 +314,8 @@ def _sugeno_value(mf: FisMF, x: np.ndarray) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- reading
 
-_SECTION = re.compile(r"^\[(\w+)\]$")
 _MF = re.compile(r"^MF(\d+)\s*=\s*'([^']*)'\s*:\s*'([^']+)'\s*,\s*\[([^\]]*)\]$")
 _RULE = re.compile(r"^([-+\d\s.eE]+),([-+\d\s.eE]+)\(([-+\d.eE]+)\)\s*:\s*([\d.]+)$")
-
-
-def _numbers(text: str, where: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(v) for v in text.replace(",", " ").split())
-    except ValueError:
-        raise ValueError(f"{where}: not a list of numbers: [{text}]") from None
 
 
 def _index(text: str, where: str) -> int:
@@ -328,31 +327,8 @@ def _index(text: str, where: str) -> int:
 
 def parse_matlab_fis(text: str, source: str = "<fis>") -> Fis:
     """A :class:`Fis` from ``.fis`` text; every error is one line naming ``source``."""
-    sections: dict[str, dict[str, str] | list[tuple[int, str]]] = {}
-    current = None
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.split("%", 1)[0].strip() if not raw.lstrip().startswith("MF") else raw.strip()
-        if not line or line.startswith("#"):
-            continue
-        if m := _SECTION.match(line):
-            current = m.group(1)
-            sections[current] = [] if current == "Rules" else {}
-            continue
-        if current is None:
-            raise ValueError(f"{source}: line {number}: {line!r} before any [section]")
-        body = sections[current]
-        if isinstance(body, list):
-            body.append((number, line))
-        elif m := _MF.match(line):
-            body[f"MF{m.group(1)}"] = line
-        else:
-            key, sep, value = line.partition("=")
-            if not sep:
-                raise ValueError(f"{source}: line {number}: expected KEY=VALUE, got {line!r}")
-            body[key.strip()] = value.strip().strip("'")
-    system = sections.get("System")
-    if not isinstance(system, dict):
-        raise ValueError(f"{source}: no [System] section")
+    sections = read_sections(text, source, _MF, trailing_comments=True)
+    system = sections["System"]
     kind = system.get("Type", "mamdani").lower()
     if kind not in ("mamdani", "sugeno"):
         raise ValueError(f"{source}: [System] Type {kind!r}: the Toolbox's are mamdani, sugeno")
@@ -372,20 +348,15 @@ def parse_matlab_fis(text: str, source: str = "<fis>") -> Fis:
             raise ValueError(f"{source}: [System] {key}: missing or not a number") from None
 
     def variable(section: str, output: bool) -> FisVar:
-        body = sections.get(section)
-        if not isinstance(body, dict):
-            raise ValueError(f"{source}: no [{section}] section")
-        where = f"{source}: [{section}]"
-        rng = _numbers(body.get("Range", "").strip("[]"), f"{where} Range")
+        body, where = variable_section(sections, section, source)
         sugeno_out = output and kind == "sugeno"
-        if len(rng) != 2 or not (rng[0] <= rng[1] if sugeno_out else rng[0] < rng[1]):
-            raise ValueError(f"{where} Range: need [low high] with low < high")
+        rng = variable_range(body, where, closed=sugeno_out)
         mfs = []
         for n in range(1, int(float(body.get("NumMFs", "0"))) + 1):
             m = _MF.match(body.get(f"MF{n}", ""))
             if not m:
                 raise ValueError(f"{where}: MF{n} missing or not 'label':'type',[params]")
-            label, mf_kind, params = m.group(2), m.group(3), _numbers(m.group(4), f"{where} MF{n}")
+            label, mf_kind, params = m.group(2), m.group(3), numbers(m.group(4), f"{where} MF{n}")
             if sugeno_out:
                 need = {"constant": 1, "linear": len(sections_inputs) + 1}.get(mf_kind)
                 if need is None:
@@ -406,7 +377,7 @@ def parse_matlab_fis(text: str, source: str = "<fis>") -> Fis:
             params = params[:need]  # old files pad every MF's parameters with zeros
             _check_params(mf_kind, params, f"{where} MF{n}")
             mfs.append(FisMF(label, mf_kind, params))
-        return FisVar(body.get("Name", section), (rng[0], rng[1]), tuple(mfs))
+        return FisVar(body.get("Name", section), rng, tuple(mfs))
 
     sections_inputs = range(count("NumInputs"))
     inputs = tuple(variable(f"Input{i}", False) for i in range(1, count("NumInputs") + 1))

@@ -1,0 +1,81 @@
+"""The text of a MATLAB ``.fis`` file as sections: one reader for both of twolink's
+``.fis`` readers (:mod:`controllers.fuzzy.fis`, the project's own engine, and
+:mod:`controllers.fuzzy.matlab`, any Toolbox system), which differ in what they make of
+the sections, not in how they read them.
+
+A file is ``[Section]`` headers, each followed by ``KEY=VALUE`` lines (quotes around the
+value dropped), membership lines ``MF3='label':'type',[params]`` (kept whole, under
+``MF3``) or, under ``[Rules]``, rule lines (kept whole with their line numbers). Blank
+lines and lines starting with ``%`` or ``#`` are skipped. Errors are one line naming the
+source and the line.
+"""
+
+from __future__ import annotations
+
+import re
+
+Sections = dict[str, dict[str, str] | list[tuple[int, str]]]
+
+_SECTION = re.compile(r"^\[(\w+)\]$")
+
+
+def numbers(text: str, where: str) -> tuple[float, ...]:
+    """The numbers of a ``[...]`` list's inside (spaces or commas between them)."""
+    try:
+        return tuple(float(v) for v in text.replace(",", " ").split())
+    except ValueError:
+        raise ValueError(f"{where}: not a list of numbers: [{text}]") from None
+
+
+def read_sections(
+    text: str, source: str, mf: re.Pattern[str], *, trailing_comments: bool
+) -> Sections:
+    """The sections of ``.fis`` text: ``{"System": {key: value}, "Input1": {...}, ...,
+    "Rules": [(line number, rule line), ...]}``. ``mf`` matches a membership line (its
+    first group the MF's number). With ``trailing_comments``, a ``%`` and what follows it
+    is cut from every line but a membership line (whose label may hold a ``%``). Refuses
+    a line before any section, a line that is none of the above, and a file without a
+    ``[System]`` section."""
+    sections: Sections = {}
+    current = None
+    for number, raw in enumerate(text.splitlines(), start=1):
+        line = raw.strip()
+        if trailing_comments and not line.startswith("MF"):
+            line = line.split("%", 1)[0].strip()
+        if not line or line.startswith(("%", "#")):
+            continue
+        if m := _SECTION.match(line):
+            current = m.group(1)
+            sections[current] = [] if current == "Rules" else {}
+            continue
+        if current is None:
+            raise ValueError(f"{source}: line {number}: {line!r} before any [section]")
+        body = sections[current]
+        if isinstance(body, list):
+            body.append((number, line))
+        elif m := mf.match(line):
+            body[f"MF{m.group(1)}"] = line
+        else:
+            key, sep, value = line.partition("=")
+            if not sep:
+                raise ValueError(f"{source}: line {number}: expected KEY=VALUE, got {line!r}")
+            body[key.strip()] = value.strip().strip("'")
+    if not isinstance(sections.get("System"), dict):
+        raise ValueError(f"{source}: no [System] section")
+    return sections
+
+
+def variable_section(sections: Sections, section: str, source: str) -> tuple[dict, str]:
+    """An ``[InputN]`` / ``[OutputN]`` section's keys and the ``where`` its errors name."""
+    body = sections.get(section)
+    if not isinstance(body, dict):
+        raise ValueError(f"{source}: no [{section}] section")
+    return body, f"{source}: [{section}]"
+
+
+def variable_range(body: dict, where: str, *, closed: bool = False) -> tuple[float, float]:
+    """A variable's ``Range=[low high]``: low < high (low <= high where ``closed``)."""
+    rng = numbers(body.get("Range", "").strip("[]"), f"{where} Range")
+    if len(rng) != 2 or not (rng[0] <= rng[1] if closed else rng[0] < rng[1]):
+        raise ValueError(f"{where} Range: need [low high] with low < high")
+    return rng[0], rng[1]
