@@ -31,13 +31,19 @@ from twolink.foundation.interrupts import (
 )
 from twolink.foundation.io import ForeignOutput, OutputBusy, WriteFailed
 from twolink.foundation.shipped import NotAClone, install_target, locate
-from twolink.interface.cli_output import (
-    done_line,
-    format_metrics,
-    own_output,
+from twolink.interface.cli_options import (
+    backend_option,
+    install_option,
+    no_plots_option,
+    no_trace_option,
+    out_file_option,
+    out_folder_option,
+    samples_option,
+    seed_option,
     set_option,
-    sweep_exits,
+    workers_option,
 )
+from twolink.interface.cli_output import done_line, format_metrics, own_output, sweep_exits
 from twolink.interface.cli_output import fail_input as _fail_input
 
 
@@ -120,21 +126,9 @@ def main() -> None:
 
 
 @main.command(short_help="Check the analytic dynamics against MuJoCo's.")
-@click.option(
-    "-n",
-    "--samples",
-    type=click.IntRange(1, 10**5),  # ~5 ms each (a model built per arm): 10^5 in ~8 min
-    default=1000,
-    show_default=True,
-    help="Random arms and states (at most 10^5).",
-)
-@click.option(
-    "--seed",
-    type=click.IntRange(min=0),
-    default=0,
-    show_default=True,
-    help="Seed of the random draws.",
-)
+# ~5 ms a sample (a model built per arm): 10^5 in ~8 min
+@samples_option("Random arms and states (at most 10^5).", most=10**5, default=1000)
+@seed_option("Seed of the random draws.")
 def validate(samples: int, seed: int) -> None:
     """Check the analytic M, H, G against MuJoCo's own dynamics; exit 1 on any failure.
 
@@ -154,15 +148,10 @@ def validate(samples: int, seed: int) -> None:
 
 @main.command(short_help="Run one scenario file.")
 @click.argument("scenario", type=click.Path(path_type=Path))
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=None,
-    help="Output folder [default: results/<scenario file name without .toml>].",
-)
+@out_folder_option("Output folder [default: results/<scenario file name without .toml>].")
 @set_option("the scenario", "controller.kp=25")
-@click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
-@click.option("--no-trace", is_flag=True, help="Skip the rerun recording (trace.rrd).")
+@no_plots_option()
+@no_trace_option("Skip the rerun recording (trace.rrd).")
 def run(
     scenario: Path, out: Path | None, settings: tuple[str, ...], no_plots: bool, no_trace: bool
 ) -> None:
@@ -257,17 +246,8 @@ def run(
     default=None,
     help="Design file [default: runs/paper/design.toml].",
 )
-@click.option(
-    "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=None,
-    help="Rule-base file to write [default: results/design/rule_base.toml].",
-)
-@click.option(
-    "--install",
-    is_flag=True,
-    help='Write the shipped rule base that `rule_base = "designed"` selects instead.',
-)
+@out_file_option("Rule-base file to write [default: results/design/rule_base.toml].")
+@install_option('Write the shipped rule base that `rule_base = "designed"` selects instead.')
 @click.option(
     "--figure",
     type=click.Path(dir_okay=False, path_type=Path),
@@ -361,24 +341,14 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
 
 @main.command(short_help="Run the gain study and apply its design rule.")
 @click.argument("study_file", required=False, type=click.Path(path_type=Path))
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=Path("results/gains"),
-    show_default=True,
-    help="Folder for the table (gains.csv), its choice (gains.json) and the trade-off figure.",
+@out_folder_option(
+    "Folder for the table (gains.csv), its choice (gains.json) and the trade-off figure.",
+    Path("results/gains"),
 )
-@click.option(
-    "--install",
-    is_flag=True,
-    help="Also write the study's shipped table (runs/paper/gains.csv) that the reproduction reads.",
+@install_option(
+    "Also write the study's shipped table (runs/paper/gains.csv) that the reproduction reads."
 )
-@click.option(
-    "--workers",
-    type=click.IntRange(min=1),
-    default=None,
-    help="Processes [default: all cores].",
-)
+@workers_option()
 @set_option("the study file", "plants=10")
 def gains(study_file: Path | None, out: Path, install: bool, workers: int | None, settings) -> None:
     """Run the gain study (ωn, ζ against error under mismatch, torque and saturation) and
@@ -430,17 +400,12 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
 
 @main.command(short_help="Fit the paper's unstated parameters to its tables.")
 @click.argument("study_file", required=False, type=click.Path(path_type=Path))
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=Path("results/calibrate"),
-    show_default=True,
-    help="Folder for calibrated.toml and the profile figure (calibration_profile.png).",
+@out_folder_option(
+    "Folder for calibrated.toml and the profile figure (calibration_profile.png).",
+    Path("results/calibrate"),
 )
-@click.option(
-    "--install",
-    is_flag=True,
-    help="Also write the shipped result (runs/paper/calibrated.toml) that the report reruns.",
+@install_option(
+    "Also write the shipped result (runs/paper/calibrated.toml) that the report reruns."
 )
 @set_option("the study file", "maxiter=2")
 def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> None:
@@ -477,26 +442,15 @@ def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> No
 
 
 @main.command(short_help="Reproduce the paper's tables and figures.")
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=Path("results/reproduce"),
-    show_default=True,
-    help="Output folder.",
-)
+@out_folder_option("Output folder.", Path("results/reproduce"))
 @click.option(
     "--manifest",
     type=click.Path(path_type=Path),
     default=None,
     help="Reproduction manifest [default: runs/paper/reproduce.toml].",
 )
-@click.option(
-    "--workers",
-    type=click.IntRange(min=1),
-    default=None,
-    help="Processes [default: all cores].",
-)
-@click.option("--no-trace", is_flag=True, help="Skip the rerun recordings.")
+@workers_option()
+@no_trace_option("Skip the rerun recordings.")
 @set_option(
     "every experiment's scenario (a controller's own keys in the manifest win)", "duration=12"
 )
@@ -558,35 +512,22 @@ def reproduce(
     click.echo(done_line())
 
 
-BACKEND_HELP = 'MuJoCo on the CPU (default), or MJX (MuJoCo in JAX; pip install "twolink[mjx]").'
-
-
 @main.command("sweep", short_help="Run a Monte Carlo sweep file.")
 @click.argument("sweep_file", type=click.Path(path_type=Path))
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=None,
-    help="Output folder [default: results/sweeps/<sweep name>].",
-)
+@out_folder_option("Output folder [default: results/sweeps/<sweep name>].")
 @click.option(
     "--executor",
     type=click.Choice(EXECUTORS),
     default=None,
     help="Where samples run [default: the sweep file's, else process].",
 )
-@click.option(
-    "--workers",
-    type=click.IntRange(min=1),
-    default=None,
-    help="Worker processes [default: all cores].",
-)
+@workers_option("Worker processes [default: all cores].")
 @click.option("--scheduler", default=None, help="Dask scheduler address (implies dask).")
-@click.option("-n", "--samples", type=click.IntRange(min=1), default=None, help="Override N.")
+@samples_option("Override N.")
 @click.option("--fresh", is_flag=True, help="Discard chunks already in --out.")
-@click.option("--no-plots", is_flag=True, help="Skip the PNG plots.")
+@no_plots_option()
 @click.option("--progress/--no-progress", default=True, show_default=True)
-@click.option("--backend", type=click.Choice(["cpu", "mjx"]), default="cpu", help=BACKEND_HELP)
+@backend_option('MuJoCo on the CPU (default), or MJX (MuJoCo in JAX; pip install "twolink[mjx]").')
 @click.option("--precision", type=click.Choice(["float64", "float32"]), default="float64",
               help="MJX's floating point (float32: its error in docs/batch.md).")  # fmt: skip
 @set_option("the sweep file", "overrides.duration=3")

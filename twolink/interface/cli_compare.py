@@ -6,7 +6,14 @@ from pathlib import Path
 
 import click
 
-from twolink.interface.cli_output import done_line, fail_input, set_option
+from twolink.interface.cli_options import (
+    no_trace_option,
+    out_folder_option,
+    seed_option,
+    set_option,
+    workers_option,
+)
+from twolink.interface.cli_output import done_line, fail_input
 
 
 @click.command("compare", short_help="Compare two controllers on one scenario.")
@@ -21,20 +28,10 @@ from twolink.interface.cli_output import done_line, fail_input, set_option
     show_default=True,
     help="Plants drawn as the robustness sweep draws them.",
 )
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=None,
-    help="Output folder [default: results/compare/<scenario>_<A>_vs_<B>].",
-)
-@click.option(
-    "--seed", type=click.IntRange(min=0), default=0, show_default=True,
-    help="Seed of the plants' draws (the same seed, the same plants).",
-)  # fmt: skip
-@click.option(
-    "--workers", type=click.IntRange(min=1), default=None, help="Processes [default: all cores]."
-)
-@click.option("--no-trace", is_flag=True, help="Skip the rerun recording (compare.rrd).")
+@out_folder_option("Output folder [default: results/compare/<scenario>_<A>_vs_<B>].")
+@seed_option("Seed of the plants' draws (the same seed, the same plants).")
+@workers_option()
+@no_trace_option("Skip the rerun recording (compare.rrd).")
 @set_option("the scenario, for both controllers", "controller.kp=9")
 def compare_command(
     scenario: str, a: str, b: str, plants: int, out, seed: int, workers, no_trace, settings

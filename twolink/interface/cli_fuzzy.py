@@ -13,6 +13,8 @@ from typing import Any
 
 import click
 
+from twolink.interface.cli_options import out_file_option
+
 # `coverage --grid` at most: 1001 x 1001 points (and the surface check's grid twice as fine)
 # peak at ~0.35 GB and ~35 s on a loaded 2-core machine; 4001 took 14 GB (docs/reliability.md)
 MAX_GRID = 1001
@@ -123,13 +125,7 @@ def write_validity_figure(result: Any, path: Path) -> tuple:
     help="Scenario whose fuzzy scaling (ke, kde, ku) the file carries "
     "[default: runs/paper/base.toml as FCM-CTC].",
 )
-@click.option(
-    "--out",
-    type=click.Path(dir_okay=False, path_type=Path),
-    default=Path("results/fis/rule_base.fis"),
-    show_default=True,
-    help=".fis file to write.",
-)
+@out_file_option(".fis file to write.", Path("results/fis/rule_base.fis"))
 def fis_command(rule_base: str, scenario: Path | None, out: Path) -> None:
     """Write RULE_BASE ("designed", "paper", "default" or a rule-base file) as a MATLAB
     Fuzzy Logic Toolbox .fis file (readfis reads it): Mamdani, the engine's triangular

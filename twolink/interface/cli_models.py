@@ -8,22 +8,14 @@ import click
 
 from twolink.arm.params import ArmParams, Flexibility
 from twolink.foundation.shipped import install_target, models_dir
+from twolink.interface.cli_options import install_option, out_folder_option
 from twolink.interface.cli_output import fail_input as _fail_input
 from twolink.interface.cli_output import own_output
 
 
 @click.command(short_help="Write the arm's MJCF files.")
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=None,
-    help="Folder for the MJCF files [default: results/models].",
-)
-@click.option(
-    "--install",
-    is_flag=True,
-    help="Regenerate the repository's models/ folder instead (a test keeps it in sync).",
-)
+@out_folder_option("Folder for the MJCF files [default: results/models].")
+@install_option("Regenerate the repository's models/ folder instead (a test keeps it in sync).")
 def models(out: Path | None, install: bool) -> None:
     """Write the MJCF files of the default arm (rigid, flexible, scene) from ArmParams.
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from pathlib import Path
 
 import click
@@ -61,17 +61,6 @@ def format_metrics(metrics) -> str:
         cells = [format_value(v[m.key], 4) for v in joints]
         lines.append(f"{m.key:24s} {m.symbol:7s} {cells[0]:>10s} {cells[1]:>10s}")
     return "\n".join(lines)
-
-
-def set_option(what: str, example: str) -> Callable:
-    """--set KEY=VALUE (docs/scenarios.md), with an example valid for its command."""
-    return click.option(
-        "--set",
-        "settings",
-        multiple=True,
-        metavar="KEY=VALUE",
-        help=f"Override a key of {what} (dotted, TOML value; repeatable): --set {example}.",
-    )
 
 
 # Python's start-up and its imports before twolink's take well under this (about 0.1-2 s)

@@ -7,32 +7,25 @@ from pathlib import Path
 import click
 
 from twolink.foundation.shipped import install_target, locate
-from twolink.interface.cli_output import done_line, fail_input, own_output, set_option, sweep_exits
+from twolink.interface.cli_options import (
+    backend_option,
+    install_option,
+    out_folder_option,
+    samples_option,
+    set_option,
+    workers_option,
+)
+from twolink.interface.cli_output import done_line, fail_input, own_output, sweep_exits
 
 
 @click.command("regimes", short_help="Where the FCM term acts, helps and hurts.")
 @click.argument("study_file", required=False, type=click.Path(path_type=Path))
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=Path("results/regimes"),
+@out_folder_option("Output folder.", Path("results/regimes"))
+@samples_option("Plants in all, over every cell [default: the file's, 100 per cell].", most=10**6)
+@workers_option("Processes.")
+@backend_option(
+    'MuJoCo on the CPU, or MJX (MuJoCo in JAX; pip install "twolink[mjx]"), in-process.',
     show_default=True,
-    help="Output folder.",
-)
-@click.option(
-    "-n",
-    "--samples",
-    type=click.IntRange(1, 10**6),
-    default=None,
-    help="Plants in all, over every cell [default: the file's, 100 per cell].",
-)
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes.")
-@click.option(
-    "--backend",
-    type=click.Choice(["cpu", "mjx"]),
-    default="cpu",
-    show_default=True,
-    help='MuJoCo on the CPU, or MJX (MuJoCo in JAX; pip install "twolink[mjx]"), in-process.',
 )
 def regimes_command(
     study_file: Path | None, out: Path, samples: int | None, workers: int | None, backend: str
@@ -85,19 +78,13 @@ def regimes_command(
 
 @click.command("frontier", short_help="The linear frontier and the fair opponent, CTC-best.")
 @click.argument("spec_file", required=False, type=click.Path(path_type=Path))
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=Path("results/frontier"),
-    show_default=True,
-    help="Folder for frontier.csv, frontier.json and frontier.png.",
+@out_folder_option(
+    "Folder for frontier.csv, frontier.json and frontier.png.", Path("results/frontier")
 )
-@click.option(
-    "--install",
-    is_flag=True,
-    help="Also write the shipped table (runs/paper/frontier.csv) that the reproduction reads.",
+@install_option(
+    "Also write the shipped table (runs/paper/frontier.csv) that the reproduction reads."
 )
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes.")
+@workers_option("Processes.")
 def frontier_command(spec_file: Path | None, out: Path, install: bool, workers: int | None) -> None:
     """Run the linear frontier (runs/paper/frontier.toml: CTC over ωn x ζ, and CTC clipped
     at FCM-CTC's peak torques, on training plants of each claims regime) and choose the
@@ -134,19 +121,12 @@ def frontier_command(spec_file: Path | None, out: Path, install: bool, workers: 
 
 @click.command("search", short_help="Search FCM-CTC's rule table at equal effort.")
 @click.argument("spec_file", required=False, type=click.Path(path_type=Path))
-@click.option(
-    "--out",
-    type=click.Path(file_okay=False, path_type=Path),
-    default=Path("results/search"),
-    show_default=True,
-    help="Folder for search.json, heldout.csv and the best tables' rule bases.",
+@out_folder_option(
+    "Folder for search.json, heldout.csv and the best tables' rule bases.",
+    Path("results/search"),
 )
-@click.option(
-    "--install",
-    is_flag=True,
-    help="Also write the shipped result (runs/paper/search/) that the reproduction reads.",
-)
-@click.option("--workers", type=click.IntRange(min=1), default=None, help="Processes.")
+@install_option("Also write the shipped result (runs/paper/search/) that the reproduction reads.")
+@workers_option("Processes.")
 @set_option("the search file", "maxiter=2")
 def search_command(
     spec_file: Path | None, out: Path, install: bool, workers: int | None, settings
