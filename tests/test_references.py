@@ -246,3 +246,39 @@ def test_initial_defaults_to_zero_and_the_rest_is_required():
             make()
     with pytest.raises(ValueError, match=r"missing parameter\(s\) \['final'\]"):
         make_reference("step", initial=0.0)
+
+
+# The moves' values, every path and order, on the grid of ``_times`` (before, during, after
+# and the corners), as SHA-256 of their float64 bytes: pinned from the code before Quintic
+# and Septic shared their fields and held ends (_RestToRest), so that refactor (or any
+# later one) changes no sample by a bit. Only + - * / and comparisons: the same bits on
+# every IEEE platform.
+MOVES = {
+    "quintic-up": Quintic(initial=0.5, final=-1.0, duration=1.7, t0=0.4),
+    "quintic-down": Quintic(initial=1.25, final=-0.3, duration=0.45, t0=-0.2),
+    "septic-up": Septic(initial=0.5, final=-1.0, duration=1.7, t0=0.4),
+    "septic-down": Septic(initial=1.25, final=-0.3, duration=0.45, t0=-0.2),
+}
+MOVE_DIGESTS = {
+    "quintic-up": "707afcb295f9b9841a35a6291cd763bdd4eeb0b0ead2ec9816387f2b1b8afe08",
+    "quintic-down": "5e2be3c737cdf9fb88b29c1f1def5f30ed910ae3313a3ea5bb90163dc52b92ee",
+    "septic-up": "9248c6f7bf85d5ca0cb16d471ab87b8c2c97a7e1a791bcedbb1b5c55166fade9",
+    "septic-down": "8e43d8083885d2c842d545137e778c8296e74a87404be8d4aaf7331297af6fc8",
+}
+
+
+def _move_bytes(ref) -> bytes:
+    t = _times(ref)
+    arrays = [ref.sample(t), np.array([ref(float(ti)) for ti in t])]
+    for n in range(5):
+        arrays.append(ref.sample_derivatives(t, n))
+        arrays.append(np.array([ref.derivatives(float(ti), n) for ti in t]))
+    return b"".join(np.ascontiguousarray(a, dtype="<f8").tobytes() for a in arrays)
+
+
+@pytest.mark.parametrize("name", sorted(MOVES))
+def test_move_samples_are_bit_identical_to_the_pinned_ones(name) -> None:
+    import hashlib
+
+    digest = hashlib.sha256(_move_bytes(MOVES[name])).hexdigest()
+    assert digest == MOVE_DIGESTS[name], f"{name}: a sample changed (not bit-identical)"

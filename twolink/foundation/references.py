@@ -283,14 +283,95 @@ class Sine:
         return np.stack([self.offset + s, c, -w2 * s, -w2 * c, w2 * w2 * s][: n + 1])
 
 
+# The moves' polynomials in s, Horner forms, per unit of move (times ``final - initial``,
+# over ``duration`` to the power of the order): one expression for a float (the scalar
+# path) and an array (the vectorised one), so both round the same way, to the bit.
+
+
+def _quintic_pva(s):
+    """The quintic's position, velocity and acceleration."""
+    return (
+        s * s * s * (10.0 + s * (-15.0 + s * 6.0)),
+        s * s * (30.0 + s * (-60.0 + s * 30.0)),
+        s * (60.0 + s * (-180.0 + s * 120.0)),
+    )
+
+
+def _quintic_jerk_snap(s):
+    """The quintic's jerk and snap."""
+    return 60.0 + s * (-360.0 + s * 360.0), -360.0 + s * 720.0
+
+
+def _septic(s):
+    """The septic's position and its first four derivatives."""
+    s2 = s * s
+    return (
+        s2 * s2 * (35.0 + s * (-84.0 + s * (70.0 - 20.0 * s))),
+        s2 * s * (140.0 + s * (-420.0 + s * (420.0 - 140.0 * s))),
+        s2 * (420.0 + s * (-1680.0 + s * (2100.0 - 840.0 * s))),
+        s * (840.0 + s * (-5040.0 + s * (8400.0 - 4200.0 * s))),
+        840.0 + s * (-10080.0 + s * (25200.0 - 16800.0 * s)),
+    )
+
+
 @dataclass(frozen=True, slots=True)
-class Quintic:
+class _RestToRest:
+    """A move from ``initial`` to ``final`` that starts at ``t0`` and lasts ``duration``,
+    held still before and after: what :class:`Quintic` and :class:`Septic` share (their
+    fields, documented on each, their validation and the held ends). Each gives its
+    polynomial in ``s = (t - t0) / duration`` (in [0, 1) during the move): ``_moving`` for
+    :meth:`derivatives`, and its own vectorised paths.
+    """
+
+    initial: float = 0.0
+    final: float = REQUIRED
+    duration: float = REQUIRED
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        _validate_fields(self, positive=("duration",))
+
+    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
+        """Position and its first ``n`` derivatives (n <= 4) at time ``t``: ``initial``
+        (before ``t0``) or ``final`` (from ``t0 + duration`` on) and zeros outside the
+        move, the polynomial's inside."""
+        _check_order(n)
+        s = (t - self.t0) / self.duration
+        if s < 0.0:
+            return _held(self.initial, n)
+        if s >= 1.0:
+            return _held(self.final, n)
+        return self._moving(t, s, n)
+
+    def _moving(self, t: float, s: float, n: int) -> tuple[float, ...]:
+        """The polynomial's position and first ``n`` derivatives at ``t`` (``s`` in [0, 1))."""
+        raise NotImplementedError
+
+    def _phases(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Vectorised: ``s`` at the times ``t`` and where they fall before, after and
+        during the move."""
+        s = (_as_times(t) - self.t0) / self.duration
+        before = s < 0.0
+        after = s >= 1.0
+        return s, before, after, ~before & ~after
+
+    def _position(self, before: np.ndarray, after: np.ndarray, p: np.ndarray) -> np.ndarray:
+        """Vectorised position: ``initial`` before, ``final`` after, and
+        ``initial + (final - initial) p`` during the move (``p`` the polynomial at ``s``)."""
+        d = self.final - self.initial
+        return np.where(before, self.initial, np.where(after, self.final, self.initial + d * p))
+
+
+@dataclass(frozen=True, slots=True)
+class Quintic(_RestToRest):
     """A smooth point-to-point move: the quintic with zero velocity and acceleration at both ends.
 
     With ``s = (t - t0) / duration`` in [0, 1] the position is
     ``initial + (final - initial) (10 s^3 - 15 s^4 + 6 s^5)`` (the minimum-jerk profile);
     before ``t0`` it holds ``initial`` and after ``t0 + duration`` it holds ``final``.
-    Position, velocity and acceleration are continuous everywhere.
+    Position, velocity and acceleration are continuous everywhere. The jerk jumps at both
+    ends (from 0 to ``60 (final - initial) / duration^3`` at ``t0``, and back at the end):
+    a step that feedback linearisation of a flexible joint cannot follow.
 
     Parameters
     ----------
@@ -304,14 +385,6 @@ class Quintic:
 
     kind: ClassVar[str] = "quintic"
 
-    initial: float = 0.0
-    final: float = REQUIRED
-    duration: float = REQUIRED
-    t0: float = 0.0
-
-    def __post_init__(self) -> None:
-        _validate_fields(self, positive=("duration",))
-
     def __call__(self, t: float) -> tuple[float, float, float]:
         """Return ``(position, velocity, acceleration)`` at time ``t``."""
         s = (t - self.t0) / self.duration
@@ -320,10 +393,7 @@ class Quintic:
         if s >= 1.0:
             return (self.final, 0.0, 0.0)
         d = self.final - self.initial
-        # Horner forms, written identically in sample() so both paths round the same way.
-        p = s * s * s * (10.0 + s * (-15.0 + s * 6.0))
-        v = s * s * (30.0 + s * (-60.0 + s * 30.0))
-        a = s * (60.0 + s * (-180.0 + s * 120.0))
+        p, v, a = _quintic_pva(s)
         return (
             self.initial + d * p,
             d * v / self.duration,
@@ -332,34 +402,19 @@ class Quintic:
 
     def sample(self, t: np.ndarray) -> np.ndarray:
         """Vectorised ``__call__``: rows (position, velocity, acceleration), shape (3, *t.shape)."""
-        s = (_as_times(t) - self.t0) / self.duration
-        before = s < 0.0
-        after = s >= 1.0
-        during = ~before & ~after
+        s, before, after, during = self._phases(t)
         d = self.final - self.initial
-        p = s * s * s * (10.0 + s * (-15.0 + s * 6.0))
-        v = s * s * (30.0 + s * (-60.0 + s * 30.0))
-        a = s * (60.0 + s * (-180.0 + s * 120.0))
+        p, v, a = _quintic_pva(s)
         out = np.zeros((3, *s.shape))
-        out[0] = np.where(before, self.initial, np.where(after, self.final, self.initial + d * p))
+        out[0] = self._position(before, after, p)
         out[1] = np.where(during, d * v / self.duration, 0.0)
         out[2] = np.where(during, d * a / (self.duration * self.duration), 0.0)
         return out
 
-    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
-        """Position and its first ``n`` derivatives at ``t``. The jerk jumps at both ends
-        (from 0 to ``60 (final - initial) / duration^3`` at ``t0``, and back at the end): a
-        step that feedback linearisation of a flexible joint cannot follow."""
-        _check_order(n)
-        s = (t - self.t0) / self.duration
-        if s < 0.0:
-            return _held(self.initial, n)
-        if s >= 1.0:
-            return _held(self.final, n)
+    def _moving(self, t: float, s: float, n: int) -> tuple[float, ...]:
         T = self.duration
         d = self.final - self.initial
-        j = 60.0 + s * (-360.0 + s * 360.0)
-        snap = -360.0 + s * 720.0
+        j, snap = _quintic_jerk_snap(s)
         return (*self(t), d * j / (T * T * T), d * snap / (T * T * T * T))[: n + 1]
 
     def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
@@ -372,14 +427,15 @@ class Quintic:
         out = np.zeros((n + 1, *s.shape))
         out[: min(n + 1, 3)] = self.sample(t)[: n + 1]
         if n >= 3:
-            out[3] = np.where(during, d * (60.0 + s * (-360.0 + s * 360.0)) / (T * T * T), 0.0)
+            j, snap = _quintic_jerk_snap(s)
+            out[3] = np.where(during, d * j / (T * T * T), 0.0)
         if n >= 4:
-            out[4] = np.where(during, d * (-360.0 + s * 720.0) / (T * T * T * T), 0.0)
+            out[4] = np.where(during, d * snap / (T * T * T * T), 0.0)
         return out
 
 
 @dataclass(frozen=True, slots=True)
-class Septic:
+class Septic(_RestToRest):
     """A rest-to-rest move with continuous jerk: the 7th-order polynomial with zero velocity,
     acceleration and jerk at both ends.
 
@@ -403,35 +459,14 @@ class Septic:
 
     kind: ClassVar[str] = "septic"
 
-    initial: float = 0.0
-    final: float = REQUIRED
-    duration: float = REQUIRED
-    t0: float = 0.0
-
-    def __post_init__(self) -> None:
-        _validate_fields(self, positive=("duration",))
-
     def __call__(self, t: float) -> tuple[float, float, float]:
         """Return ``(position, velocity, acceleration)`` at time ``t``."""
         return self.derivatives(t, 2)  # type: ignore[return-value]
 
-    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
-        """Position and its first ``n`` derivatives (n <= 4) at time ``t``."""
-        _check_order(n)
-        s = (t - self.t0) / self.duration
-        if s < 0.0:
-            return _held(self.initial, n)
-        if s >= 1.0:
-            return _held(self.final, n)
+    def _moving(self, t: float, s: float, n: int) -> tuple[float, ...]:
         T = self.duration
         d = self.final - self.initial
-        # Horner forms, written identically in sample_derivatives().
-        s2 = s * s
-        p = s2 * s2 * (35.0 + s * (-84.0 + s * (70.0 - 20.0 * s)))
-        v = s2 * s * (140.0 + s * (-420.0 + s * (420.0 - 140.0 * s)))
-        a = s2 * (420.0 + s * (-1680.0 + s * (2100.0 - 840.0 * s)))
-        j = s * (840.0 + s * (-5040.0 + s * (8400.0 - 4200.0 * s)))
-        snap = 840.0 + s * (-10080.0 + s * (25200.0 - 16800.0 * s))
+        p, v, a, j, snap = _septic(s)
         return (
             self.initial + d * p,
             d * v / T,
@@ -447,24 +482,12 @@ class Septic:
     def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
         """Vectorised :meth:`derivatives`: shape (n + 1, *t.shape)."""
         _check_order(n)
-        s = (_as_times(t) - self.t0) / self.duration
-        before = s < 0.0
-        after = s >= 1.0
-        during = ~before & ~after
+        s, before, after, during = self._phases(t)
         T = self.duration
         d = self.final - self.initial
-        s2 = s * s
-        rows = (
-            s2 * s2 * (35.0 + s * (-84.0 + s * (70.0 - 20.0 * s))),
-            s2 * s * (140.0 + s * (-420.0 + s * (420.0 - 140.0 * s))),
-            s2 * (420.0 + s * (-1680.0 + s * (2100.0 - 840.0 * s))),
-            s * (840.0 + s * (-5040.0 + s * (8400.0 - 4200.0 * s))),
-            840.0 + s * (-10080.0 + s * (25200.0 - 16800.0 * s)),
-        )
+        rows = _septic(s)
         out = np.zeros((n + 1, *s.shape))
-        out[0] = np.where(
-            before, self.initial, np.where(after, self.final, self.initial + d * rows[0])
-        )
+        out[0] = self._position(before, after, rows[0])
         scale = 1.0
         for k in range(1, n + 1):
             scale = scale * T
