@@ -250,16 +250,20 @@ def test_initial_defaults_to_zero_and_the_rest_is_required():
 
 # The moves' values, every path and order, on the grid of ``_times`` (before, during, after
 # and the corners), as SHA-256 of their float64 bytes: pinned from the code before Quintic
-# and Septic shared their fields and held ends (_RestToRest), so that refactor (or any
-# later one) changes no sample by a bit. Only + - * / and comparisons: the same bits on
-# every IEEE platform.
+# and Septic shared their held ends (_RestToRest), and they and Ramp their fields (_Move),
+# so that refactor (or any later one) changes no sample by a bit. Only + - * / and
+# comparisons: the same bits on every IEEE platform.
 MOVES = {
+    "ramp-up": Ramp(initial=-0.4, final=1.1, duration=2.5, t0=0.7),
+    "ramp-down": Ramp(initial=1.0, final=0.25, duration=0.3),
     "quintic-up": Quintic(initial=0.5, final=-1.0, duration=1.7, t0=0.4),
     "quintic-down": Quintic(initial=1.25, final=-0.3, duration=0.45, t0=-0.2),
     "septic-up": Septic(initial=0.5, final=-1.0, duration=1.7, t0=0.4),
     "septic-down": Septic(initial=1.25, final=-0.3, duration=0.45, t0=-0.2),
 }
 MOVE_DIGESTS = {
+    "ramp-up": "418da21c639fe417dca21f6f0b86450f14573dedf0adee0f91182435236fabc9",
+    "ramp-down": "4d2d0c4c24c523e4c7bea38c48ddc17ffce114dbfca9c8b3b4ec006c79433ae0",
     "quintic-up": "707afcb295f9b9841a35a6291cd763bdd4eeb0b0ead2ec9816387f2b1b8afe08",
     "quintic-down": "5e2be3c737cdf9fb88b29c1f1def5f30ed910ae3313a3ea5bb90163dc52b92ee",
     "septic-up": "9248c6f7bf85d5ca0cb16d471ab87b8c2c97a7e1a791bcedbb1b5c55166fade9",

@@ -149,7 +149,22 @@ class Step:
 
 
 @dataclass(frozen=True, slots=True)
-class Ramp:
+class _Move:
+    """A move from ``initial`` to ``final`` that starts at ``t0`` and lasts ``duration``,
+    held still before and after: the fields and validation :class:`Ramp`,
+    :class:`Quintic` and :class:`Septic` share (documented on each)."""
+
+    initial: float = 0.0
+    final: float = REQUIRED
+    duration: float = REQUIRED
+    t0: float = 0.0
+
+    def __post_init__(self) -> None:
+        _validate_fields(self, positive=("duration",))
+
+
+@dataclass(frozen=True, slots=True)
+class Ramp(_Move):
     """The paper's saturating ramp: linear from ``initial`` to ``final`` over ``duration``.
 
     Holds ``initial`` before ``t0``, rises (or falls) linearly during
@@ -168,14 +183,6 @@ class Ramp:
     """
 
     kind: ClassVar[str] = "ramp"
-
-    initial: float = 0.0
-    final: float = REQUIRED
-    duration: float = REQUIRED
-    t0: float = 0.0
-
-    def __post_init__(self) -> None:
-        _validate_fields(self, positive=("duration",))
 
     def __call__(self, t: float) -> tuple[float, float, float]:
         """Return ``(position, velocity, acceleration)`` at time ``t``."""
@@ -315,21 +322,12 @@ def _septic(s):
 
 
 @dataclass(frozen=True, slots=True)
-class _RestToRest:
-    """A move from ``initial`` to ``final`` that starts at ``t0`` and lasts ``duration``,
-    held still before and after: what :class:`Quintic` and :class:`Septic` share (their
-    fields, documented on each, their validation and the held ends). Each gives its
-    polynomial in ``s = (t - t0) / duration`` (in [0, 1) during the move): ``_moving`` for
+class _RestToRest(_Move):
+    """A polynomial move, at rest at both ends: what :class:`Quintic` and :class:`Septic`
+    share beyond a move's fields (the held ends). Each gives its polynomial in
+    ``s = (t - t0) / duration`` (in [0, 1) during the move): ``_moving`` for
     :meth:`derivatives`, and its own vectorised paths.
     """
-
-    initial: float = 0.0
-    final: float = REQUIRED
-    duration: float = REQUIRED
-    t0: float = 0.0
-
-    def __post_init__(self) -> None:
-        _validate_fields(self, positive=("duration",))
 
     def derivatives(self, t: float, n: int) -> tuple[float, ...]:
         """Position and its first ``n`` derivatives (n <= 4) at time ``t``: ``initial``
