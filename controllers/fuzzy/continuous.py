@@ -130,11 +130,7 @@ class ContinuousEngine:
     def evaluate_compiled(self, e: np.ndarray, de: np.ndarray) -> np.ndarray:
         """:meth:`evaluate_floats`' arithmetic compiled (numba, where installed; else
         :meth:`evaluate_batch`): the batch laws' call, equal to both to the bit."""
-        e, de = np.broadcast_arrays(np.asarray(e, dtype=float), np.asarray(de, dtype=float))
-        if not kernels.available():
-            return self.evaluate_batch(e, de)
-        flat = (np.ascontiguousarray(x).ravel() for x in (e, de))
-        return kernels.continuous(self, *flat).reshape(e.shape)
+        return kernels.compiled_or(kernels.continuous, self, self.evaluate_batch, e, de)
 
     def evaluate_xp(self, e: Any, de: Any, xp: Any) -> Any:
         """The output on the array namespace ``xp`` (numpy, or jax.numpy on the

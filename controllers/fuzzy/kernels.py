@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["MIN_INPUTS", "available", "continuous", "mamdani", "table"]
+__all__ = ["MIN_INPUTS", "available", "compiled_or", "continuous", "mamdani", "table"]
 
 # Below this many inputs per call the pure-Python paths are as fast (measured on the 2-core
 # machine, the designed rule base, per call: 2 inputs 3.6 µs pure Python against 4.7 µs
@@ -214,6 +214,17 @@ def warm() -> None:
     kernel["mamdani"](f, f, f, f, f, f, cells, counts, True, 0.0, f)
     kernel["table"](f, f, frozen, 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, f)
     kernel["continuous"](f, f, f, f, frozen, f)
+
+
+def compiled_or(kernel: Any, owner: Any, fallback: Any, e: Any, d: Any) -> np.ndarray:
+    """``kernel(owner, e, d)`` on the inputs broadcast together and flattened (contiguous),
+    in their shape; ``fallback(e, d)`` where the kernels cannot be used: the engines'
+    ``evaluate_compiled``."""
+    e, d = np.broadcast_arrays(np.asarray(e, dtype=float), np.asarray(d, dtype=float))
+    if not available():
+        return fallback(e, d)
+    flat = (np.ascontiguousarray(x).ravel() for x in (e, d))
+    return kernel(owner, *flat).reshape(e.shape)
 
 
 def _no_nan(e: np.ndarray, d: np.ndarray) -> None:
