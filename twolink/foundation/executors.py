@@ -101,6 +101,10 @@ class InProcessExecutor(SweepExecutor):
         self._shutdown = True
 
 
+# The measuring's scipy modules (find_peaks, curve_fit: imported where first used, so a
+# command that only plans never pays them) and the compiled fuzzy kernels, loaded by the
+# fork server once, not in each worker's first chunk (~0.8 s and ~0.3 s).
+_MEASURING = ["scipy.signal", "scipy.optimize", "twolink.controllers.fuzzy.kernels_loaded"]
 # What a worker needs, imported once by the fork server (an import that fails is skipped
 # there and happens in the worker, as with spawn).
 WORKER_PRELOAD = [
@@ -110,21 +114,17 @@ WORKER_PRELOAD = [
     "twolink.figures.plots",
     "twolink.tracing",
     "twolink.controllers.batch",
+    *_MEASURING,
 ]
 # What a sweep's worker needs (run_chunk: the batch engine and the measuring), for the
 # commands whose workers only run sweeps (sweep, regimes, gains): the fork server starts
 # in a third of the time without the figures, the tracing (rerun) and the reproduction.
-# The measuring's scipy modules (find_peaks, curve_fit: imported where first used, so a
-# command that only plans never pays them) and the compiled fuzzy kernels are loaded here
-# once, not in each worker's first chunk (~0.8 s and ~0.3 s).
-_MEASURING = ["scipy.signal", "scipy.optimize", "twolink.controllers.fuzzy.kernels_loaded"]
 SWEEP_PRELOAD = [
     "twolink.simulation.experiment",
     "twolink.sweep",
     "twolink.controllers.batch",
     *_MEASURING,
 ]
-WORKER_PRELOAD += _MEASURING
 # Imported first by every fork server: it ends with the command, also while it imports.
 SERVER_WATCH = "twolink.foundation.server_watch"
 _COMMAND_PID = "TWOLINK_FORK_SERVER_COMMAND"  # server_watch.COMMAND_PID (not imported here)

@@ -583,7 +583,6 @@ def _drive(
     one chunk on a pool (the unit of resuming and of spreading over workers); in-process,
     as many chunks as the executor has threads, stepped at once. The sweeps' tasks queue
     one sweep after the other, in one window."""
-    group = ex.workers if ex.name == "inprocess" else 1
     missing = sum(len(job.missing) for job in jobs)
     # fewer chunks than workers (of all the sweeps): each chunk in parts, a worker each
     split = ex.name != "inprocess" and backend == "cpu" and missing < ex.workers
@@ -593,6 +592,8 @@ def _drive(
         job.parts = dict.fromkeys(job.missing, 1)
         if backend != "cpu":  # every chunk of a sweep in one batch (run_chunks)
             group = len(job.missing)
+        else:
+            group = ex.workers if ex.name == "inprocess" else 1
         if not split:
             tasks += [
                 (job, (run_chunks, plan, job.missing[i : i + group], group, backend))
