@@ -1,6 +1,6 @@
 """The regime map's statistics, per table as before (``claims_before.py``: one
 ``paired_claims`` per cell, proposed and opponent, pandas indexing per table) against all
-tables at once (``twolink.studies.regimes.regime_table`` on ``paired_claims_many``), in
+tables at once (``twolink.studies.judgments.regimes.regime_table`` on ``paired_claims_many``), in
 the same run, on a regime-map-sized input: 2 regimes x 30 cells x 100 plants x 4
 controllers, 240 tables of 10 rows (issue 41). Checks that both give the same numbers to
 the digit, then prints the times and their ratio old/new.
@@ -19,7 +19,13 @@ import claims_before  # this folder is on the path when run as a script
 import numpy as np
 import pandas as pd
 
-from twolink.studies.regimes import CELL, OPPONENTS, PROPOSED, REGIME_METRICS, regime_table
+from twolink.studies.judgments.regimes import (
+    CELL,
+    OPPONENTS,
+    PROPOSED,
+    REGIME_METRICS,
+    regime_table,
+)
 
 NUMBERS = ["n", "better", "worse", "equal", "tolerance", "proposed_median", "baseline_median",
            "estimate", "ci_low", "ci_high", "p_value", "tost_p", "p_adjusted",

@@ -2,7 +2,7 @@
 
 Both laws close the single-arm loop (:func:`twolink.simulation.experiment.run_scenario`) on
 the realistic joints with the model error, behind 17-bit encoders with the differenced rate
-(``twolink.studies.flexible_limits``' cell), 3 s at 1 kHz; the time per control step of
+(``twolink.studies.judgments.flexible_limits``' cell), 3 s at 1 kHz; the time per control step of
 each (best of the repeats, the two interleaved in one process) and their ratio. Absolute
 times are noisy on shared machines, so the ratio is the claim.
 
@@ -14,7 +14,7 @@ from __future__ import annotations
 import time
 
 from twolink.simulation.experiment import build_controller, run_scenario
-from twolink.studies.flexible_limits import scenario
+from twolink.studies.judgments.flexible_limits import scenario
 
 REPEATS = 7
 LAWS = ("flexible_fl_integral", "flexible_fl_kalman")

@@ -35,7 +35,7 @@ import bench_batch  # noqa: E402
 from twolink.simulation import experiment as ex
 from twolink.simulation.stability import linearise
 from twolink.simulation.stability_batch import linearise_many
-from twolink.studies.regimes import DEFAULT_STUDY
+from twolink.studies.judgments.regimes import DEFAULT_STUDY
 from twolink.sweep import chunks, load_sweep
 
 

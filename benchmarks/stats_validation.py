@@ -1,4 +1,5 @@
-"""Simulated operating characteristics of twolink.studies.claims (docs/statistics.md): the type I
+"""Simulated operating characteristics of twolink.studies.judgments.claims (docs/statistics.md):
+the type I
 error of the paired sign test and of the equivalence test (TOST) under their nulls, their
 power under known shifts, and the Hodges-Lehmann interval's coverage, on paired
 differences drawn as the sweeps produce them (continuous, heavy-tailed, zero-inflated);
@@ -14,7 +15,13 @@ import argparse
 
 import numpy as np
 
-from twolink.studies.claims import _sign_p, _tost_p, count_wins, hodges_lehmann, judge_rows
+from twolink.studies.judgments.claims import (
+    _sign_p,
+    _tost_p,
+    count_wins,
+    hodges_lehmann,
+    judge_rows,
+)
 
 DRAWS = {
     "normal": lambda rng, n: rng.normal(0.0, 1.0, n),

@@ -169,7 +169,7 @@ class FuzzyComputedTorque(ComputedTorque):
         (14.86, 0.991, 15.14, 5)
         """
         from twolink.controllers.fuzzy.continuous import ContinuousEngine
-        from twolink.controllers.fuzzy.matlab import rule_base_engine
+        from twolink.controllers.fuzzy.fis.matlab import rule_base_engine
         from twolink.controllers.fuzzy.rulebase import resolve_rule_base
 
         if inference not in ("mamdani", "continuous"):

@@ -1,4 +1,5 @@
-"""FCM-CTC with its rule table as data, for a search over tables (twolink/studies/search.py).
+"""FCM-CTC with its rule table as data, for a search over tables
+(twolink/studies/designs/search.py).
 
 A table is a 7 x 7 integer array on the designs' partition (rows: e's labels NB..PB, columns:
 ė's): the consequent label's index 0..6 where a rule is, -1 where none is. The scalar law is

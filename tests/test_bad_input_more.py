@@ -1429,10 +1429,10 @@ def test_each_commands_set_example_is_valid_for_it_and_reproduce_keeps_controlle
 
     from twolink.interface.cli import main
     from twolink.simulation.config import load_scenario, parse_set
-    from twolink.studies.calibrate import load_calibration
-    from twolink.studies.gains import load_gain_study
-    from twolink.studies.manifest import load_manifest
-    from twolink.studies.reproduce import plan
+    from twolink.studies.designs.calibrate import load_calibration
+    from twolink.studies.designs.gains import load_gain_study
+    from twolink.studies.reproduction.manifest import load_manifest
+    from twolink.studies.reproduction.reproduce import plan
     from twolink.sweep import load_sweep
 
     repo = Path(__file__).resolve().parents[1]

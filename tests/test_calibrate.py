@@ -10,8 +10,8 @@ import pytest
 from click.testing import CliRunner
 
 from twolink.interface.cli import main
-from twolink.studies import calibrate as cal
-from twolink.studies import calibration_report as cr
+from twolink.studies.designs import calibrate as cal
+from twolink.studies.designs import calibration_report as cr
 
 TINY = ["--set", "maxiter=1", "--set", "popsize=2", "--set", "profile_points=2"]
 TINY += ["--set", "refine_rounds=1", "--set", "starts=1"]

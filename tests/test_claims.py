@@ -9,7 +9,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from twolink.studies.claims import (
+from twolink.studies.judgments.claims import (
     _sign_p,
     _tost_p,
     count_wins,

@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 from scipy import stats
 
-from twolink.studies.claims import (
+from twolink.studies.judgments.claims import (
     MIN_SHARE,
     count_wins,
     paired_claims,
@@ -210,7 +210,7 @@ def test_all_tables_at_once_equal_the_statistics_of_before_to_the_digit():
 
 
 def test_the_sign_test_of_arrays_is_binomtest_to_the_bit():
-    from twolink.studies.claims import _sign_ps
+    from twolink.studies.judgments.claims import _sign_ps
 
     pairs = [(k, n) for n in range(1, 61) for k in range(n + 1)]
     pairs += [(k, 200) for k in range(0, 201, 7)] + [(0, 0)]

@@ -210,7 +210,7 @@ def test_a_results_folder_can_move_with_its_rule_base(tmp_path):
 
     from twolink.simulation.config import RULEBASE_DIR
     from twolink.simulation.experiment import build_controller, measure, run_scenario
-    from twolink.studies.run_folder import write_run
+    from twolink.studies.reproduction.run_folder import write_run
 
     project = tmp_path / "a"
     project.mkdir()

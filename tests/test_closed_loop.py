@@ -17,7 +17,7 @@ from twolink.interface.cli import main
 from twolink.simulation.config import ConfigError, load_scenario
 from twolink.simulation.experiment import build_controller, measure, run_scenario
 from twolink.simulation.sim import Trajectory, simulate
-from twolink.studies.run_folder import write_run
+from twolink.studies.reproduction.run_folder import write_run
 
 RUNS = Path(__file__).resolve().parents[1] / "runs"
 KP, KD = 4.0, 2.4

@@ -217,19 +217,24 @@ def test_the_controllers_install_as_twolink_controllers_not_a_top_level_module(t
     }
 
 
-def test_the_flat_module_names_import_the_modules_of_their_layers():
+def test_the_old_module_names_import_the_modules_they_became():
     # DESIGN.md's contract names (twolink.params, twolink.dynamics, twolink.plant,
-    # twolink.metrics) and every other flat name: the same module object, its own spec
+    # twolink.metrics), the flat studies (twolink.studies.claims) and the .fis modules
+    # (twolink.controllers.fuzzy.matlab): the same module object, its own spec
     import importlib
     import pickle
 
     import twolink
+    from twolink import aliases
 
-    assert len(twolink._FLAT_NAMES) == 35  # all but reproduce, a public function's name
-    for flat, layered in twolink._FLAT_NAMES.items():
-        module = importlib.import_module(flat)
-        assert module is importlib.import_module(layered), flat
-        assert module.__name__ == module.__spec__.name == layered
+    assert "twolink.studies.claims" in aliases.ALIASES
+    assert aliases.ALIASES["twolink.params"] == "twolink.arm.params"
+    assert "twolink.reproduce" not in aliases.ALIASES  # a public function's name
+    for old, new in aliases.ALIASES.items():
+        module = importlib.import_module(old)
+        assert module is importlib.import_module(new), old
+        assert module.__name__ == module.__spec__.name == new
+        assert importlib.util.find_spec(new) is not None  # no alias of a missing module
     from twolink.dynamics import mass_matrix
     from twolink.params import ArmParams
 
@@ -237,6 +242,30 @@ def test_the_flat_module_names_import_the_modules_of_their_layers():
     assert pickle.loads(pickle.dumps(ArmParams(m1=2.0))) == ArmParams(m1=2.0)
     with pytest.raises(ModuleNotFoundError):
         importlib.import_module("twolink.no_such_module")
-    from twolink.studies.reproduce import reproduce
+    from twolink.studies.reproduction.reproduce import reproduce
 
     assert twolink.reproduce is reproduce  # not shadowed by a module of that name
+
+
+MAX_MODULES_PER_FOLDER = 15  # a reader takes in a folder's names at a glance
+
+
+def test_no_folder_holds_more_than_15_modules_directly():
+    folders: dict[Path, int] = {}
+    for path in module_files().values():
+        if path.name != "__init__.py":
+            folders[path.parent] = folders.get(path.parent, 0) + 1
+    crowded = {str(f.relative_to(REPO)): n for f, n in folders.items() if n > 15}
+    assert not crowded, crowded
+
+
+def test_every_stage_of_the_studies_is_a_package_with_a_one_line_docstring():
+    import ast as _ast
+
+    studies = REPO / "twolink" / "studies"
+    stages = sorted(p for p in studies.iterdir() if (p / "__init__.py").exists())
+    assert [p.name for p in stages] == ["designs", "judgments", "reproduction"]
+    assert not [p.name for p in studies.glob("*.py") if p.name != "__init__.py"]
+    for stage in stages:
+        doc = _ast.get_docstring(_ast.parse((stage / "__init__.py").read_text()))
+        assert doc and "\n" not in doc.strip(), stage

@@ -10,7 +10,7 @@ from clone_guard import clone_files, written
 import twolink
 from twolink.interface.cli import main
 from twolink.simulation.config import ConfigError
-from twolink.studies.claims import paired_claims
+from twolink.studies.judgments.claims import paired_claims
 
 SHORT = {"duration": 1.5}
 

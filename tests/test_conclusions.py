@@ -1,4 +1,5 @@
-"""The report's conclusions in sentences (twolink/studies/conclusions.py), written from the
+"""The report's conclusions in sentences (twolink/studies/judgments/conclusions.py), written from
+the
 tables and checked against them on synthetic studies whose answer is known: the limit
 cycle said with its count, an opponent that is another said once, any opponent's name,
 integral action beating both, the flexible line naming every loop, at most 8."""
@@ -9,8 +10,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from twolink.studies.claims import CLAIM_METRICS, paired_claims, paired_claims_many
-from twolink.studies.conclusions import (
+from twolink.studies.judgments.claims import CLAIM_METRICS, paired_claims, paired_claims_many
+from twolink.studies.judgments.conclusions import (
     MOST,
     ClaimsStudy,
     limit_cycle_sentence,
@@ -18,7 +19,7 @@ from twolink.studies.conclusions import (
     study_sentence,
     variant_sentence,
 )
-from twolink.studies.report import WINNER_METRICS
+from twolink.studies.reproduction.report import WINNER_METRICS
 
 METRICS = list(dict.fromkeys([*CLAIM_METRICS, *WINNER_METRICS]))
 
@@ -163,7 +164,7 @@ def _search_item(regime, inference, v1, v2, b1=0, w1=0, b2=0, w2=0, est=(0.0, 0.
 
 
 def test_the_search_sentence_answers_yes_only_where_every_regime_is_better_and_none_worse():
-    from twolink.studies.conclusions import search_sentence
+    from twolink.studies.judgments.conclusions import search_sentence
 
     assert search_sentence([]) is None
     better = _search_item("raw", "mamdani", "better", "equivalent", b1=150, est=(-0.1, 0.0))

@@ -13,7 +13,7 @@ from twolink.controllers.fuzzy import default_fuzzy_pd
 from twolink.controllers.fuzzy.continuous import ContinuousEngine, lipschitz_bound
 from twolink.controllers.fuzzy.coverage import surface_jumps
 from twolink.controllers.fuzzy.engine import MamdaniEngine
-from twolink.controllers.fuzzy.fis import read_rule_base
+from twolink.controllers.fuzzy.fis.engine_files import read_rule_base
 from twolink.simulation.config import ConfigError, load_scenario, resolve_rule_base
 from twolink.simulation.experiment import build_controller
 

@@ -9,14 +9,14 @@ from twolink.controllers.fuzzy import Rule, fired_rule_labels, load_rule_base
 from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
 from twolink.simulation.config import RULEBASE_DIR, ConfigError, load_scenario
 from twolink.simulation.experiment import build_controller, run_scenario
-from twolink.studies.design import (
+from twolink.studies.designs.design import (
     DEFAULT_DESIGN,
     design,
     design_or_load,
     load_design_config,
     save_design,
 )
-from twolink.studies.design_checks import mirror_rule
+from twolink.studies.designs.design_checks import mirror_rule
 
 PAPER = Path(__file__).resolve().parents[1] / "runs" / "paper"
 

@@ -24,7 +24,7 @@ from twolink.simulation.config import (
 )
 from twolink.simulation.experiment import build_controller, run_scenario
 from twolink.simulation.metrics import error_measures, step_metrics
-from twolink.studies.design import (
+from twolink.studies.designs.design import (
     DEFAULT_DESIGN,
     DOCS,
     QUADRANTS,
@@ -35,8 +35,13 @@ from twolink.studies.design import (
     sample_weights,
     save_design,
 )
-from twolink.studies.design_checks import check_symmetry, mirror_rule, validation_rows, with_mirrors
-from twolink.studies.manifest import load_manifest
+from twolink.studies.designs.design_checks import (
+    check_symmetry,
+    mirror_rule,
+    validation_rows,
+    with_mirrors,
+)
+from twolink.studies.reproduction.manifest import load_manifest
 
 PAPER = Path(__file__).resolve().parents[1] / "runs" / "paper"
 

@@ -51,8 +51,8 @@ def test_reproduction_doc_gives_the_shipped_gains_and_fuzzy_scaling():
 def test_the_readme_counts_the_reproductions_runs_from_its_manifest():
     """The README's "210 runs (10 × 7 × 3)" is the shipped manifest's plan (it said 180
     after a controller was added), and names every controller the runs have."""
-    from twolink.studies.manifest import load_manifest
-    from twolink.studies.reproduce import plan
+    from twolink.studies.reproduction.manifest import load_manifest
+    from twolink.studies.reproduction.reproduce import plan
 
     m = load_manifest()
     n = (len(m.experiments), len(m.controllers), len(m.variants))

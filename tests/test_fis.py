@@ -10,7 +10,12 @@ import pytest
 from click.testing import CliRunner
 
 from twolink.controllers.fuzzy import default_fuzzy_pd
-from twolink.controllers.fuzzy.fis import engine_from_fis, parse_fis, read_rule_base, to_fis
+from twolink.controllers.fuzzy.fis.engine_files import (
+    engine_from_fis,
+    parse_fis,
+    read_rule_base,
+    to_fis,
+)
 from twolink.interface.cli import main
 from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import build_controller

@@ -30,7 +30,7 @@ from twolink.controllers.flexible_observed import (
     _joint_model,
 )
 from twolink.simulation.experiment import build_controller, run_scenario
-from twolink.studies.flexible_limits import LIMIT, TORQUE_STEP_BOUND, run_cell, scenario
+from twolink.studies.judgments.flexible_limits import LIMIT, TORQUE_STEP_BOUND, run_cell, scenario
 
 BOUND = {"realistic": 5e-3, "soft": 10e-3}
 

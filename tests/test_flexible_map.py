@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from twolink import sweep as sw
-from twolink.studies.reproduce import flexible_study
+from twolink.studies.reproduction.reproduce import flexible_study
 
 REPO = Path(__file__).resolve().parents[1]
 MAP = REPO / "runs" / "sweeps" / "flexible_map.toml"

@@ -1,4 +1,4 @@
-"""The linear frontier (twolink.studies.frontier): its rule, a small run of it on real
+"""The linear frontier (twolink.studies.designs.frontier): its rule, a small run of it on real
 plants, and that the shipped frontier is current and wired into the claims studies as the
 fair opponent, CTC-best."""
 
@@ -8,8 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from twolink.studies import frontier
-from twolink.studies.manifest import DEFAULT_MANIFEST
+from twolink.studies.designs import frontier
+from twolink.studies.reproduction.manifest import DEFAULT_MANIFEST
 
 
 def _table(rows):
@@ -100,8 +100,8 @@ def test_shipped_frontier_is_current_and_its_opponents_follow_the_rule():
 
 
 def test_the_claims_studies_judge_fcm_ctc_against_the_shipped_opponent():
-    from twolink.studies.claims_studies import fair_opponent, regime_plan
-    from twolink.studies.manifest import load_manifest
+    from twolink.studies.judgments.claims_studies import fair_opponent, regime_plan
+    from twolink.studies.reproduction.manifest import load_manifest
 
     manifest = load_manifest()
     _, chosen = frontier.load_frontier(frontier.load_spec())

@@ -1,4 +1,5 @@
-"""The gain study (twolink.studies.gains): its rule, its physics against closed forms, and that the
+"""The gain study (twolink.studies.designs.gains): its rule, its physics against closed forms, and
+that the
 shipped table and the gains in use are what the study and its rule give."""
 
 from __future__ import annotations
@@ -13,7 +14,7 @@ import pytest
 from twolink.arm.dynamics import gravity, mass_matrix
 from twolink.arm.params import ArmParams
 from twolink.simulation.config import ConfigError, load_scenario
-from twolink.studies import gains
+from twolink.studies.designs import gains
 from twolink.sweep import load_sweep
 
 SMALL = {"plants": 3, "natural_frequencies": [2.0, 15.0], "damping_ratios": [1.0]}

@@ -1,11 +1,12 @@
-"""The README's figure (twolink.studies.hero): the experiment where the pair differ most."""
+"""The README's figure (twolink.studies.reproduction.hero): the experiment where the pair differ
+most."""
 
 from types import SimpleNamespace
 
 import numpy as np
 
 from twolink.simulation.sim import Trajectory
-from twolink.studies.hero import hero, pair_gap
+from twolink.studies.reproduction.hero import hero, pair_gap
 
 
 def trajectory(q1: np.ndarray, n: int | None = None) -> Trajectory:

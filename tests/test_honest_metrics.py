@@ -220,7 +220,7 @@ def test_the_batch_path_gives_the_single_arm_paths_new_metrics() -> None:
 
 
 def test_the_new_keys_are_in_the_vocabulary_and_not_among_the_papers_symbols() -> None:
-    from twolink.studies.manifest import PAPER_SYMBOLS
+    from twolink.studies.reproduction.manifest import PAPER_SYMBOLS
     from twolink.sweep import METRIC_COLUMNS
 
     keys = [m.key for m in METRICS]
@@ -244,8 +244,8 @@ def report_rows():
     quintic experiment of θ1 (θ2 held), two controllers each, with paper values for one."""
     from pathlib import Path
 
-    from twolink.studies.manifest import Experiment, Variant
-    from twolink.studies.reproduce import RunSpec, _row
+    from twolink.studies.reproduction.manifest import Experiment, Variant
+    from twolink.studies.reproduction.reproduce import RunSpec, _row
 
     paper = {"CTC": {"Tp": 5.89, "Ts": 12.3, "Mp": 0.655}}
     exps = {
@@ -268,7 +268,7 @@ def report_rows():
 
 
 def test_every_experiment_table_shows_the_held_joint(report_rows) -> None:
-    from twolink.studies.report import CLAIMED_BETTER, experiment_table
+    from twolink.studies.reproduction.report import CLAIMED_BETTER, experiment_table
 
     variant, exps, controllers, rows = report_rows
     for key, kind in (("table2", "step"), ("table3", "ramp"), ("figure6", "quintic")):

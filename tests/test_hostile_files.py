@@ -233,7 +233,7 @@ def test_a_hostile_fis_file_in_coverage_fis_and_run(tmp_path, damage):
         f'[controller]\nkind = "fcm_ctc"\nrule_base = "{bad.as_posix()}"\n'
     )
     # coverage and run evaluate any MATLAB FIS with its own methods
-    # (controllers/fuzzy/matlab.py): there prod and mom are used, not ignored; `fis` takes
+    # (controllers/fuzzy/fis/matlab.py): there prod and mom are used, not ignored; `fis` takes
     # a rule base's rules only, and a method that would be ignored is refused
     used = damage in ("and-prod", "defuzz-mom")
     ends_well(invoke("coverage", bad), refused=not used)

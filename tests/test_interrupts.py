@@ -243,7 +243,7 @@ def test_ctrl_c_that_a_library_swallows_stops_the_reproduction_at_its_next_phase
     code = """
 import os, signal
 from twolink.interface.cli import main
-from twolink.studies.reproduce import _Phases
+from twolink.studies.reproduction.reproduce import _Phases
 
 @main.command()
 def swallowed():

@@ -122,7 +122,7 @@ def test_the_fcm_constructor_is_the_reproductions_fcm_ctc():
 def test_design_and_reproduce_are_one_call(tmp_path):
     designed = twolink.design_rule_base()
     assert designed.rules == twolink.load_rule_base("designed").rules  # the shipped design
-    from twolink.studies.reproduce import reproduce
+    from twolink.studies.reproduction.reproduce import reproduce
 
     assert twolink.reproduce is reproduce  # run end to end by tests/test_reproduce.py
 

@@ -7,8 +7,8 @@ import pytest
 
 from twolink.simulation.config import ConfigError
 from twolink.simulation.vocabulary import METRICS
-from twolink.studies import report
-from twolink.studies.manifest import DEFAULT_MANIFEST, load_manifest
+from twolink.studies.reproduction import report
+from twolink.studies.reproduction.manifest import DEFAULT_MANIFEST, load_manifest
 
 PAPER = DEFAULT_MANIFEST.parent
 
@@ -132,7 +132,7 @@ def test_claims_count_the_proposed_controller_against_the_baseline(tmp_path):
 
 
 def test_a_claim_is_not_won_by_rounding():
-    from twolink.studies.claims import count_wins
+    from twolink.studies.judgments.claims import count_wins
 
     assert count_wins([3.0e-15], [3.1e-15], 1e-3) == (0, 0, 1)  # both at rounding: a tie
     assert count_wins([0.001], [0.002], 1e-4) == (1, 0, 0)

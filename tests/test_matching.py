@@ -1,4 +1,4 @@
-"""The fair linear opponent's rule (twolink/studies/matching.py): the largest ωn scale at
+"""The fair linear opponent's rule (twolink/studies/designs/matching.py): the largest ωn scale at
 which CTC's peak torque stays within the proposed controller's, on synthetic peaks with a
 known answer (the shipped claims studies' matches: tests/test_reproduce.py)."""
 
@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twolink.studies.matching import SCALES, choose_scale
+from twolink.studies.designs.matching import SCALES, choose_scale
 
 NO_LIMIT = np.array([np.inf, np.inf])
 

@@ -16,7 +16,7 @@ import skfuzzy
 from scipy import integrate, optimize
 
 import twolink
-from twolink.controllers.fuzzy.matlab import parse_matlab_fis, read_fis
+from twolink.controllers.fuzzy.fis.matlab import parse_matlab_fis, read_fis
 
 DATA = Path(__file__).parent / "data" / "fis"
 FILES = sorted(p.name for p in DATA.glob("*.fis"))
@@ -417,7 +417,7 @@ def test_membership_functions_equal_scikit_fuzzy():
 
 
 def test_the_sampled_mean_of_maximum_equals_scikit_fuzzys_on_the_same_grid():
-    from twolink.controllers.fuzzy.matlab_exact import aggregate
+    from twolink.controllers.fuzzy.fis.exact import aggregate
 
     fis = read_fis(DATA / "linear_mom.fis")
     x = grid(fis, 9)

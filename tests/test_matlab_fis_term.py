@@ -11,8 +11,8 @@ import pytest
 
 from twolink import ArmParams, ArmReference, FuzzyComputedTorque, Step
 from twolink.controllers.fuzzy.engine import MamdaniEngine
-from twolink.controllers.fuzzy.fis import to_fis
-from twolink.controllers.fuzzy.matlab import FisTerm, parse_matlab_fis, read_fis
+from twolink.controllers.fuzzy.fis.engine_files import to_fis
+from twolink.controllers.fuzzy.fis.matlab import FisTerm, parse_matlab_fis, read_fis
 from twolink.controllers.fuzzy.table import FuzzyTable, table_bound
 from twolink.simulation.config import ConfigError, load_scenario
 from twolink.simulation.experiment import build_controller, run_scenario, trace_extras
@@ -168,7 +168,7 @@ def test_coverage_of_a_matlab_fis(tmp_path):
 )  # fmt: skip
 def test_the_table_of_a_fis_term_holds_its_proven_bound(name, defuzz):
     """Every cell's largest error, on a grid 6 times finer (nodes and edges included),
-    within that cell's bound (controllers/fuzzy/matlab_bound.py)."""
+    within that cell's bound (controllers/fuzzy/fis/bound.py)."""
     text = (DATA / name).read_text()
     if defuzz:
         text = text.replace("'wtaver'", f"'{defuzz}'")

@@ -20,7 +20,7 @@ from twolink.simulation.experiment import (
     measure_runs,
     run_scenario,
 )
-from twolink.studies.regimes import DEFAULT_STUDY
+from twolink.studies.judgments.regimes import DEFAULT_STUDY
 from twolink.sweep import chunks
 
 

@@ -130,7 +130,7 @@ def test_links_planted_in_a_sweeps_folder_are_never_written_through(tmp_path, pl
 def test_a_link_inside_a_reproductions_folder_sends_no_run_elsewhere(tmp_path):
     from twolink.simulation.config import load_scenario
     from twolink.simulation.experiment import measure, run_scenario
-    from twolink.studies.run_folder import write_run
+    from twolink.studies.reproduction.run_folder import write_run
 
     root = tmp_path / "reproduce"
     elsewhere = tmp_path / "elsewhere"
@@ -149,7 +149,7 @@ def test_a_link_inside_a_reproductions_folder_sends_no_run_elsewhere(tmp_path):
 def test_a_users_file_in_a_run_folder_of_a_reproduction_is_kept(tmp_path):
     from twolink.simulation.config import load_scenario
     from twolink.simulation.experiment import measure, run_scenario
-    from twolink.studies.run_folder import write_run
+    from twolink.studies.reproduction.run_folder import write_run
 
     folder = tmp_path / "rigid" / "table2" / "CTC"
     s = load_scenario(STEP, {"duration": 0.05})
@@ -185,7 +185,7 @@ def test_a_seal_finds_a_truncated_or_edited_file(tmp_path):
 
 
 def test_a_damaged_design_is_designed_again_not_a_traceback(tmp_path, capsys):
-    from twolink.studies.design import (
+    from twolink.studies.designs.design import (
         DEFAULT_DESIGN,
         design,
         load_design,
@@ -205,9 +205,9 @@ def test_a_damaged_design_is_designed_again_not_a_traceback(tmp_path, capsys):
 def test_an_edited_run_of_a_reproduction_is_computed_again(tmp_path, capsys):
     from twolink.simulation.config import load_scenario
     from twolink.simulation.experiment import measure, run_scenario
-    from twolink.studies.manifest import load_manifest
-    from twolink.studies.reproduce import finished_row, plan
-    from twolink.studies.run_folder import write_run
+    from twolink.studies.reproduction.manifest import load_manifest
+    from twolink.studies.reproduction.reproduce import finished_row, plan
+    from twolink.studies.reproduction.run_folder import write_run
 
     manifest = load_manifest()
     spec = plan(manifest, None, (), None)[0]

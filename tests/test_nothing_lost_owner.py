@@ -85,7 +85,7 @@ def test_a_lock_alone_makes_no_folder_twolinks(tmp_path, args, name):
 
 
 def test_a_lock_alone_makes_no_reproduction_folder(tmp_path):
-    from twolink.studies.reproduce import reproduce
+    from twolink.studies.reproduction.reproduce import reproduce
 
     out = tmp_path / "out"
     out.mkdir()
@@ -121,7 +121,7 @@ def test_a_refused_command_writes_no_record(tmp_path):
     from twolink.foundation.io import owned_output
     from twolink.simulation.config import load_scenario
     from twolink.simulation.experiment import measure, run_scenario
-    from twolink.studies.run_folder import write_run
+    from twolink.studies.reproduction.run_folder import write_run
 
     out = tmp_path / "run"
     s = load_scenario(STEP, {"duration": 0.05})

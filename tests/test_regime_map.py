@@ -8,7 +8,7 @@ import pandas as pd
 from click.testing import CliRunner
 
 from twolink.interface.cli import main
-from twolink.studies.regimes import DEFAULT_STUDY, summary
+from twolink.studies.judgments.regimes import DEFAULT_STUDY, summary
 
 SMALL = {
     "samples = 3000": "samples = 40",

@@ -66,9 +66,9 @@ def test_on_the_papers_raw_step_it_acts_and_helps_at_the_same_gain():
 
 
 def test_the_raw_variant_runs_the_papers_own_references_at_its_stated_gain():
-    from twolink.studies.claims_studies import raw_steps
-    from twolink.studies.manifest import load_manifest
-    from twolink.studies.reproduce import plan
+    from twolink.studies.judgments.claims_studies import raw_steps
+    from twolink.studies.reproduction.manifest import load_manifest
+    from twolink.studies.reproduction.reproduce import plan
 
     manifest = load_manifest()
     (raw,) = [v for v in manifest.variants if v.raw_steps]

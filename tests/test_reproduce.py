@@ -17,8 +17,8 @@ from twolink.simulation.config import load_scenario
 from twolink.simulation.metrics import StepMetrics, step_metrics
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import STEP_KEYS, metric
-from twolink.studies.manifest import load_manifest
-from twolink.studies.reproduce import reproduce
+from twolink.studies.reproduction.manifest import load_manifest
+from twolink.studies.reproduction.reproduce import reproduce
 
 STEP_FIELDS = [f.name for f in fields(StepMetrics)]  # in STEP_KEYS order
 
@@ -52,8 +52,8 @@ def test_every_paper_table_is_in_the_report_beside_the_papers_values(reproductio
 def test_the_rigid_tables_calibrated_column_is_the_saved_calibration_rerun(reproduction):
     """Tables 2, 3, 5 and 7 of the rigid arm print ours / calibrated / paper; the middle
     value is the saved calibrated scenario (runs/paper/calibrated.toml) run again here."""
-    from twolink.studies import calibrate
-    from twolink.studies.report import CLAIMED_BETTER, calibrated_value, fmt
+    from twolink.studies.designs import calibrate
+    from twolink.studies.reproduction.report import CLAIMED_BETTER, calibrated_value, fmt
 
     study = calibrate.load_calibration()
     result, current = calibrate.load_result(study)
@@ -79,7 +79,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     shows it before the paper's tables."""
     import pandas as pd
 
-    from twolink.studies.claims import paired_claims
+    from twolink.studies.judgments.claims import paired_claims
     from twolink.sweep import load_results
 
     report = (reproduction.out / "report.md").read_text()
@@ -93,7 +93,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     names = {"CTC", "PD-G", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "CTC-best"}
     assert len(results) == 1200 and set(results["controller"]) == names
     saved = pd.read_csv(reproduction.out / "claims.csv")
-    from twolink.studies.claims_studies import reference_values
+    from twolink.studies.judgments.claims_studies import reference_values
     from twolink.sweep import load_sweep
 
     plan = load_sweep(load_manifest().claims_study)
@@ -107,7 +107,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
         if r.verdict in ("better", "worse"):  # named, with its estimate
             assert f"θ{r.joint} {metric(r.metric).symbol} (" in conclusions
     # and against the fair linear opponent, CTC-best: the best loop of the linear frontier
-    # at FCM-CTC's effort (twolink/studies/frontier.py), run on the same plants and judged
+    # at FCM-CTC's effort (twolink/studies/designs/frontier.py), run on the same plants and judged
     # with the same statistics, in both regimes
     fair = pd.read_csv(reproduction.out / "claims_matched.csv")
     again = paired_claims(results, "FCM-CTC", "CTC-best", joints=(1, 2), reference_values=refs)
@@ -119,7 +119,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     assert "CTC-best" in set(raw["controller"])
     fair_raw = pd.read_csv(reproduction.out / "claims_matched_raw.csv")
     from twolink.simulation.config import read_toml
-    from twolink.studies.claims_studies import raw_steps
+    from twolink.studies.judgments.claims_studies import raw_steps
 
     manifest = load_manifest()
     variant = next(v for v in manifest.variants if v.raw_steps)
@@ -349,7 +349,7 @@ def test_the_combined_recording_has_a_tab_per_experiment_with_the_pair_side_by_s
     assert set(chunks.values()) == {2}
     first = next(iter(chunks)).strip("/")
     assert first.startswith("raw/") and first.endswith("/angle"), first
-    from twolink.studies.hero import HERO_FIGURE
+    from twolink.studies.reproduction.hero import HERO_FIGURE
 
     assert (reproduction.out / HERO_FIGURE).stat().st_size > 10_000
     curves = set(read_comparison(path).columns)

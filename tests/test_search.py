@@ -1,4 +1,4 @@
-"""The search over FCM-CTC's rule table (twolink.studies.search, controllers/rule_table.py):
+"""The search over FCM-CTC's rule table (twolink.studies.designs.search, controllers/rule_table.py):
 the batch law of many tables equals the engines and the single-arm law, the encoding keeps
 the designs' odd symmetry, a tiny search runs end to end, the shipped result is current,
 and the sentence says what its numbers say."""
@@ -15,7 +15,7 @@ from twolink.controllers.fuzzy import default_fuzzy_pd
 from twolink.controllers.fuzzy.continuous import ContinuousEngine
 from twolink.controllers.fuzzy.rulebase import load_rule_base
 from twolink.controllers.rule_table import RuleTableCTC, TableEvaluator, rules_of, table_of
-from twolink.studies import search
+from twolink.studies.designs import search
 
 
 def _random_tables(rng, n):
@@ -68,7 +68,7 @@ def test_the_batch_law_of_tables_is_the_single_arm_law():
 def test_the_designed_table_through_the_search_is_the_sweeps_fcm_ctc():
     """The search's evaluation of the designed rules is FCM-CTC as the claims sweep runs it
     (the same peak torques, torque variation and IAE on the same training plants)."""
-    from twolink.studies import frontier
+    from twolink.studies.designs import frontier
 
     spec = search.load_spec(overrides={"plants": 2})
     stp = search.setup(spec, "raw")
@@ -210,7 +210,7 @@ def test_the_sentence_answers_by_the_held_out_verdicts(better, worse, verdict, w
 
 
 def test_the_reproduction_copies_the_shipped_search_and_reads_its_sentences(tmp_path):
-    from twolink.studies.manifest import load_manifest
+    from twolink.studies.reproduction.manifest import load_manifest
 
     lines = search.report_section(load_manifest(), tmp_path)
     text = "\n".join(lines)

@@ -4,7 +4,7 @@ CTC at the shipped gains behind a 17-bit encoder, exact, differenced and filtere
 import pytest
 
 from twolink.simulation.sensor import DEFAULT_CUTOFF_HZ
-from twolink.studies import sensing
+from twolink.studies.designs import sensing
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +39,7 @@ def test_torque_activity_exact_differenced_filtered(table):
 
 def test_the_reports_sensor_line_says_the_papers_only_for_the_true_state():
     from twolink.simulation.sensor import Sensor
-    from twolink.studies.reproduce import sensor_choice
+    from twolink.studies.reproduction.reproduce import sensor_choice
 
     ideal = sensor_choice({Sensor()})
     assert ideal.startswith("ideal (true angles and rates) in the paper's experiments, as the")

@@ -22,7 +22,7 @@ from twolink.simulation.config import load_scenario, scenario_from_dict
 from twolink.simulation.experiment import build_controller, build_plant, iter_scenarios
 from twolink.simulation.stability import linearise
 from twolink.simulation.stability_batch import linearise_many
-from twolink.studies.regimes import DEFAULT_STUDY
+from twolink.studies.judgments.regimes import DEFAULT_STUDY
 from twolink.sweep import chunks
 
 

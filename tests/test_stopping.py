@@ -217,7 +217,7 @@ def test_sigterm_ends_reproduce_and_its_workers_at_once_with_one_clean_line(tmp_
     # fork server, still compiling its preloaded kernels, outlived the command by 3-12 s
     # (every time), and a flexible study's worker could leave an owner record's temporary.
     from twolink.foundation.io import check_ownership
-    from twolink.studies.manifest import DEFAULT_MANIFEST
+    from twolink.studies.reproduction.manifest import DEFAULT_MANIFEST
 
     out = tmp_path / "out"
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path / "numba"))

@@ -703,8 +703,8 @@ def test_the_reproduction_names_each_centre_by_the_rule_the_design_kept(tmp_path
     from types import SimpleNamespace
 
     from twolink.controllers.fuzzy.engine import rule_label
-    from twolink.studies.manifest import load_manifest
-    from twolink.studies.reproduce import centre_rules, plan
+    from twolink.studies.reproduction.manifest import load_manifest
+    from twolink.studies.reproduction.reproduce import centre_rules, plan
 
     engine = SimpleNamespace(rules=[SimpleNamespace(e="NB", de="Z", u="PB"),
                                     SimpleNamespace(e="Z", de="PS", u="NS")])  # fmt: skip

@@ -1,4 +1,5 @@
-"""Cluster validity indices (twolink/studies/validity.py) against scikit-fuzzy and closed forms."""
+"""Cluster validity indices (twolink/studies/designs/validity.py) against scikit-fuzzy and closed
+forms."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import skfuzzy
 
 from twolink.controllers.fcm import fcm
 from twolink.controllers.fuzzy import default_fuzzy_pd
-from twolink.studies.validity import (
+from twolink.studies.designs.validity import (
     partition_coefficient,
     partition_entropy,
     surface_difference,

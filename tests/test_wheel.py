@@ -95,7 +95,9 @@ def test_the_installed_wheel_runs_from_any_folder_and_writes_nothing_in_the_clon
     where = in_venv(wheel_venv, [python, "-c", (
         "import twolink, twolink.controllers\n"
         "from twolink.foundation import shipped\n"
-        "from twolink.studies import calibrate, design, gains, manifest, regimes\n"
+        "from twolink.studies.designs import calibrate, design, gains\n"
+        "from twolink.studies.judgments import regimes\n"
+        "from twolink.studies.reproduction import manifest\n"
         "from twolink.sweep import load_sweep\n"
         "print(twolink.__file__)\n"
         "print(shipped.runs_dir(), shipped.models_dir(), shipped.rulebases_dir())\n"

@@ -13,12 +13,8 @@ package imports nothing it does not need: MuJoCo comes with ``Plant``, matplotli
 from __future__ import annotations
 
 import importlib
-import importlib.abc
-import importlib.util
-import sys
 import time
 from importlib.metadata import PackageNotFoundError, version
-from types import ModuleType
 from typing import Any
 
 IMPORTED_AT = time.perf_counter()  # a command's clock where the OS does not give its start
@@ -46,7 +42,7 @@ _EXPORTS = {
     "ComputedTorque": "twolink.controllers.ctc",
     "FuzzyComputedTorque": "twolink.controllers.fuzzy_ctc",
     "MamdaniEngine": "twolink.controllers.fuzzy",
-    "read_fis": "twolink.controllers.fuzzy.matlab",
+    "read_fis": "twolink.controllers.fuzzy.fis.matlab",
     "default_fuzzy_pd": "twolink.controllers.fuzzy",
     "paper_fuzzy_pd": "twolink.controllers.fuzzy",
     # metrics
@@ -62,11 +58,11 @@ _EXPORTS = {
     "load_rule_base": "twolink.api",
     "design_rule_base": "twolink.api",
     "run_sweep": "twolink.api",
-    "reproduce": "twolink.studies.reproduce",
+    "reproduce": "twolink.studies.reproduction.reproduce",
     # two controllers on one scenario, judged plant by plant (twolink compare)
-    "compare": "twolink.studies.compare",
-    "Comparison": "twolink.studies.compare",
-    "paired_claims": "twolink.studies.claims",
+    "compare": "twolink.studies.judgments.compare",
+    "Comparison": "twolink.studies.judgments.compare",
+    "paired_claims": "twolink.studies.judgments.claims",
     # figures of finished results (matplotlib, headless)
     "run_figures": "twolink.figures.plots",
     "response_figure": "twolink.figures.plots",
@@ -77,64 +73,9 @@ _EXPORTS = {
 
 __all__ = ["__version__", *_EXPORTS]
 
-# The modules grouped by layer answer to their earlier flat names too: ``import
-# twolink.params`` gives ``twolink.arm.params`` itself, the same module object, so older
-# code, pickles and DESIGN.md's names keep working. So do the names of the modules that
-# moved between layers (``twolink.interface.config`` is ``twolink.simulation.config``).
-_LAYERS = {
-    "foundation": ("references", "io", "interrupts", "executors", "overrides"),
-    "arm": ("params", "dynamics", "plant", "validation"),
-    "simulation": (
-        "config", "sim", "batch", "metrics", "outcome", "stability", "experiment",
-        "vocabulary",
-    ),
-    "figures": ("plots",),
-    "studies": (
-        "design", "design_checks", "validity", "gains", "calibrate", "calibration_report",
-        "claims", "claims_studies", "regimes", "reproduce", "manifest", "report",
-        "report_sections", "run_folder",
-    ),
-    "interface": ("cli", "cli_fuzzy", "cli_output", "cli_studies"),
-}  # fmt: skip
-_MOVED = {
-    "twolink.interface.config": "twolink.simulation.config",
-    "twolink.interface.overrides": "twolink.foundation.overrides",
-    "twolink.interface.io": "twolink.foundation.io",
-    "twolink.interface.plots": "twolink.figures.plots",
-    "twolink.interface.executors": "twolink.foundation.executors",
-    "twolink.interface.interrupts": "twolink.foundation.interrupts",
-    "twolink.simulation.references": "twolink.foundation.references",
-}
-# A public name wins over a flat module name (twolink.reproduce is the function).
-_FLAT_NAMES = {
-    f"twolink.{name}": f"twolink.{layer}.{name}"
-    for layer, names in _LAYERS.items()
-    for name in names
-    if name not in _EXPORTS
-}
-_ALIASES = {**_FLAT_NAMES, **_MOVED}
+from twolink import aliases  # noqa: E402  (the old module names, one table)
 
-
-class _FlatNames(importlib.abc.MetaPathFinder, importlib.abc.Loader):
-    """Imports a flat name (``twolink.params``) as the module of its layer."""
-
-    def find_spec(self, name: str, path: Any = None, target: Any = None) -> Any:
-        if name in _ALIASES:
-            return importlib.util.spec_from_loader(name, self)
-        return None
-
-    def create_module(self, spec: Any) -> ModuleType:
-        module = importlib.import_module(_ALIASES[spec.name])
-        spec.loader_state = module.__spec__
-        return module
-
-    def exec_module(self, module: ModuleType) -> None:
-        # the import system has just given the module the flat name's spec: give it back
-        module.__spec__ = module.__spec__.loader_state
-
-
-if not any(isinstance(finder, _FlatNames) for finder in sys.meta_path):
-    sys.meta_path.append(_FlatNames())
+aliases.install(_EXPORTS)
 
 
 def __getattr__(name: str) -> Any:

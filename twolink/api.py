@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from twolink.controllers.fuzzy.rulebase import RuleBase
-    from twolink.studies.design import DesignResult
+    from twolink.studies.designs.design import DesignResult
 
 __all__ = ["design_rule_base", "load_rule_base", "run_sweep"]
 
@@ -28,7 +28,7 @@ def load_rule_base(name: str | Path = "designed") -> RuleBase:
     """A rule base by name ("designed", "paper", "default") or from a rule-base TOML or a
     MATLAB ``.fis`` file; ``MamdaniEngine.with_rules`` (or
     ``twolink.controllers.fuzzy.default_fuzzy_pd().with_rules``) makes it an engine."""
-    from twolink.controllers.fuzzy.fis import read_rule_base
+    from twolink.controllers.fuzzy.fis.engine_files import read_rule_base
     from twolink.controllers.fuzzy.rulebase import resolve_rule_base
 
     return read_rule_base(resolve_rule_base(str(name)))
@@ -48,7 +48,12 @@ def design_rule_base(
     ['NM,PS->NS', 'NS,PS->Z', 'Z,Z->Z', 'PS,NS->Z', 'PM,NS->PS']
     """
     from twolink.foundation.io import check_output_folder, owned_output
-    from twolink.studies.design import DEFAULT_DESIGN, design, design_or_load, load_design_config
+    from twolink.studies.designs.design import (
+        DEFAULT_DESIGN,
+        design,
+        design_or_load,
+        load_design_config,
+    )
 
     settings = load_design_config(config or DEFAULT_DESIGN)
     if out is None:

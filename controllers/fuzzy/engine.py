@@ -693,7 +693,7 @@ def fired_rule_labels(engine: MamdaniEngine, e: np.ndarray, de: np.ndarray) -> n
     "none" where no rule fires. Shape of ``e`` and ``de`` broadcast together.
     """
     firing = engine.firing(e, de)
-    # a MATLAB FIS's term (controllers/fuzzy/matlab.py) names its rules as text
+    # a MATLAB FIS's term (controllers/fuzzy/fis/matlab.py) names its rules as text
     labels = np.array([r if isinstance(r, str) else rule_label(r) for r in engine.rules] + ["none"])
     dominant = np.where(firing.max(axis=-1) > 0, firing.argmax(axis=-1), len(engine.rules))
     return labels[dominant]

@@ -499,7 +499,7 @@ def table_bound(table: FuzzyTable, refine: int = 2) -> TableBound:
     if isinstance(refine, bool) or not isinstance(refine, int) or refine < 1:
         raise ValueError(f"refine must be an integer >= 1, got {refine!r}")
     if not isinstance(exact, MamdaniEngine):  # a MATLAB FIS's term: its own argument
-        from twolink.controllers.fuzzy.matlab_bound import fis_cell_bound
+        from twolink.controllers.fuzzy.fis.bound import fis_cell_bound
 
         cell, jump = fis_cell_bound(table)
         cell = cell + ROUNDING_MARGIN

@@ -196,7 +196,7 @@ def response_figure(
 def phase_plane_figure(result) -> Figure:
     """The paper's Figure 2: phase-plane data, FCM centres, and the fired-rule sequence.
 
-    ``result`` is a :class:`twolink.studies.design.DesignResult`.
+    ``result`` is a :class:`twolink.studies.designs.design.DesignResult`.
     """
     fig, ax = plt.subplots(figsize=(7.5, 6.5))
     fixed_layout(fig, left=0.14, right=0.97, top=0.94, bottom=0.12)

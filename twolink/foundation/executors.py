@@ -108,7 +108,7 @@ _MEASURING = ["scipy.signal", "scipy.optimize", "twolink.controllers.fuzzy.kerne
 # What a worker needs, imported once by the fork server (an import that fails is skipped
 # there and happens in the worker, as with spawn).
 WORKER_PRELOAD = [
-    "twolink.studies.reproduce",
+    "twolink.studies.reproduction.reproduce",
     "twolink.simulation.experiment",
     "twolink.sweep",
     "twolink.figures.plots",

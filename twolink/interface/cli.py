@@ -173,7 +173,7 @@ def run(
         measure,
         run_scenario,
     )
-    from twolink.studies.run_folder import write_run
+    from twolink.studies.reproduction.run_folder import write_run
 
     scenario = locate(scenario)  # a real path, else a shipped scenario's name
     folder = out or Path("results") / Path(scenario).stem
@@ -266,8 +266,8 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
     """
     from twolink.foundation.io import check_output_file
     from twolink.simulation.config import RULEBASE_DIR, ConfigError
-    from twolink.studies.design import DEFAULT_DESIGN, load_design_config, write_design
-    from twolink.studies.design import design as run_design
+    from twolink.studies.designs.design import DEFAULT_DESIGN, load_design_config, write_design
+    from twolink.studies.designs.design import design as run_design
 
     if install and out is not None:
         _fail_input("--install writes the shipped designed rule base; it takes no --out")
@@ -318,7 +318,7 @@ def design(config_path: Path | None, out: Path | None, install: bool, figure: Pa
         )
     click.echo(f"{len(result.rules)} rules kept -> {path}")
     if install:
-        from twolink.studies.design import DOCS, update_docs
+        from twolink.studies.designs.design import DOCS, update_docs
 
         update_docs(path, DOCS)
         click.echo(f"designed rule base tables -> {DOCS}")
@@ -361,7 +361,7 @@ def gains(study_file: Path | None, out: Path, install: bool, workers: int | None
       twolink gains --install                   # update runs/paper/gains.csv
     """
     from twolink.simulation.config import ConfigError, parse_set
-    from twolink.studies import gains as study_module
+    from twolink.studies.designs import gains as study_module
 
     try:
         study = study_module.load_gain_study(
@@ -420,8 +420,8 @@ def calibrate(study_file: Path | None, out: Path, install: bool, settings) -> No
       twolink calibrate --install                   # update runs/paper/calibrated.toml
     """
     from twolink.simulation.config import ConfigError, parse_set
-    from twolink.studies import calibrate as cal
-    from twolink.studies import calibration_report
+    from twolink.studies.designs import calibrate as cal
+    from twolink.studies.designs import calibration_report
 
     try:
         study = cal.load_calibration(study_file or cal.DEFAULT_STUDY, parse_set(settings))
@@ -467,8 +467,8 @@ def reproduce(
     if (workers or os.cpu_count() or 1) > 1:  # the workers' server imports beside us
         prestart_fork_server()
     from twolink.simulation.config import ConfigError, parse_set
-    from twolink.studies.reproduce import DEFAULT_MANIFEST
-    from twolink.studies.reproduce import reproduce as run_reproduction
+    from twolink.studies.reproduction.reproduce import DEFAULT_MANIFEST
+    from twolink.studies.reproduction.reproduce import reproduce as run_reproduction
 
     try:
         result = run_reproduction(

@@ -52,7 +52,7 @@ def compare_command(
     from twolink.foundation.io import unsafe_name_problem
     from twolink.foundation.shipped import locate
     from twolink.simulation.config import ConfigError, load_scenario, parse_set, read_toml
-    from twolink.studies.compare import compare, controller_table
+    from twolink.studies.judgments.compare import compare, controller_table
 
     try:
         overrides = parse_set(settings)

@@ -51,7 +51,7 @@ def coverage_command(rule_base: str, threshold: float, grid: int) -> None:
     """
     from twolink.controllers.fuzzy import MamdaniEngine
     from twolink.controllers.fuzzy.coverage import coverage, surface_jumps
-    from twolink.controllers.fuzzy.matlab import rule_base_engine
+    from twolink.controllers.fuzzy.fis.matlab import rule_base_engine
 
     try:
         path = rule_base_file(rule_base)
@@ -106,10 +106,11 @@ def validity_figure_path(figure: Path) -> Path:
 
 def write_validity_figure(result: Any, path: Path) -> tuple:
     """The cluster-validity sweep of a design (PC, PE and XB for c = 2..10 on its data,
-    weighted as it weighs; twolink/studies/validity.py) plotted to ``path`` with the design's c
+    weighted as it weighs; twolink/studies/designs/validity.py) plotted to ``path`` with the
+    design's c
     marked, as the report's design section shows it. Returns the sweep's rows."""
     from twolink.figures.plots import save_figure
-    from twolink.studies.validity import validity_figure, validity_sweep
+    from twolink.studies.designs.validity import validity_figure, validity_sweep
 
     rows = validity_sweep(result.points, result.weights)
     save_figure(validity_figure(rows, int(result.clustering.n_clusters)), path)
@@ -138,7 +139,11 @@ def fis_command(rule_base: str, scenario: Path | None, out: Path) -> None:
       twolink fis paper --out table1.fis       # the paper's Table 1
     """
     from twolink.controllers.fuzzy import default_fuzzy_pd
-    from twolink.controllers.fuzzy.fis import read_rule_base, write_fis, written_by_twolink
+    from twolink.controllers.fuzzy.fis.engine_files import (
+        read_rule_base,
+        write_fis,
+        written_by_twolink,
+    )
     from twolink.foundation.io import check_output_file
     from twolink.foundation.shipped import runs_dir
     from twolink.simulation.config import ConfigError, load_scenario

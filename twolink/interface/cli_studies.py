@@ -1,4 +1,5 @@
-"""``twolink regimes``: the regime map of the paper's fuzzy term (twolink/studies/regimes.py)."""
+"""``twolink regimes``: the regime map of the paper's fuzzy term
+(twolink/studies/judgments/regimes.py)."""
 
 from __future__ import annotations
 
@@ -46,7 +47,7 @@ def regimes_command(
         prestart_fork_server(SWEEP_PRELOAD)
     from twolink.foundation.io import atomic_write_text
     from twolink.simulation.config import ConfigError
-    from twolink.studies import regimes
+    from twolink.studies.judgments import regimes
     from twolink.sweep import load_sweep
 
     study = locate(study_file or regimes.DEFAULT_STUDY)
@@ -57,7 +58,7 @@ def regimes_command(
     own_output(out, "regimes", str(Path(study).resolve()))
     # What the tables and the figure need, imported while the server still imports
     from twolink.figures.plots import save_figure
-    from twolink.studies import claims  # noqa: F401
+    from twolink.studies.judgments import claims  # noqa: F401
 
     if backend != "cpu":  # one batch per regime in this process: no pool
         with sweep_exits(out):
@@ -97,7 +98,7 @@ def frontier_command(spec_file: Path | None, out: Path, install: bool, workers: 
     """
     from twolink.foundation.executors import open_executor
     from twolink.simulation.config import ConfigError
-    from twolink.studies import frontier
+    from twolink.studies.designs import frontier
 
     try:
         spec = frontier.load_spec(locate(spec_file) if spec_file else frontier.DEFAULT_SPEC)
@@ -143,7 +144,7 @@ def search_command(
     """
     from twolink.foundation.executors import open_executor
     from twolink.simulation.config import ConfigError, parse_set
-    from twolink.studies import search
+    from twolink.studies.designs import search
 
     try:
         path = locate(spec_file) if spec_file else search.DEFAULT_SPEC

@@ -676,7 +676,7 @@ def _check_rule_base(top: TomlTable, s: Scenario) -> None:
     if not path.is_file():
         top.fail("controller.rule_base", f"no such file {path}")
     from twolink.controllers.fuzzy.continuous import ContinuousEngine
-    from twolink.controllers.fuzzy.matlab import rule_base_engine
+    from twolink.controllers.fuzzy.fis.matlab import rule_base_engine
 
     try:
         engine = rule_base_engine(path)  # TOML labels must be the engine's; any 2-input .fis

@@ -103,11 +103,11 @@ def build_controller(s: Scenario) -> Controller:
 @functools.lru_cache(maxsize=32)
 def _engine(rule_base: str | None, *version: int):
     """The engine of a rule-base file (None: the 7x7 heuristic; a .fis that is not the
-    project's 7-label partition: its :class:`~controllers.fuzzy.matlab.FisTerm`), built
+    project's 7-label partition: its :class:`~controllers.fuzzy.fis.matlab.FisTerm`), built
     once per file version: controllers of one rule base share their engine, which is what lets the
     batch engine run them as one law (``controllers/batch.py``)."""
     from twolink.controllers import fuzzy
-    from twolink.controllers.fuzzy.matlab import rule_base_engine
+    from twolink.controllers.fuzzy.fis.matlab import rule_base_engine
 
     if rule_base is None:
         return fuzzy.default_fuzzy_pd()

@@ -1,9 +1,11 @@
-"""A claims table's verdicts in words (:mod:`twolink.studies.claims`): per row what happens
+"""A claims table's verdicts in words (:mod:`twolink.studies.judgments.claims`): per row what
+happens
 on the typical plant and on how many plants the difference matters, e.g. "equivalent on
 the typical plant; worse by more than 1 mrad on 29 of 200 (10-20 %)".
 
 The words follow the table's columns and nothing else: ``typical`` (the shift's verdict),
-the shares shown (``share_*_shown``: a share above :data:`~twolink.studies.claims.MIN_SHARE`
+the shares shown (``share_*_shown``: a share above
+:data:`~twolink.studies.judgments.claims.MIN_SHARE`
 by its exact test) and the plants only one controller reaches (``unreached_*``)."""
 
 from __future__ import annotations
@@ -78,7 +80,8 @@ def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
 
 
 def reading(table: pd.DataFrame) -> list[str]:
-    """Every row's words (the table of :func:`~twolink.studies.claims.paired_claims_many`)."""
+    """Every row's words (the table of
+    :func:`~twolink.studies.judgments.claims.paired_claims_many`)."""
     names = table.get("proposed", pd.Series([""] * len(table), index=table.index))
     others = table.get("opponent", pd.Series([""] * len(table), index=table.index))
     return [

@@ -1,6 +1,7 @@
 """Checks of a designed rule base: odd symmetry u(-e, -de) = -u(e, de), and the held-out
 validation (the designed FCM-CTC beside CTC on moves that are not design runs).
-:mod:`twolink.studies.design` runs them and keeps their results with the design's evidence."""
+:mod:`twolink.studies.designs.design` runs them and keeps their results with the design's
+evidence."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ from twolink.simulation.experiment import build_controller, run_scenarios
 
 SYMMETRY_GRID = 61  # points per axis of the asymmetry check: the universes' own samples
 # CTC, the 7x7 fuzzy-CTC with the designed rules, and CTC retuned to spend FCM-CTC's peak
-# torque on the same move (the fair linear opponent, twolink.studies.matching)
+# torque on the same move (the fair linear opponent, twolink.studies.designs.matching)
 VALIDATION_CONTROLLERS = ("CTC", "FCM-CTC", "CTC-matched")
 
 
@@ -104,9 +105,9 @@ def validate(
 ) -> tuple[ValidationRow, ...]:
     """Run each held-out scenario under CTC, under FCM-CTC with ``rules`` (same gains,
     same fuzzy scaling) and under CTC-matched (CTC with ωn scaled to spend FCM-CTC's peak
-    torque on that move: :func:`twolink.studies.matching.choose_scale` over
-    :data:`~twolink.studies.matching.SCALES`), and measure the three."""
-    from twolink.studies.matching import SCALES, choose_scale
+    torque on that move: :func:`twolink.studies.designs.matching.choose_scale` over
+    :data:`~twolink.studies.designs.matching.SCALES`), and measure the three."""
+    from twolink.studies.designs.matching import SCALES, choose_scale
 
     designed = engine.with_rules(rules)  # one engine object: one batch law for all
     pairs, grid = [], []

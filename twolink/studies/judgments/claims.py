@@ -540,7 +540,7 @@ def paired_claims_many(
         "metric": np.tile([key for _, key in keys_], count),
         **out,
     })  # fmt: skip
-    from twolink.studies.claims_words import reading
+    from twolink.studies.judgments.claims_words import reading
 
     table["reading"] = reading(table)
     return table

@@ -61,7 +61,7 @@ from twolink.simulation.config import (
     read_toml,
 )
 from twolink.simulation.experiment import build_controller, run_scenarios
-from twolink.studies.design_checks import (
+from twolink.studies.designs.design_checks import (
     SymmetryCheck,
     ValidationRow,
     check_symmetry,

@@ -15,7 +15,8 @@ of ``min(|ours - paper| / max(|paper|, floor), penalty)``, a metric undefined in
 response counting ``penalty``; a stage's objective is the mean over its rows. The result,
 ``runs/paper/calibrated.toml``, holds the parameters, each row's metrics, the objective's
 profile along each parameter, and the digest of the study it came from (the report reruns
-the calibrated rows from it, never the optimisation; :mod:`twolink.studies.calibration_report`
+the calibrated rows from it, never the optimisation;
+:mod:`twolink.studies.designs.calibration_report`
 writes the comparison and the analysis).
 """
 
@@ -118,7 +119,7 @@ class Calibration:
 
 def load_calibration(path: str | Path = DEFAULT_STUDY, overrides: dict | None = None):
     """Read and validate a calibration file; errors name the file and key."""
-    from twolink.studies.manifest import load_manifest
+    from twolink.studies.reproduction.manifest import load_manifest
 
     path = locate(path)
     data = read_toml(path)
@@ -514,7 +515,10 @@ def save_result(result: dict[str, Any], path: Path) -> Path:
     from twolink.foundation.io import atomic_write_text, to_toml
 
     path.parent.mkdir(parents=True, exist_ok=True)
-    head = "# Written by `twolink calibrate` (twolink.studies.calibrate): do not edit by hand.\n"
+    head = (
+        "# Written by `twolink calibrate` (twolink.studies.designs.calibrate): "
+        "do not edit by hand.\n"
+    )
     atomic_write_text(path, head + to_toml(result))
     return path
 

@@ -1,7 +1,8 @@
 """Sections of the reproduction's report that read its runs: the runs that end in a
 sustained oscillation (with the fuzzy rules firing over the window), and the FCM design
 (designed rules beside the paper's Table 1, the held-out table, downward steps beside
-upward ones). :mod:`twolink.studies.reproduce` assembles them with :mod:`twolink.studies.report`."""
+upward ones). :mod:`twolink.studies.reproduction.reproduce` assembles them with
+:mod:`twolink.studies.reproduction.report`."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from twolink.simulation.experiment import build_controller
 from twolink.simulation.sim import Trajectory
 
 if TYPE_CHECKING:
-    from twolink.studies.reproduce import RunSpec
+    from twolink.studies.reproduction.manifest import RunSpec
 
 OSCILLATING = 0.05  # rad: a sustained oscillation worth explaining in the report
 
@@ -88,8 +89,8 @@ def design_section(
     if already computed, else computed here): the designed rules beside the paper's
     Table 1, the data, the symmetry check and the held-out table (docs/fuzzy.md), and each
     downward step's overshoot beside its mirrored upward one (:func:`up_and_down`)."""
-    from twolink.studies.design import design_evidence, design_markdown
-    from twolink.studies.validity import validity_markdown
+    from twolink.studies.designs.design import design_evidence, design_markdown
+    from twolink.studies.designs.validity import validity_markdown
 
     return [
         "",

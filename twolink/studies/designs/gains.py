@@ -550,7 +550,7 @@ def report_section(path: Path, out: Path, pool: Any, draw: Any = None) -> list[s
     shipped table (rerun on ``pool`` when stale), and whether the gains in use are its.
     ``draw(function, *args)`` draws the figure (the reproduction: a task of its pool, so
     that the main process never draws); default: here."""
-    import twolink.studies.gains as gains
+    import twolink.studies.designs.gains as gains
     from twolink.sweep import load_sweep
 
     study = gains.load_gain_study(path)

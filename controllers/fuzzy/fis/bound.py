@@ -1,6 +1,6 @@
 """The lookup table's proven error bound for a MATLAB FIS term (docs/fuzzy.md, "Any MATLAB
 FIS"): :func:`fis_cell_bound`, what :func:`~controllers.fuzzy.table.table_bound` gives
-for a table of a :class:`~controllers.fuzzy.matlab.FisTerm`.
+for a table of a :class:`~controllers.fuzzy.fis.matlab.FisTerm`.
 
 The argument, per table cell (a box of inputs):
 
@@ -22,7 +22,7 @@ The argument, per table cell (a box of inputs):
    Over all g between them the centroid is least for g = mu(w+) left of t and mu(w-)
    right of it, at the t with t = centroid (C(t) falls while t < C(t) and rises after):
    that is u-; u+ likewise with the sides swapped. The integrals are the exact
-   evaluation's (:mod:`controllers.fuzzy.matlab_exact`). The bisector b satisfies
+   evaluation's (:mod:`controllers.fuzzy.fis.exact`). The bisector b satisfies
    int_lo^b g = int_b^hi g, so it is above the least x with int_lo^x mu(w+) >=
    int_x^hi mu(w-), and below the largest x with int_lo^x mu(w-) <= int_x^hi mu(w+).
    A Sugeno output (wtaver) is a weighted mean of the rules' outputs z (linear: their
@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from twolink.controllers.fuzzy import matlab_exact as mx
+from twolink.controllers.fuzzy.fis import exact as mx
 
 __all__ = ["fis_cell_bound", "mf_range", "mf_slope"]
 
@@ -245,7 +245,7 @@ def _sugeno_range(fis, w_lo, w_hi, boxes) -> tuple[np.ndarray, np.ndarray]:
 
 
 def mx_value(mf, x: np.ndarray) -> np.ndarray:
-    from twolink.controllers.fuzzy.matlab import _sugeno_value
+    from twolink.controllers.fuzzy.fis.matlab import _sugeno_value
 
     return _sugeno_value(mf, x)
 

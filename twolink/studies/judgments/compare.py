@@ -5,7 +5,7 @@ rerun recording (docs/compare.md).
 The plants are the shipped robustness sweep's (``sweeps/robustness``'s ``[parameters]``:
 masses and lengths off by drawn factors, gravity, a payload the controllers do not know
 about); the scenario is run as it stands (its reference, duration and sensor). ``A`` is
-judged against ``B``, plant by plant, with :func:`twolink.studies.claims.paired_claims`:
+judged against ``B``, plant by plant, with :func:`twolink.studies.judgments.claims.paired_claims`:
 "better" means A's metric is lower than B's by more than the practical tolerance on the
 typical plant (the verdict rule of docs/statistics.md, Holm-corrected over the table).
 The sweep this runs is written as a file (``compare.toml``) so that ``twolink sweep`` can
@@ -82,7 +82,7 @@ def controller_table(name: str) -> dict[str, Any]:
     """The ``[controller]`` overrides a name stands for: a controller of the shipped
     reproduction (``CTC``, ``FCM-CTC``, ``PD-G``, ``CTC-I``, ``CTC-paper``, ``fuzzy-PD``,
     ``FCM-CTC-continuous``) or a controller kind (``ctc``, ``fcm_ctc``, ...)."""
-    from twolink.studies.manifest import DEFAULT_MANIFEST
+    from twolink.studies.reproduction.manifest import DEFAULT_MANIFEST
 
     shipped = read_toml(DEFAULT_MANIFEST).get("controllers", {})
     if name in shipped:
@@ -134,7 +134,7 @@ def compare(
 ) -> Comparison:
     """Judge controller ``a`` against ``b`` on ``scenario`` (a file or a shipped name,
     ``theta1_step``) over ``plants`` drawn plants: the paired table with verdicts
-    (:func:`twolink.studies.claims.paired_claims`), an overlay figure of every plant with
+    (:func:`twolink.studies.judgments.claims.paired_claims`), an overlay figure of every plant with
     the difference panel, and (with ``out`` and ``trace``) one rerun recording of the two
     on the nominal plant. With ``out`` it writes there (``claims.csv``, ``compare.png``,
     ``compare.rrd``, ``compare.toml`` and the sweep in ``sweep/``), refusing a folder it
@@ -143,8 +143,8 @@ def compare(
     both (``{"controller": {"kp": 9.0, "kd": 6.0}}``, as ``--set`` gives them)."""
     from twolink import sweep
     from twolink.foundation.io import owned_output
-    from twolink.studies.claims import CLAIM_METRICS, paired_claims
-    from twolink.studies.claims_studies import reference_values
+    from twolink.studies.judgments.claims import CLAIM_METRICS, paired_claims
+    from twolink.studies.judgments.claims_studies import reference_values
 
     if a == b:
         raise ConfigError(f"compare: give two different controllers, got {a!r} twice")

@@ -8,7 +8,8 @@ the table, each of the 7 x 7 cells a consequent label or no rule, under each inf
 designs' are (u(−e, −ė) = −u(e, ė): the cell (i, j) holds the mirror of (6−i, 6−j)'s
 label), which leaves 24 free cells of 8 choices and the centre (no rule or Z): 25 integers.
 
-**Objective** on the training plants of the linear frontier (:mod:`twolink.studies.frontier`,
+**Objective** on the training plants of the linear frontier
+(:mod:`twolink.studies.designs.frontier`,
 the first ``plants`` of them): feasibility first (Deb, "An efficient constraint handling
 method for genetic algorithms", 2000). A table within FCM-CTC's effort (each of the four
 effort values, median peak |τ| and Σ|Δτ| per joint, at most FCM-CTC's plus the claims'
@@ -23,7 +24,7 @@ in it, so the best found is at least as good as both on the training plants. No 
 
 **Held out**: the best table of each (regime, inference) against the frontier's opponent,
 CTC-best, on the claims study's own plants (the 200 that judge the claims), with
-:func:`twolink.studies.claims.paired_claims`.
+:func:`twolink.studies.judgments.claims.paired_claims`.
 """
 
 from __future__ import annotations
@@ -84,7 +85,7 @@ class SearchSpec:
         frontier's opponents that judge the best tables on the held-out plants. Not the
         frontier's grids: the search does not read them (a finer grid that chooses the same
         opponent leaves the search current; one that chooses another makes it stale)."""
-        from twolink.studies import frontier
+        from twolink.studies.designs import frontier
 
         fspec = frontier.load_spec(self.frontier)
         parts: list[Any] = [self.settings(), fspec.plants, fspec.seed]
@@ -100,7 +101,7 @@ class SearchSpec:
 
 def load_spec(path: str | Path = DEFAULT_SPEC, overrides: dict | None = None) -> SearchSpec:
     from twolink.foundation.overrides import merge
-    from twolink.studies import frontier
+    from twolink.studies.designs import frontier
 
     path = Path(path)
     data = merge(read_toml(path), overrides or {})
@@ -182,8 +183,8 @@ class Setup:
 
 def setup(spec: SearchSpec, regime: str) -> Setup:
     from twolink.simulation.config import scenario_from_dict
-    from twolink.studies import frontier
-    from twolink.studies.manifest import load_manifest
+    from twolink.studies.designs import frontier
+    from twolink.studies.reproduction.manifest import load_manifest
 
     fspec = frontier.load_spec(spec.frontier)
     plan = frontier.training_plan(fspec, regime)
@@ -251,7 +252,7 @@ def _chunks(tables: np.ndarray, pool: Any, stp: Setup, inference: str) -> np.nda
 
 
 def designed_table() -> np.ndarray:
-    from twolink.controllers.fuzzy.fis import read_rule_base
+    from twolink.controllers.fuzzy.fis.engine_files import read_rule_base
     from twolink.controllers.fuzzy.rulebase import resolve_rule_base
     from twolink.controllers.rule_table import table_of
 
@@ -266,7 +267,7 @@ def search_one(
     from scipy.optimize import differential_evolution
     from scipy.stats import qmc
 
-    from twolink.studies.claims import TOLERANCES
+    from twolink.studies.judgments.claims import TOLERANCES
 
     start = time.perf_counter()
     stp = setup(spec, regime)
@@ -342,11 +343,11 @@ def heldout(
     against CTC-best, on the claims study's own plants of each regime: paired_claims on the
     claim metrics and the report's who-wins metrics, one table (columns ``regime``,
     ``controller``, ``against`` and paired_claims')."""
-    from twolink.studies import frontier
-    from twolink.studies.claims import CLAIM_METRICS, paired_claims
-    from twolink.studies.claims_plans import reference_values, regime_plan
-    from twolink.studies.manifest import load_manifest
-    from twolink.studies.report import WINNER_METRICS
+    from twolink.studies.designs import frontier
+    from twolink.studies.judgments.claims import CLAIM_METRICS, paired_claims
+    from twolink.studies.judgments.claims_plans import reference_values, regime_plan
+    from twolink.studies.reproduction.manifest import load_manifest
+    from twolink.studies.reproduction.report import WINNER_METRICS
 
     fspec = frontier.load_spec(spec.frontier)
     _, chosen, _ = frontier.opponents(fspec, pool)
@@ -390,7 +391,7 @@ def save_table(table: Any, path: Path, found: dict[str, Any]) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     evidence = {k: found[k] for k in ("regime", "inference", "cost", "evaluations", "generations")}
     meta = {
-        "source": {"what": "the best table of twolink search (twolink/studies/search.py)"},
+        "source": {"what": "the best table of twolink search (twolink/studies/designs/search.py)"},
         "evidence": evidence,
     }
     rules = rules_of(np.asarray(table))
@@ -574,9 +575,9 @@ def load_output(out: Path) -> tuple[dict[str, Any], pd.DataFrame] | None:
 
 def search_closing(out: Path) -> list[str]:
     """The conclusions' one sentence on the search (both regimes,
-    :func:`twolink.studies.conclusions.search_sentence`), from what the reproduction
+    :func:`twolink.studies.judgments.conclusions.search_sentence`), from what the reproduction
     copied into ``out/search/``; none where it copied no current search."""
-    from twolink.studies.conclusions import search_sentence
+    from twolink.studies.judgments.conclusions import search_sentence
 
     saved = load_output(out)
     said = search_sentence(sentence_numbers(*saved)) if saved is not None else None

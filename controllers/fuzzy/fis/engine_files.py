@@ -1,5 +1,5 @@
-"""MATLAB Fuzzy Logic Toolbox files (``.fis``, the text format ``readfis`` reads and
-``writeFIS`` writes): export any engine with its scaling, import one back.
+"""twolink's own engine as a MATLAB Fuzzy Logic Toolbox file (``.fis``, the text format
+``readfis`` reads and ``writeFIS`` writes): export any engine with its scaling, import one back.
 
 A ``.fis`` file names its system (``[System]``: Mamdani, AND / OR / implication /
 aggregation / defuzzification methods), each input and output (``[Input1]``...: name,
@@ -10,7 +10,7 @@ twolink's engine works on normalised universes, scaled by ke, kde and ku
 (:class:`~twolink.controllers.fuzzy_ctc.FuzzyComputedTorque`). The export writes the
 physical system a MATLAB user would simulate: the error's range and membership
 parameters divided by ke, the error rate's by kde, the output's multiplied by ku
-(``scaling=(1, 1, 1)`` keeps them normalised); :func:`read_fis` gives the normalised
+(``scaling=(1, 1, 1)`` keeps them normalised); :func:`read_engine` gives the normalised
 engine back with that scaling. What twolink's engine cannot run (OR rules, a don't-care
 input, weights other than 1, other implication or aggregation) is refused with the rule or
 key named.
@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from twolink.controllers.fuzzy.engine import MamdaniEngine
-from twolink.controllers.fuzzy.fis_sections import (
+from twolink.controllers.fuzzy.fis.sections import (
     numbers,
     read_sections,
     variable_range,
@@ -34,7 +34,7 @@ from twolink.controllers.fuzzy.fis_sections import (
 from twolink.controllers.fuzzy.membership import FuzzyVariable, MembershipFunction
 from twolink.controllers.fuzzy.rulebase import Rule
 
-__all__ = ["FisSystem", "engine_from_fis", "parse_fis", "read_fis", "to_fis", "write_fis"]
+__all__ = ["FisSystem", "engine_from_fis", "parse_fis", "read_engine", "to_fis", "write_fis"]
 
 _TYPES = {"tri": "trimf", "trap": "trapmf", "gauss": "gaussmf"}
 _KINDS = {v: k for k, v in _TYPES.items()}
@@ -251,7 +251,7 @@ def engine_from_fis(fis: FisSystem, source: str = "<fis>") -> tuple[MamdaniEngin
     return engine, (scale[0], scale[1], ku)
 
 
-def read_fis(path: str | Path) -> tuple[MamdaniEngine, tuple[float, float, float]]:
+def read_engine(path: str | Path) -> tuple[MamdaniEngine, tuple[float, float, float]]:
     """:func:`engine_from_fis` of a ``.fis`` file (a regular file of at most 1 MiB)."""
     from twolink.foundation.planted import read_bounded
 
@@ -278,7 +278,7 @@ def read_rule_base(path: str | Path):
     path = Path(path)
     if path.suffix.lower() != ".fis":
         return load_rule_base(path)
-    engine, scaling = read_fis(path)
+    engine, scaling = read_engine(path)
     standard = default_fuzzy_pd()
     # only the rules are taken: a method the scenario's engine would not use is refused,
     # not ignored

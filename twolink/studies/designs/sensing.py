@@ -4,7 +4,7 @@ estimate (exact, differenced, filtered at several cut-offs), on the robustness s
 This is the evidence for the velocity filter's cut-off (docs/sensors.md): the rule takes
 the lowest cut-off of the grid (the least torque variation: it falls with the cut-off)
 whose tracking error on the nominal arm stays within ``ERROR_BUDGET`` at the gains the
-gain study chose (those of ``runs/paper/base.toml``). ``python -m twolink.studies.sensing``
+gain study chose (those of ``runs/paper/base.toml``). ``python -m twolink.studies.designs.sensing``
 prints the table.
 """
 

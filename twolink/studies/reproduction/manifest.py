@@ -87,9 +87,10 @@ class Manifest:
         ``controllers``. The report's claims table and commentary compare these two.
     claims_study : Path or None
         A sweep file whose plants judge the claim with confidence intervals
-        (:mod:`twolink.studies.claims`); it must run ``proposed`` and ``baseline`` by those names.
+        (:mod:`twolink.studies.judgments.claims`); it must run ``proposed`` and ``baseline`` by
+        those names.
     gain_study : Path or None
-        The gain-study file (:mod:`twolink.studies.gains`) whose trade-off the report shows.
+        The gain-study file (:mod:`twolink.studies.designs.gains`) whose trade-off the report shows.
     """
 
     path: Path
@@ -102,7 +103,9 @@ class Manifest:
     baseline: str = "CTC"
     claims_study: Path | None = None
     gain_study: Path | None = None
-    calibration: Path | None = None  # twolink.studies.calibrate's study file, rerun by the report
+    calibration: Path | None = (
+        None  # twolink.studies.designs.calibrate's study file, rerun by the report
+    )
     # The flexible-joint map's third axis: the plant's [plant.scale] factors against every
     # controller's model (masses, g, and the joints' k and j); empty: the exact model only.
     flexible_model_error: dict[str, float] = field(default_factory=dict)
@@ -302,3 +305,19 @@ def _model_error(t: TomlTable) -> dict[str, float]:
             t.fail(key, f"unknown key (known here: {known})")
         out[key] = t.number(key, 1.0, positive=True)
     return out
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One simulation of the reproduction: experiment x variant x controller."""
+
+    experiment: Experiment
+    variant: Variant
+    controller: str
+    overrides: dict[str, Any]
+    centres: tuple[tuple[float, float], ...] = ()  # FCM centres, for the phase-plane trace
+    centre_labels: tuple[str, ...] = ()  # each centre's kept rule ("PS,NM→NS"), its name there
+
+    @property
+    def folder(self) -> str:
+        return f"{self.variant.name}/{self.experiment.key}/{self.controller}"

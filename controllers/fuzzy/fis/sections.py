@@ -1,6 +1,6 @@
 """The text of a MATLAB ``.fis`` file as sections: one reader for both of twolink's
-``.fis`` readers (:mod:`controllers.fuzzy.fis`, the project's own engine, and
-:mod:`controllers.fuzzy.matlab`, any Toolbox system), which differ in what they make of
+``.fis`` readers (:mod:`controllers.fuzzy.fis.engine_files`, the project's own engine, and
+:mod:`controllers.fuzzy.fis.matlab`, any Toolbox system), which differ in what they make of
 the sections, not in how they read them.
 
 A file is ``[Section]`` headers, each followed by ``KEY=VALUE`` lines (quotes around the

@@ -1,5 +1,6 @@
 """The calibration's analysis and report (``twolink calibrate``'s summary and the
-reproduction's "Calibrated against the paper" section, :mod:`twolink.studies.calibrate` the fit).
+reproduction's "Calibrated against the paper" section, :mod:`twolink.studies.designs.calibrate` the
+fit).
 
 Per table row paper against calibrated, which metrics come within the study's tolerance,
 the objective's profile figure, and the analytic check of which published numbers
@@ -17,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from twolink.simulation.metrics import step_metrics
-from twolink.studies.calibrate import (
+from twolink.studies.designs.calibrate import (
     CTC_PARAMS,
     FCM_PARAMS,
     STAGES,
@@ -219,7 +220,7 @@ def rerun_shipped(path: Path) -> Shipped | None:
 
 def table_values(shipped: Shipped | None) -> dict[int, dict[str, dict[str, float]]]:
     """The rerun's metrics per paper table and controller (symbol -> value, Mp a fraction):
-    the report's calibrated column (:func:`twolink.studies.report.render`)."""
+    the report's calibrated column (:func:`twolink.studies.reproduction.report.render`)."""
     if shipped is None:
         return {}
     out: dict[int, dict[str, dict[str, float]]] = {}

@@ -16,7 +16,7 @@ under OR, NOT = 1 - mu, firing times weight, no clipping of inputs to their rang
 where the total firing strength is 0 every output is the middle of its range. The one
 difference is the Mamdani defuzzification: the Toolbox samples the aggregated output on
 ``NumPoints`` (101) points and sums; :meth:`Fis.evaluate` integrates it
-(:mod:`controllers.fuzzy.matlab_exact`) unless ``sampled=True``.
+(:mod:`controllers.fuzzy.fis.exact`) unless ``sampled=True``.
 
 :class:`FisTerm` makes a two-input, one-output system the fuzzy term of a controller
 (``engine(e, de)`` on normalised inputs, like :class:`~controllers.fuzzy.engine.MamdaniEngine`).
@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from twolink.controllers.fuzzy.fis_sections import (
+from twolink.controllers.fuzzy.fis.sections import (
     numbers,
     read_sections,
     variable_range,
@@ -143,7 +143,7 @@ class FisMF:
     def features(self) -> list[tuple[float, float]]:
         """(point, width) pairs: the points where the function has a kink or its shape
         (a breakpoint: width 0) and, for the curved ones, the scale of the shape around
-        them (the exact quadrature meshes there; :mod:`controllers.fuzzy.matlab_exact`)."""
+        them (the exact quadrature meshes there; :mod:`controllers.fuzzy.fis.exact`)."""
         p, k = self.params, self.kind
         if k in ("trimf", "trapmf"):
             return [(v, 0.0) for v in p]
@@ -271,7 +271,7 @@ class Fis:
         either way. Where the total firing strength is 0 every output is the middle of
         its range, as in the Toolbox; so is a Mamdani output whose aggregate has no area.
         """
-        from twolink.controllers.fuzzy import matlab_exact
+        from twolink.controllers.fuzzy.fis import exact as matlab_exact
 
         x = self._inputs(x)
         w = self.firing(x)
@@ -571,7 +571,7 @@ def rule_base_engine(path: str | Path):
     rules, as before; any other ``.fis`` with two inputs (error, rate) and one output is
     a :class:`FisTerm` (exact). Errors are one line naming the file."""
     from twolink.controllers.fuzzy import default_fuzzy_pd
-    from twolink.controllers.fuzzy.fis import read_rule_base
+    from twolink.controllers.fuzzy.fis.engine_files import read_rule_base
 
     path = Path(path)
     if path.suffix.lower() != ".fis":

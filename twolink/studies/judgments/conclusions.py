@@ -81,7 +81,7 @@ def _name(r: Any) -> str:
 
 
 def _signed(key: str, value: float) -> str:
-    from twolink.studies.claims_words import amount
+    from twolink.studies.judgments.claims_words import amount
 
     return ("+" if value > 0 else "") + amount(key, value, 2).replace("-", "−")
 
@@ -96,7 +96,7 @@ def _count(r: Any, side: str) -> int:
 
 def _one_share(r: Any) -> str | None:
     """'worse by more than 10 ms on 35 of 200 in θ2 Tr' where one share is shown."""
-    from twolink.studies.claims_words import amount
+    from twolink.studies.judgments.claims_words import amount
 
     sides = [side for side in ("better", "worse") if getattr(r, f"share_{side}_shown")]
     if len(sides) != 1:
@@ -168,7 +168,7 @@ def _pair(every: pd.DataFrame, proposed: str, opponent: str) -> pd.DataFrame:
 def limit_cycle_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
     """Where the proposed controller oscillates more than its baseline beyond the
     tolerance (a verdict or a share shown), on how many plants, by up to how much."""
-    from twolink.studies.claims_words import amount
+    from twolink.studies.judgments.claims_words import amount
 
     if not studies:
         return None
@@ -297,7 +297,7 @@ _REGIME_WORDS = {"raw": "with the paper's raw steps", "quintic": "with quintic m
 
 
 def search_sentence(items: Sequence[Mapping[str, Any]]) -> str | None:
-    """The table search's answer (:func:`twolink.studies.search.sentence_numbers`' items:
+    """The table search's answer (:func:`twolink.studies.designs.search.sentence_numbers`' items:
     per regime and inference the best table's IAE against the best linear loop on the
     held-out plants): can a fuzzy term of this structure beat the best linear loop at
     equal effort? Per regime the better inference (more plants better less worse), each

@@ -13,7 +13,7 @@ import numpy as np
 
 from twolink.simulation.config import Scenario, read_toml
 from twolink.simulation.vocabulary import metric
-from twolink.studies.manifest import Manifest
+from twolink.studies.reproduction.manifest import Manifest
 
 __all__ = ["SMOOTH_KINDS", "raw_steps", "reference_values", "regime_plan"]
 

@@ -15,8 +15,8 @@ import numpy as np
 import pandas as pd
 
 from twolink.simulation.vocabulary import CLAIMED_BETTER, format_value, metric
-from twolink.studies.claims import TOLERANCES, count_wins
-from twolink.studies.manifest import Experiment, Manifest
+from twolink.studies.judgments.claims import TOLERANCES, count_wins
+from twolink.studies.reproduction.manifest import Experiment, Manifest
 
 fmt = format_value
 # Beside the paper's metrics: sustained oscillation (a limit cycle is a result to show).
@@ -46,8 +46,8 @@ def claims(
 ) -> dict[str, tuple[int, int, int, int, int, int]]:
     """Per metric of the paper's claim: in how many experiments the proposed controller's
     value is lower / higher than the baseline's by more than the metric's practical
-    tolerance (:data:`twolink.studies.claims.TOLERANCES`,
-    :func:`twolink.studies.claims.count_wins`, the
+    tolerance (:data:`twolink.studies.judgments.claims.TOLERANCES`,
+    :func:`twolink.studies.judgments.claims.count_wins`, the
     one count used everywhere), of how many where both exist: ``(better, worse, n)`` ours,
     then the paper's own. Magnitudes: the paper prints some overshoots negative."""
     a, b = manifest.proposed, manifest.baseline
@@ -85,7 +85,7 @@ def experiment_table(
 
     ``calibrated`` (controller -> the paper's symbol -> value, in the paper's units: Mp a
     fraction), where given, is the calibrated run's value, printed between ours and the
-    paper's (``twolink.studies.calibrate``)."""
+    paper's (``twolink.studies.designs.calibrate``)."""
     first = _lookup(rows, variant, exp, controllers[0])
     ours = [OURS_ONLY, *(TRACKING if first["reference"] in TRACKED_KINDS else ())]
     other = 3 - exp.joint
@@ -261,7 +261,7 @@ def render(
     the plants' number),
     then ``lead_sections`` (the claims with their statistics), then definitions.
     ``calibrated`` (paper table -> controller ->
-    symbol -> value, :func:`twolink.studies.calibration_report.table_values`) adds the
+    symbol -> value, :func:`twolink.studies.designs.calibration_report.table_values`) adds the
     calibrated runs'
     values to those tables of the variant that runs the scenarios unchanged (the paper's
     own, rigid arm)."""
@@ -385,7 +385,7 @@ def winners_section(
 ) -> list[str]:
     """What a reader needs first: each controller against ``baseline`` on the same plants,
     per joint and metric its verdict, better/worse/equal counts and estimate (``versus``:
-    name -> :func:`twolink.studies.claims.paired_claims` table)."""
+    name -> :func:`twolink.studies.judgments.claims.paired_claims` table)."""
     names = list(versus)
     first = next(iter(versus.values()))
     metrics = list(dict.fromkeys(first["metric"]))
@@ -423,7 +423,8 @@ def claims_section(
     regime: str = "",
     sensor: str = "",
 ) -> list[str]:
-    """The paper's claims judged on many plants (:func:`twolink.studies.claims.paired_claims`'s
+    """The paper's claims judged on many plants
+    (:func:`twolink.studies.judgments.claims.paired_claims`'s
     table): per joint and metric the counts, the plants only one controller reaches, the
     estimate with its interval, the shares with theirs, the verdict and its reading;
     ``met``: plants on which each met the spec."""
@@ -473,12 +474,12 @@ def conclusions(
     rows, manifest: Manifest, studies: Sequence[Any] = (), closing: Sequence[str] = ()
 ) -> list[str]:
     """The report's first section: at most 8 sentences
-    (:mod:`twolink.studies.conclusions`), from the same numbers as the tables below: per
+    (:mod:`twolink.studies.judgments.conclusions`), from the same numbers as the tables below: per
     plant variant the paper's experiments (:func:`claims`' counts, the runs' outcomes and
     linear growth), then each claims study's tables
-    (:class:`twolink.studies.conclusions.ClaimsStudy`), then ``closing`` (the table
+    (:class:`twolink.studies.judgments.conclusions.ClaimsStudy`), then ``closing`` (the table
     search's sentence)."""
-    from twolink.studies.conclusions import sentences, variant_sentence
+    from twolink.studies.judgments.conclusions import sentences, variant_sentence
 
     p, b = manifest.proposed, manifest.baseline
     lines = []

@@ -32,33 +32,16 @@ from twolink.simulation.experiment import (
 from twolink.simulation.outcome import classify_run, settling_window
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import joint_values
-from twolink.studies.claims_studies import raw_steps, run_claims
-from twolink.studies.hero import HERO_FIGURE, hero
-from twolink.studies.manifest import (
+from twolink.studies.judgments.claims_studies import raw_steps, run_claims
+from twolink.studies.reproduction.hero import HERO_FIGURE, hero
+from twolink.studies.reproduction.manifest import (
     DEFAULT_MANIFEST,
-    Experiment,
     Manifest,
-    Variant,
+    RunSpec,
     load_manifest,
 )
-from twolink.studies.reproduce_figures import design_figures, response_figure
-from twolink.studies.run_folder import portable_config, write_run
-
-
-@dataclass(frozen=True)
-class RunSpec:
-    """One simulation of the reproduction: experiment x variant x controller."""
-
-    experiment: Experiment
-    variant: Variant
-    controller: str
-    overrides: dict[str, Any]
-    centres: tuple[tuple[float, float], ...] = ()  # FCM centres, for the phase-plane trace
-    centre_labels: tuple[str, ...] = ()  # each centre's kept rule ("PS,NM→NS"), its name there
-
-    @property
-    def folder(self) -> str:
-        return f"{self.variant.name}/{self.experiment.key}/{self.controller}"
+from twolink.studies.reproduction.reproduce_figures import design_figures, response_figure
+from twolink.studies.reproduction.run_folder import portable_config, write_run
 
 
 def plan(
@@ -463,7 +446,7 @@ def reproduce(
     design runs nor the flexible-joint study."""
     from twolink import sweep
     from twolink.foundation.io import check_output_folder, check_ownership, owned_output
-    from twolink.studies.design import load_design_config
+    from twolink.studies.designs.design import load_design_config
 
     out = Path(out)
     manifest = load_manifest(manifest_path)
@@ -504,11 +487,11 @@ def _reproduce(
 
     from twolink.foundation.executors import open_executor
     from twolink.foundation.io import atomic_write_json, atomic_write_text
-    from twolink.studies import report
-    from twolink.studies.design import design_or_load
-    from twolink.studies.gains import report_section
-    from twolink.studies.report_sections import design_section, oscillation_section
-    from twolink.studies.search import search_closing
+    from twolink.studies.designs.design import design_or_load
+    from twolink.studies.designs.gains import report_section
+    from twolink.studies.designs.search import search_closing
+    from twolink.studies.reproduction import report
+    from twolink.studies.reproduction.report_sections import design_section, oscillation_section
 
     phase = _Phases(progress, 4)
     workers = workers or os.cpu_count() or 1
@@ -610,7 +593,7 @@ def _reproduce(
         sections = oscillation_section(specs, scenarios, trajectories, rows) + gain_section
         calibrated = None
         if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
-            from twolink.studies import calibration_report
+            from twolink.studies.designs import calibration_report
 
             shipped = calibration_report.rerun_shipped(manifest.calibration)
             sections += calibration_report.report_section(manifest.calibration, out, shipped, draw)

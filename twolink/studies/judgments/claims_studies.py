@@ -1,9 +1,9 @@
 """The reproduction's claims studies: the claims sweep of the manifest, as its file says
 and again in each regime of a ``raw_steps`` variant (the paper's own references), judged
-with :mod:`twolink.studies.claims`, each against the baseline and against the fair linear
-opponent, CTC-best (:mod:`twolink.studies.frontier`). The pieces of a regime (the raw steps,
+with :mod:`twolink.studies.judgments.claims`, each against the baseline and against the fair linear
+opponent, CTC-best (:mod:`twolink.studies.designs.frontier`). The pieces of a regime (the raw steps,
 the reference's own step metrics, the sweep in a regime) are
-:mod:`twolink.studies.claims_plans`' (re-exported here)."""
+:mod:`twolink.studies.judgments.claims_plans`' (re-exported here)."""
 
 from __future__ import annotations
 
@@ -11,10 +11,15 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
-from twolink.studies.claims_plans import SMOOTH_KINDS, raw_steps, reference_values, regime_plan
-from twolink.studies.conclusions import ClaimsStudy
-from twolink.studies.frontier import OPPONENT
-from twolink.studies.manifest import Manifest
+from twolink.studies.designs.frontier import OPPONENT
+from twolink.studies.judgments.claims_plans import (
+    SMOOTH_KINDS,
+    raw_steps,
+    reference_values,
+    regime_plan,
+)
+from twolink.studies.judgments.conclusions import ClaimsStudy
+from twolink.studies.reproduction.manifest import Manifest
 
 __all__ = [
     "SMOOTH_KINDS",
@@ -29,11 +34,11 @@ __all__ = [
 def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tuple[list[str], Any]:
     """The claims study on ``pool``: as its file says, and again in each regime of a
     ``raw_steps`` variant (the paper's own references, the variant's gains), each with the
-    fair linear opponent beside the baseline (:mod:`twolink.studies.frontier`). Returns the
+    fair linear opponent beside the baseline (:mod:`twolink.studies.designs.frontier`). Returns the
     report's sections and, per study, its tables for the conclusions
-    (:class:`twolink.studies.conclusions.ClaimsStudy`)."""
+    (:class:`twolink.studies.judgments.conclusions.ClaimsStudy`)."""
     from twolink import sweep
-    from twolink.studies import frontier, search
+    from twolink.studies.designs import frontier, search
 
     variants = (None, *(v for v in manifest.variants if v.raw_steps))
     plans = []
@@ -83,8 +88,8 @@ def _claims_study(
     against the baseline (``claims_all[_VARIANT].csv``); the report's sections on them."""
 
     from twolink.foundation.io import atomic_write_text
-    from twolink.studies import report
-    from twolink.studies.claims import paired_claims, paired_claims_many
+    from twolink.studies.judgments.claims import paired_claims, paired_claims_many
+    from twolink.studies.reproduction import report
 
     study = manifest.claims_study
     suffix, regime = _suffix(variant), "" if variant is None else variant.title
@@ -140,9 +145,9 @@ def _claims_study(
 
 
 def fair_opponent(manifest: Manifest, variant: Any = None, pool: Any = None) -> Any:
-    """The regime's fair opponent (:mod:`twolink.studies.frontier`): from the frontier file
+    """The regime's fair opponent (:mod:`twolink.studies.designs.frontier`): from the frontier file
     beside the manifest, its shipped table where current, else the frontier run here."""
-    from twolink.studies import frontier
+    from twolink.studies.designs import frontier
 
     spec = frontier.load_spec(manifest.path.parent / frontier.DEFAULT_SPEC.name)
     _, chosen, _ = frontier.opponents(spec, pool)

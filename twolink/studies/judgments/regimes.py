@@ -3,11 +3,12 @@ helps or hurts, against CTC and CTC with integral action.
 
 One sweep file (``runs/sweeps/regimes.toml``: a grid of bandwidth ωn x mass mismatch x
 tip payload, 100 plants per cell) runs twice: as written (2 s quintic moves) and with the
-paper's raw steps (:func:`twolink.studies.claims_studies.raw_steps`). Per cell, the share of
+paper's raw steps (:func:`twolink.studies.judgments.claims_studies.raw_steps`). Per cell, the share
+of
 samples where the fuzzy term acts (``fuzzy_active_share``, mean over plants and joints)
 and the paired verdicts of FCM-CTC, and of the continuous inference of its rules
 (FCM-CTC-continuous, our extension: docs/fuzzy.md, "The relay")
-(:func:`twolink.studies.claims.paired_claims_many`, all cells at once: the verdict rule
+(:func:`twolink.studies.judgments.claims.paired_claims_many`, all cells at once: the verdict rule
 of docs/statistics.md, Holm across each cell's table) against each opponent on Ts to the target,
 max|e| of both joints, IAE, peak torque and oscillation (docs/reproduction.md, "The
 regime map").
@@ -52,7 +53,7 @@ def run_regimes(
     ``backend``: run_sweep's (the CPU engine, or MJX)."""
     from twolink import sweep
     from twolink.simulation.config import read_toml
-    from twolink.studies.claims_studies import raw_steps
+    from twolink.studies.judgments.claims_studies import raw_steps
 
     raw = {"reference": raw_steps(read_toml(study).get("reference", {})), "name": "regimes_raw"}
     sweeps = []
@@ -72,8 +73,8 @@ def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
     controller's paired statistics against the opponent on the cell's plants, and the
     share of samples where its fuzzy term acts. A proposed controller the study does not
     run is left out. Every cell's table in one pass
-    (:func:`twolink.studies.claims.paired_claims_many`)."""
-    from twolink.studies.claims import paired_claims_many
+    (:func:`twolink.studies.judgments.claims.paired_claims_many`)."""
+    from twolink.studies.judgments.claims import paired_claims_many
 
     regimes = list(results)
     frame = pd.concat(

@@ -15,7 +15,8 @@ with a seed of their own (the claims' plants stay held out), the batch engine ru
 **Effort** per joint: the median over the plants of the peak |τ| and of Σ|Δτ| (the torque
 variation behind the claims sweep's lab sensor). **Budget**: FCM-CTC's effort. A loop is
 *within* it when each of its four effort values is at most FCM-CTC's plus the claims'
-practical tolerance (0.5 N·m on peaks, 1 N·m on Σ|Δτ|: :data:`twolink.studies.claims.TOLERANCES`).
+practical tolerance (0.5 N·m on peaks, 1 N·m on Σ|Δτ|:
+:data:`twolink.studies.judgments.claims.TOLERANCES`).
 **Performance index**: the median over the plants of IAE₁ + IAE₂ (rad·s; it grows with a
 slow rise, an overshoot and an offset alike). **The opponent** (:data:`OPPONENT`): the loop
 within the budget with the lowest index (ties: the lower largest effort ratio).
@@ -125,7 +126,7 @@ def _numbers(t: TomlTable, key: str) -> tuple[float, ...]:
 
 def load_spec(path: str | Path = DEFAULT_SPEC) -> FrontierSpec:
     """Read and check a frontier file (errors name the file and key)."""
-    from twolink.studies.manifest import load_manifest
+    from twolink.studies.reproduction.manifest import load_manifest
 
     path = Path(path)
     data = read_toml(path)
@@ -160,7 +161,7 @@ def load_spec(path: str | Path = DEFAULT_SPEC) -> FrontierSpec:
 
 
 def _variant(spec: FrontierSpec, regime: str) -> Any:
-    from twolink.studies.manifest import load_manifest
+    from twolink.studies.reproduction.manifest import load_manifest
 
     if regime == QUINTIC:
         return None
@@ -170,8 +171,8 @@ def _variant(spec: FrontierSpec, regime: str) -> Any:
 def training_plan(spec: FrontierSpec, regime: str, controllers: dict | None = None) -> Any:
     """The claims sweep of ``regime`` on the training plants, with ``controllers`` (default:
     the proposed controller and its continuous variant)."""
-    from twolink.studies.claims_plans import regime_plan
-    from twolink.studies.manifest import load_manifest
+    from twolink.studies.judgments.claims_plans import regime_plan
+    from twolink.studies.reproduction.manifest import load_manifest
 
     manifest = load_manifest(spec.manifest)
     full = regime_plan(manifest, _variant(spec, regime))
@@ -225,8 +226,8 @@ def run_frontier(spec: FrontierSpec, pool: Any = None) -> pd.DataFrame:
     effort ratio to FCM-CTC's (the largest of the four), whether it is within the budget
     and on the Pareto frontier (no other loop has both a lower effort ratio and a lower
     index)."""
-    from twolink.studies.claims import TOLERANCES
-    from twolink.studies.manifest import load_manifest
+    from twolink.studies.judgments.claims import TOLERANCES
+    from twolink.studies.reproduction.manifest import load_manifest
 
     manifest = load_manifest(spec.manifest)
     tables = []

@@ -13,10 +13,10 @@ def design_figures(result: Any, out: Path) -> list[Any]:
     """The design's evidence (a worker task): phase plane with centres, membership
     functions, the control surfaces of the heuristic, the paper's and the designed rule
     base, and the cluster-validity sweep, which it returns
-    (:func:`twolink.studies.validity.validity_sweep`: c = 2..10, PC, PE, XB)."""
+    (:func:`twolink.studies.designs.validity.validity_sweep`: c = 2..10, PC, PE, XB)."""
     from twolink.controllers import fuzzy
     from twolink.figures import plots
-    from twolink.studies.validity import validity_figure, validity_sweep
+    from twolink.studies.designs.validity import validity_figure, validity_sweep
 
     validity = validity_sweep(result.points, result.weights)
 

@@ -1,6 +1,6 @@
 """Where each flexible-joint law holds: sensor, payload and model error, as measured.
 
-``python -m twolink.studies.flexible_limits`` (``--tuning``: the process-noise rule of
+``python -m twolink.studies.judgments.flexible_limits`` (``--tuning``: the process-noise rule of
 :func:`process_noise_scan`) runs every flexible-joint law
 (``docs/control.md``, "Flexible-joint controllers") on the flexible map's move (septic
 θ1 0 → 1 rad, θ2 0 → 0.5 rad in 1.5 s, 3 s from rest holding itself up, ωn = 10 rad/s,

@@ -1,4 +1,4 @@
-"""Defuzzifying a Mamdani :class:`~controllers.fuzzy.matlab.Fis` output: exactly, or
+"""Defuzzifying a Mamdani :class:`~controllers.fuzzy.fis.matlab.Fis` output: exactly, or
 sampled as the Toolbox does (docs/fuzzy.md, "Any MATLAB FIS", says what "exactly" means).
 
 The aggregated output mu(y) = AGG_r IMP(w_r, F_r(y)) (F_r the rule's consequent, 1 - it

@@ -1,0 +1,1 @@
+"""The designs: FCM rule base, gains, sensing, calibration, linear frontier, table search."""
