@@ -219,50 +219,9 @@ def fcm(
         max_iter < 1, or not exactly one source of the initial partition.
     """
     x = _as_points(x, "x")
-    n_points = x.shape[0]
-    if isinstance(n_clusters, bool) or not isinstance(n_clusters, numbers.Integral):
-        raise ValueError(f"n_clusters must be an integer, got {n_clusters!r}")
-    c = int(n_clusters)
-    if c < 2:
-        raise ValueError(f"n_clusters must be >= 2, got {c}")
-    if c > n_points:
-        raise ValueError(f"n_clusters ({c}) cannot exceed the number of points ({n_points})")
-    m = _check_m(m)
-    if not (isinstance(eps, numbers.Real) and math.isfinite(eps) and eps >= 0):
-        raise ValueError(f"eps must be a finite number >= 0, got {eps!r}")
-    if isinstance(max_iter, bool) or not isinstance(max_iter, numbers.Integral) or max_iter < 1:
-        raise ValueError(f"max_iter must be an integer >= 1, got {max_iter!r}")
-    if weights is None:
-        w = np.ones(n_points)
-    else:
-        w = np.asarray(weights, dtype=float)
-        if w.shape != (n_points,):
-            raise ValueError(f"weights must have shape (N,) = {(n_points,)}, got {w.shape}")
-        if not np.all(np.isfinite(w)) or np.any(w < 0) or not w.sum() > 0:
-            raise ValueError("weights must be finite, non-negative and not all zero")
-    sources = [name for name, v in (("seed", seed), ("rng", rng), ("init", init)) if v is not None]
-    if len(sources) != 1:
-        raise ValueError(
-            "give exactly one of seed, rng or init for the initial partition, got "
-            + (", ".join(sources) if sources else "none")
-        )
-
-    if init is not None:
-        u = np.array(init, dtype=float)
-        if u.shape != (n_points, c):
-            raise ValueError(f"init must have shape (N, c) = {(n_points, c)}, got {u.shape}")
-        if not np.all(np.isfinite(u)) or np.any(u < 0):
-            raise ValueError("init must be finite and non-negative")
-        if not np.allclose(u.sum(axis=1), 1.0, rtol=0, atol=1e-9):
-            raise ValueError("init rows must sum to 1")
-        u /= u.sum(axis=1, keepdims=True)
-    else:
-        if rng is None:
-            rng = np.random.default_rng(seed)
-        elif not isinstance(rng, np.random.Generator):
-            raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
-        u = rng.random((n_points, c))
-        u /= u.sum(axis=1, keepdims=True)
+    c, m = _check_fcm_options(x.shape[0], n_clusters, m, eps, max_iter)
+    w = _check_weights(weights, x.shape[0])
+    u = _initial_partition(x.shape[0], c, seed, rng, init)
     u0 = u.copy()
 
     objective = []
@@ -289,3 +248,57 @@ def fcm(
         converged=converged,
         m=m,
     )
+
+
+def _check_fcm_options(n_points: int, n_clusters, m, eps, max_iter) -> tuple[int, float]:
+    """The number of clusters and the fuzzifier, checked with eps and max_iter."""
+    if isinstance(n_clusters, bool) or not isinstance(n_clusters, numbers.Integral):
+        raise ValueError(f"n_clusters must be an integer, got {n_clusters!r}")
+    c = int(n_clusters)
+    if c < 2:
+        raise ValueError(f"n_clusters must be >= 2, got {c}")
+    if c > n_points:
+        raise ValueError(f"n_clusters ({c}) cannot exceed the number of points ({n_points})")
+    m = _check_m(m)
+    if not (isinstance(eps, numbers.Real) and math.isfinite(eps) and eps >= 0):
+        raise ValueError(f"eps must be a finite number >= 0, got {eps!r}")
+    if isinstance(max_iter, bool) or not isinstance(max_iter, numbers.Integral) or max_iter < 1:
+        raise ValueError(f"max_iter must be an integer >= 1, got {max_iter!r}")
+    return c, m
+
+
+def _check_weights(weights, n_points: int) -> np.ndarray:
+    """The sample weights (all 1 when not given), checked."""
+    if weights is None:
+        return np.ones(n_points)
+    w = np.asarray(weights, dtype=float)
+    if w.shape != (n_points,):
+        raise ValueError(f"weights must have shape (N,) = {(n_points,)}, got {w.shape}")
+    if not np.all(np.isfinite(w)) or np.any(w < 0) or not w.sum() > 0:
+        raise ValueError("weights must be finite, non-negative and not all zero")
+    return w
+
+
+def _initial_partition(n_points: int, c: int, seed, rng, init) -> np.ndarray:
+    """U(0): ``init`` checked, or drawn from ``seed`` or ``rng`` (exactly one of the three)."""
+    sources = [name for name, v in (("seed", seed), ("rng", rng), ("init", init)) if v is not None]
+    if len(sources) != 1:
+        raise ValueError(
+            "give exactly one of seed, rng or init for the initial partition, got "
+            + (", ".join(sources) if sources else "none")
+        )
+    if init is not None:
+        u = np.array(init, dtype=float)
+        if u.shape != (n_points, c):
+            raise ValueError(f"init must have shape (N, c) = {(n_points, c)}, got {u.shape}")
+        if not np.all(np.isfinite(u)) or np.any(u < 0):
+            raise ValueError("init must be finite and non-negative")
+        if not np.allclose(u.sum(axis=1), 1.0, rtol=0, atol=1e-9):
+            raise ValueError("init rows must sum to 1")
+        return u / u.sum(axis=1, keepdims=True)
+    if rng is None:
+        rng = np.random.default_rng(seed)
+    elif not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng must be a numpy.random.Generator, got {type(rng).__name__}")
+    u = rng.random((n_points, c))
+    return u / u.sum(axis=1, keepdims=True)

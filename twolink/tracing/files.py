@@ -124,27 +124,30 @@ def write_recording(
             rec.save(tmp, default_blueprint=layout)
             for (_, traj, arm, extras), prefix in zip(runs, prefixes, strict=True):
                 log_run(rec, traj, arm, prefix, **{"every": every, **extras})
-            with catch_and_log_exceptions(context="twolink.tracing.overview", strict=True):
-                for series in overview:
-                    rec.log(
-                        series.path,
-                        rr.SeriesLines(
-                            names=series.name, colors=[series.color], widths=[series.width]
-                        ),
-                        static=True,
-                        strict=True,
-                    )
-                    rec.send_columns(
-                        series.path,
-                        indexes=[_time_column(series.t)],
-                        columns=rr.Scalars.columns(scalars=series.values),
-                        strict=True,
-                    )
+            _log_overview(rec, overview)
             rec.flush()
         finally:
             # Close the file sink (writes the footer) before the rename or the cleanup.
             rec.disconnect()
     return path
+
+
+def _log_overview(rec: rr.RecordingStream, overview) -> None:
+    """The "all runs" overview's series, each styled once and sent as one column."""
+    with catch_and_log_exceptions(context="twolink.tracing.overview", strict=True):
+        for series in overview:
+            rec.log(
+                series.path,
+                rr.SeriesLines(names=series.name, colors=[series.color], widths=[series.width]),
+                static=True,
+                strict=True,
+            )
+            rec.send_columns(
+                series.path,
+                indexes=[_time_column(series.t)],
+                columns=rr.Scalars.columns(scalars=series.values),
+                strict=True,
+            )
 
 
 def read_recording(path: str | os.PathLike) -> pd.DataFrame:

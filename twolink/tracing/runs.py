@@ -319,77 +319,18 @@ def log_run(
     if not (np.isfinite(ke) and np.isfinite(kde)):
         raise ValueError(f"phase_scale must be finite, got {phase_scale!r}")
     times = [_time_column(traj.t[idx])]
-    q, q_ref, tau = traj.q[idx], traj.q_ref[idx], traj.tau[idx]
-    e, de = traj.e[idx], traj.de[idx]
-    flexible = len(traj.motor_q) == n
-
-    def scalars(path: str, values: np.ndarray, label: str, color: tuple[int, ...]) -> None:
-        # Style once (static), values as one column: the viewer joins them per entity.
-        rec.log(path, rr.SeriesLines(names=label, colors=[color]), static=True, strict=True)
-        rec.send_columns(
-            path, indexes=times, columns=rr.Scalars.columns(scalars=values), strict=True
-        )
+    planes = [np.stack([ke * traj.e[idx, j], kde * traj.de[idx, j]], axis=1) for j in range(2)]
 
     # Strict for this scope only (thread-local): turn rerun's swallowed errors into raises.
     with catch_and_log_exceptions(context="twolink.tracing.log_run", strict=True):
-        text = traj.status if not traj.message else f"{traj.status}: {traj.message}"
-        if name:
-            text = f"{name}: {text}"
-        rec.log(
-            _path(prefix, "status"),
-            rr.TextLog(text, level="INFO" if traj.ok else "WARN"),
-            static=True,
-            strict=True,
-        )
+        _log_status(rec, traj, prefix, name)
         for j in range(2):
-            joint = f"joint{j + 1}"
-            color = JOINT_COLORS[j]
-            sub = "₁₂"[j]
-            scalars(_path(prefix, joint, "angle"), q[:, j], f"θ{sub}", color)
-            scalars(_path(prefix, joint, "reference"), q_ref[:, j], f"θ{sub} ref", REFERENCE_COLOR)
-            if flexible:
-                motor = traj.motor_q[idx, j]
-                scalars(_path(prefix, joint, "motor_angle"), motor, f"motor {sub}", MOTOR_COLOR)
-            scalars(_path(prefix, joint, "error"), e[:, j], f"e{sub}", color)
-            scalars(_path(prefix, joint, "error_rate"), de[:, j], f"ė{sub}", color)
-            scalars(_path(prefix, joint, "torque"), tau[:, j], f"τ{sub}", color)
-
-            plane = np.stack([ke * e[:, j], kde * de[:, j]], axis=1)
-            rec.log(
-                _path(prefix, "phase", joint, "path"),
-                rr.LineStrips2D([plane], colors=[color], radii=rr.Radius.ui_points(1.0)),
-                static=True,
-                strict=True,
-            )
-            state = _path(prefix, "phase", joint, "state")
-            rec.log(
-                state,
-                rr.Points2D.from_fields(colors=[color], radii=rr.Radius.ui_points(5.0)),
-                static=True,
-                strict=True,
-            )
-            if rules is None:
-                cols = rr.Points2D.columns(positions=plane)
-            else:
-                labels = [rules[j][i] for i in idx]
-                cols = rr.Points2D.columns(positions=plane, labels=labels)
-                # the log lists the rule changes (a readable sequence over time), not a row
-                # per sample; the phase-plane points carry every sample's label
-                changes = [k for k in range(len(idx)) if k == 0 or labels[k] != labels[k - 1]]
-                rec.send_columns(
-                    _path(prefix, "phase", joint, "fired_rule"),
-                    indexes=[_time_column(traj.t[idx[changes]])],
-                    columns=rr.TextLog.columns(text=[f"θ{sub}: {labels[k]}" for k in changes]),
-                    strict=True,
-                )
-            rec.send_columns(state, indexes=times, columns=cols, strict=True)
-
-        planes = [np.stack([ke * e[:, j], kde * de[:, j]], axis=1) for j in range(2)]
+            _log_joint_series(rec, traj, prefix, j, idx, times)
+            _log_phase_path(rec, traj, prefix, j, idx, times, planes[j], rules)
         for path, archetype in _phase_axes(
             prefix, planes, [pts for _, pts, _ in centres_to_log], _axis_names((ke, kde))
         ):
             rec.log(path, archetype, static=True, strict=True)
-
         for path, pts, labels in centres_to_log:
             rec.log(
                 path,
@@ -403,36 +344,106 @@ def log_run(
                 static=True,
                 strict=True,
             )
+        _log_arm(rec, arm_points(arm, traj.q[idx]), prefix, times)
 
-        pts = arm_points(arm, q)
-        rec.log(_path(prefix, "arm"), rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True, strict=True)
-        rec.log(
-            _path(prefix, "arm", "base"),
-            rr.Points3D([[0.0, 0.0, 0.0]], labels=["base"], colors=[ARM_COLOR], radii=[0.05]),
-            static=True,
-            strict=True,
-        )
-        links = _path(prefix, "arm", "links")
-        rec.log(
-            links,
-            rr.LineStrips3D.from_fields(colors=[ARM_COLOR], radii=[0.02]),
-            static=True,
-            strict=True,
-        )
-        # One strip of three points per sample.
+
+def _log_scalars(rec, path: str, times, values: np.ndarray, label: str, color) -> None:
+    # Style once (static), values as one column: the viewer joins them per entity.
+    rec.log(path, rr.SeriesLines(names=label, colors=[color]), static=True, strict=True)
+    rec.send_columns(path, indexes=times, columns=rr.Scalars.columns(scalars=values), strict=True)
+
+
+def _log_status(rec, traj: Trajectory, prefix: str, name: str | None) -> None:
+    text = traj.status if not traj.message else f"{traj.status}: {traj.message}"
+    if name:
+        text = f"{name}: {text}"
+    rec.log(
+        _path(prefix, "status"),
+        rr.TextLog(text, level="INFO" if traj.ok else "WARN"),
+        static=True,
+        strict=True,
+    )
+
+
+def _log_joint_series(rec, traj: Trajectory, prefix: str, j: int, idx, times) -> None:
+    """Joint ``j``'s angle, reference, motor angle (flexible joints), error, rate, torque."""
+    joint, color, sub = f"joint{j + 1}", JOINT_COLORS[j], "₁₂"[j]
+    series = [
+        ("angle", traj.q[idx, j], f"θ{sub}", color),
+        ("reference", traj.q_ref[idx, j], f"θ{sub} ref", REFERENCE_COLOR),
+    ]
+    if len(traj.motor_q) == len(traj.t):  # flexible joints
+        series.append(("motor_angle", traj.motor_q[idx, j], f"motor {sub}", MOTOR_COLOR))
+    series += [
+        ("error", traj.e[idx, j], f"e{sub}", color),
+        ("error_rate", traj.de[idx, j], f"ė{sub}", color),
+        ("torque", traj.tau[idx, j], f"τ{sub}", color),
+    ]
+    for what, values, label, colour in series:
+        _log_scalars(rec, _path(prefix, joint, what), times, values, label, colour)
+
+
+def _log_phase_path(rec, traj: Trajectory, prefix: str, j: int, idx, times, plane, rules):
+    """Joint ``j``'s phase-plane path, its moving state and (where given) the fired rules."""
+    joint, color, sub = f"joint{j + 1}", JOINT_COLORS[j], "₁₂"[j]
+    rec.log(
+        _path(prefix, "phase", joint, "path"),
+        rr.LineStrips2D([plane], colors=[color], radii=rr.Radius.ui_points(1.0)),
+        static=True,
+        strict=True,
+    )
+    state = _path(prefix, "phase", joint, "state")
+    rec.log(
+        state,
+        rr.Points2D.from_fields(colors=[color], radii=rr.Radius.ui_points(5.0)),
+        static=True,
+        strict=True,
+    )
+    if rules is None:
+        cols = rr.Points2D.columns(positions=plane)
+    else:
+        labels = [rules[j][i] for i in idx]
+        cols = rr.Points2D.columns(positions=plane, labels=labels)
+        # the log lists the rule changes (a readable sequence over time), not a row
+        # per sample; the phase-plane points carry every sample's label
+        changes = [k for k in range(len(idx)) if k == 0 or labels[k] != labels[k - 1]]
         rec.send_columns(
-            links, indexes=times, columns=rr.LineStrips3D.columns(strips=pts), strict=True
-        )
-        joints = _path(prefix, "arm", "joints")
-        rec.log(
-            joints,
-            rr.Points3D.from_fields(colors=[JOINT_COLORS[0]], radii=[0.035]),
-            static=True,
+            _path(prefix, "phase", joint, "fired_rule"),
+            indexes=[_time_column(traj.t[idx[changes]])],
+            columns=rr.TextLog.columns(text=[f"θ{sub}: {labels[k]}" for k in changes]),
             strict=True,
         )
-        rec.send_columns(
-            joints,
-            indexes=times,
-            columns=rr.Points3D.columns(positions=pts.reshape(-1, 3)).partition([3] * len(idx)),
-            strict=True,
-        )
+    rec.send_columns(state, indexes=times, columns=cols, strict=True)
+
+
+def _log_arm(rec, pts: np.ndarray, prefix: str, times) -> None:
+    """The arm in 3D: its base, and its links and joints moving (one strip of three points
+    per sample)."""
+    rec.log(_path(prefix, "arm"), rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True, strict=True)
+    rec.log(
+        _path(prefix, "arm", "base"),
+        rr.Points3D([[0.0, 0.0, 0.0]], labels=["base"], colors=[ARM_COLOR], radii=[0.05]),
+        static=True,
+        strict=True,
+    )
+    links = _path(prefix, "arm", "links")
+    rec.log(
+        links,
+        rr.LineStrips3D.from_fields(colors=[ARM_COLOR], radii=[0.02]),
+        static=True,
+        strict=True,
+    )
+    rec.send_columns(links, indexes=times, columns=rr.LineStrips3D.columns(strips=pts), strict=True)
+    joints = _path(prefix, "arm", "joints")
+    rec.log(
+        joints,
+        rr.Points3D.from_fields(colors=[JOINT_COLORS[0]], radii=[0.035]),
+        static=True,
+        strict=True,
+    )
+    rec.send_columns(
+        joints,
+        indexes=times,
+        columns=rr.Points3D.columns(positions=pts.reshape(-1, 3)).partition([3] * len(pts)),
+        strict=True,
+    )
