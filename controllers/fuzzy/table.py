@@ -260,14 +260,77 @@ def _cells(
     if exact.defuzz != "centroid" or pe is None or pd is None or pu is None:
         raise ValueError("table_bound needs triangular partitions on e, de and u and the centroid")
     pu = np.array(pu)
-    n_terms = pu.size
     fine_e, starts_e = _split(e_nodes, np.array(pe))
     fine_d, starts_d = _split(d_nodes, np.array(pd))
-    lo_e, hi_e, sl_e = _input_bounds(fine_e, np.array(pe))
-    lo_d, hi_d, sl_d = _input_bounds(fine_d, np.array(pd))
+    inputs = (_input_bounds(fine_e, np.array(pe)), _input_bounds(fine_d, np.array(pd)))
     pieces = (fine_e.size - 1, fine_d.size - 1)
-    # Each rule's firing strength on each cell: its least and largest value and its
-    # Lipschitz constant along each axis.
+    clips = _clip_levels(exact, inputs, pu.size, pieces)
+    alo, ahi = clips.alo, clips.ahi
+    jump = alo.max(axis=0) <= 0.0
+    over_left, over_right, under_left, under_right = _dominance(clips, inputs, pu.size, pieces)
+    active = ahi > 0.0
+    # Output term k: peak c, support [c - wl, c + wr] within the universe.
+    wl = np.concatenate([[0.0], np.diff(pu)])[:, None, None]
+    wr = np.concatenate([np.diff(pu), [0.0]])[:, None, None]
+    c = pu[:, None, None]
+    u_lo = np.where(active, c - wl, np.inf).min(axis=0)
+    u_hi = np.where(active, c + wr, -np.inf).max(axis=0)
+    # Least area under the true max-min aggregate (it grows with every alpha): per pair of
+    # neighbouring peaks, h (a - a^2/2 + b - b^2/2 - m + m^2), m = min(a, b, 1/2).
+    h = np.diff(pu)[:, None, None]
+    a, b = alo[:-1], alo[1:]
+    m = np.minimum(np.minimum(a, b), 0.5)
+    area = (h * (a - 0.5 * a * a + b - 0.5 * b * b - m + m * m)).sum(axis=0)
+    # skfuzzy's chord: within one output grid step of the meeting point s of a pair's two
+    # clipped terms, s - p in [h min(a_lo, 1/2), h max(1 - b_lo, 1/2)].
+    delta = float(np.diff(exact.u.grid).max())
+    chord = active[:-1] & active[1:]
+    p, q = c[:-1], c[1:]
+    chord_lo = np.maximum(p + h * np.minimum(a, 0.5) - delta, p)
+    chord_hi = np.minimum(p + h * np.maximum(1.0 - b, 0.5) + delta, q)
+    q_lo, q_hi = _clipped_regions(
+        clips, (c, wl, wr), (over_left, over_right), (chord, chord_lo, chord_hi), pieces
+    )
+    # P_k = {mu_k >= alpha_lo_k}, less the part of a pair where a neighbour j with
+    # alpha_j >= alpha_k is at least as high as term k (mu_j >= min(mu_k, alpha_hi_k)).
+    p_lo = c - (1.0 - alo) * wl
+    p_hi = c + (1.0 - alo) * wr
+    cells = _Cells(
+        active=active,
+        slope_e=clips.le,
+        slope_d=clips.ld,
+        p_lo=np.where(under_left, np.maximum(p_lo, c - np.minimum(0.5, ahi) * wl), p_lo),
+        p_hi=np.where(under_right, np.minimum(p_hi, c + np.minimum(0.5, ahi) * wr), p_hi),
+        q_lo=q_lo,
+        q_hi=np.maximum(q_hi, q_lo),
+        area=area,
+        chord=chord,
+        chord_lo=chord_lo,
+        chord_hi=chord_hi,
+        delta=delta,
+    )
+    return cells, jump, u_lo, u_hi, (starts_e, starts_d)
+
+
+@dataclass(frozen=True)
+class _ClipLevels:
+    """Per output term and piece: the least and largest clip level and its slopes along e
+    and de; per rule, where it can fire, and the terms of its antecedents and consequent."""
+
+    alo: np.ndarray
+    ahi: np.ndarray
+    le: np.ndarray
+    ld: np.ndarray
+    live: dict[int, np.ndarray]
+    r_e: list[int]
+    r_d: list[int]
+    r_u: np.ndarray
+
+
+def _clip_levels(exact: MamdaniEngine, inputs, n_terms: int, pieces) -> _ClipLevels:
+    """Each rule's firing strength on each piece (its least and largest value and its
+    Lipschitz constant along each axis), and each term's clip level, the max of its rules'."""
+    (lo_e, hi_e, sl_e), (lo_d, hi_d, sl_d) = inputs
     r_e = [exact.e.index(r.e) for r in exact.rules]
     r_d = [exact.de.index(r.de) for r in exact.rules]
     r_u = np.array([exact.u.index(r.u) for r in exact.rules])
@@ -290,16 +353,24 @@ def _cells(
 
     shape = (n_terms, *pieces)
     alo, ahi, le, ld = (np.zeros(shape) for _ in range(4))
-    f_hi_of = {}
+    live = {}
     for r in range(len(exact.rules)):  # the clip level of a term is the max of its rules'
         k = r_u[r]
         f_lo, f_hi, f_se, f_sd = firing(r)
-        f_hi_of[r] = f_hi > 0.0
+        live[r] = f_hi > 0.0
         np.maximum(alo[k], f_lo, out=alo[k])
         np.maximum(ahi[k], f_hi, out=ahi[k])
         np.maximum(le[k], f_se, out=le[k])
         np.maximum(ld[k], f_sd, out=ld[k])
-    jump = alo.max(axis=0) <= 0.0
+    return _ClipLevels(alo, ahi, le, ld, live, r_e, r_d, r_u)
+
+
+def _dominance(clips: _ClipLevels, inputs, n_terms: int, pieces) -> tuple[np.ndarray, ...]:
+    """Where each output term's clip level is at least its left / right neighbour's, and
+    where each neighbour's is at least its own (over_left, over_right, under_left,
+    under_right), per term and piece."""
+    (lo_e, hi_e, _), (lo_d, hi_d, _) = inputs
+    alo, ahi, r_e, r_d, r_u = clips.alo, clips.ahi, clips.r_e, clips.r_d, clips.r_u
     # ge[k, j]: alpha_k >= alpha_j on the whole piece, for neighbouring terms. From the
     # bounds, or rule by rule: every live rule of j has a rule of k firing at least as
     # strongly (both antecedents at least as large: the same term, or a least value
@@ -316,7 +387,7 @@ def _cells(
         rules_k = np.flatnonzero(r_u == k)
         by_rules = np.ones(pieces, dtype=bool)
         for rj in np.flatnonzero(r_u == j):
-            covered = ~f_hi_of[rj]
+            covered = ~clips.live[rj]
             for rk in rules_k:
                 covered = covered | (
                     ge_e[r_e[rk], r_e[rj]][:, None] & ge_d[r_d[rk], r_d[rj]][None, :]
@@ -325,36 +396,20 @@ def _cells(
         return out | by_rules
 
     none = np.zeros(pieces, dtype=bool)
-    over_left = np.stack([none] + [ge(k, k - 1) for k in range(1, n_terms)])
-    over_right = np.stack([ge(k, k + 1) for k in range(n_terms - 1)] + [none])
-    under_left = np.stack([none] + [ge(k - 1, k) for k in range(1, n_terms)])
-    under_right = np.stack([ge(k + 1, k) for k in range(n_terms - 1)] + [none])
-    active = ahi > 0.0
-    # Output term k: peak c, support [c - wl, c + wr] within the universe.
-    wl = np.concatenate([[0.0], np.diff(pu)])[:, None, None]
-    wr = np.concatenate([np.diff(pu), [0.0]])[:, None, None]
-    c = pu[:, None, None]
-    u_lo = np.where(active, c - wl, np.inf).min(axis=0)
-    u_hi = np.where(active, c + wr, -np.inf).max(axis=0)
-    # Least area under the true max-min aggregate (it grows with every alpha): per pair of
-    # neighbouring peaks, h (a - a^2/2 + b - b^2/2 - m + m^2), m = min(a, b, 1/2).
-    h = np.diff(pu)[:, None, None]
-    a, b = alo[:-1], alo[1:]
-    m = np.minimum(np.minimum(a, b), 0.5)
-    area = (h * (a - 0.5 * a * a + b - 0.5 * b * b - m + m * m)).sum(axis=0)
-    # skfuzzy's chord: within one output grid step of the meeting point s of a pair's two
-    # clipped terms, s - p in [h min(a_lo, 1/2), h max(1 - b_lo, 1/2)].
-    delta = float(np.diff(exact.u.grid).max())
-    chord = active[:-1] & active[1:]
-    p, q = c[:-1], c[1:]
-    chord_lo = np.maximum(p + h * np.minimum(a, 0.5) - delta, p)
-    chord_hi = np.minimum(p + h * np.maximum(1.0 - b, 0.5) + delta, q)
-    # Q_k: mu_k > alpha_hi_k (term k clipped), neither neighbour can reach alpha_lo_k
-    # there, and no chord cell.
-    # P_k = {mu_k >= alpha_lo_k}, less the part of a pair where a neighbour j with
-    # alpha_j >= alpha_k is at least as high as term k (mu_j >= min(mu_k, alpha_hi_k)).
-    p_lo = c - (1.0 - alo) * wl
-    p_hi = c + (1.0 - alo) * wr
+    return (
+        np.stack([none] + [ge(k, k - 1) for k in range(1, n_terms)]),
+        np.stack([ge(k, k + 1) for k in range(n_terms - 1)] + [none]),
+        np.stack([none] + [ge(k - 1, k) for k in range(1, n_terms)]),
+        np.stack([ge(k + 1, k) for k in range(n_terms - 1)] + [none]),
+    )
+
+
+def _clipped_regions(clips: _ClipLevels, terms, over, chords, pieces):
+    """Q_k per term and piece, as [q_lo, q_hi]: mu_k > alpha_hi_k (term k clipped), neither
+    neighbour can reach alpha_lo_k there, and no chord cell."""
+    (c, wl, wr), (over_left, over_right) = terms, over
+    chord, chord_lo, chord_hi = chords
+    alo, ahi = clips.alo, clips.ahi
     q_lo = c - (1.0 - ahi) * wl
     q_hi = c + (1.0 - ahi) * wr
     zero = np.zeros((1, *pieces))
@@ -367,22 +422,7 @@ def _cells(
     right_chord = np.concatenate([np.where(chord, chord_lo, no), zero + no])
     q_lo = np.maximum(q_lo, left_chord)
     q_hi = np.minimum(q_hi, right_chord)
-    q_hi = np.where(alo > 0.0, q_hi, q_lo)  # alpha_k may be 0: nothing is sure
-    cells = _Cells(
-        active=active,
-        slope_e=le,
-        slope_d=ld,
-        p_lo=np.where(under_left, np.maximum(p_lo, c - np.minimum(0.5, ahi) * wl), p_lo),
-        p_hi=np.where(under_right, np.minimum(p_hi, c + np.minimum(0.5, ahi) * wr), p_hi),
-        q_lo=q_lo,
-        q_hi=np.maximum(q_hi, q_lo),
-        area=area,
-        chord=chord,
-        chord_lo=chord_lo,
-        chord_hi=chord_hi,
-        delta=delta,
-    )
-    return cells, jump, u_lo, u_hi, (starts_e, starts_d)
+    return q_lo, np.where(alo > 0.0, q_hi, q_lo)  # alpha_k may be 0: nothing is sure
 
 
 def _lipschitz(
