@@ -6,7 +6,9 @@ arm) and advanced by one ``mj_step`` per physics step. The arms are separate kin
 trees with no contacts, so MuJoCo's (block-diagonal) dynamics keep them independent:
 each arm moves as it does alone in its own model (``tests/test_batch.py``).
 
-Gravity is one option per model, the largest in magnitude of the arms'; an arm whose g
+Gravity is one option per model: the one its caller fixes (``model_g``: a sweep's comes
+from its definition, so an arm's run never depends on the other arms of its batch), else
+the largest in magnitude of the arms'; an arm whose g
 differs moves in a plane tilted about the horizontal x axis by the angle whose cosine is
 ``g / g_model`` (:func:`twolink.arm.plant.incline`): the model's gravity then has exactly the
 component g in the arm's plane, and the rest lies along its hinges, where it does no
@@ -61,10 +63,19 @@ def model_gravity(gs: Sequence[float]) -> float:
     return max(gs, key=abs, default=0.0)
 
 
-def batch_model(arms: Sequence[Arm], timestep: float, name: str = "twolink_batch"):
+def batch_model(
+    arms: Sequence[Arm],
+    timestep: float,
+    name: str = "twolink_batch",
+    model_g: float | None = None,
+):
     """One MuJoCo model of ``arms``, ``arm{i}_`` their names' prefixes, under the gravity
-    of :func:`model_gravity` (the batch engine's, and the batch linearisation's)."""
-    g_model = model_gravity([a.params.g for a in arms])
+    ``model_g`` (None: :func:`model_gravity` of the arms; the batch engine's, and the batch
+    linearisation's). An arm's tilt, and so its run to the last bit, depends on its own g
+    and ``model_g`` only: a caller that fixes ``model_g`` for all its arms gets the same run
+    of an arm whatever batch it lands in. An arm of larger |g| than ``model_g`` is a
+    ValueError (no tilt adds gravity)."""
+    g_model = model_gravity([a.params.g for a in arms]) if model_g is None else model_g
     spec = new_spec(timestep, g_model, name)
     for i, a in enumerate(arms):
         # No geoms (nothing renders a batch) and no actuators (see force_index): each
@@ -87,14 +98,17 @@ def batch_model(arms: Sequence[Arm], timestep: float, name: str = "twolink_batch
 
 
 class BatchPlant:
-    """N arms in one MuJoCo model. ``q_index``/``v_index``: (N, 2) addresses of each
-    arm's link angles in ``qpos``/``qvel``, and ``force_index`` the (N, 2) ``qfrc_applied``
-    addresses its torques are written to (its motors' joints)."""
+    """N arms in one MuJoCo model (its gravity ``model_g``: :func:`batch_model`).
+    ``q_index``/``v_index``: (N, 2) addresses of each arm's link angles in
+    ``qpos``/``qvel``, and ``force_index`` the (N, 2) ``qfrc_applied`` addresses its
+    torques are written to (its motors' joints)."""
 
-    def __init__(self, arms: Sequence[Arm], timestep: float = 1e-3) -> None:
+    def __init__(
+        self, arms: Sequence[Arm], timestep: float = 1e-3, model_g: float | None = None
+    ) -> None:
         if not arms:
             raise ValueError("a batch needs at least one arm")
-        self.model = batch_model(arms, timestep)
+        self.model = batch_model(arms, timestep, model_g=model_g)
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
         self.arms = list(arms)

@@ -77,10 +77,12 @@ def _jax(precision: str = "float64"):
     return jax, jax.numpy, mjx
 
 
-def arm_model(arm: Arm, timestep: float) -> Any:
-    """An arm's own MjModel, as a one-arm :class:`BatchPlant` builds it (without the rest
-    of the plant: 2 ms an arm instead of 5); a ValueError where MuJoCo refuses it."""
-    g = arm.params.g
+def arm_model(arm: Arm, timestep: float, model_g: float | None = None) -> Any:
+    """An arm's own MjModel, as a one-arm :class:`BatchPlant` under gravity ``model_g``
+    builds it (without the rest of the plant: 2 ms an arm instead of 5): the CPU engine's
+    rule, so that an arm off ``model_g`` is tilted as there (None: the arm's own g, no
+    tilt); a ValueError where MuJoCo refuses it."""
+    g = arm.params.g if model_g is None else model_g
     spec = new_spec(timestep, g, "twolink_batch")
     add_arm(spec, arm.params, arm.flexibility, arm.payload, prefix="arm0_", model_g=g,
             visual=False, motors=False)  # fmt: skip
@@ -147,10 +149,13 @@ def prepare_batch_mjx(
     sensor: Sensor | None = None,
     precision: str = "float64",
     models: Sequence[Any] | None = None,
+    model_g: float | None = None,
 ) -> tuple[Any, Any, Any]:
     """The run of :func:`simulate_batch_mjx` before it starts: ``(run, carry, finish)``,
     ``finish(run(carry))`` its BatchResult; ``run`` is compiled at its first call (the
-    benchmarks time the second). ``models``: the arms' :func:`arm_model`, if at hand."""
+    benchmarks time the second). ``models``: the arms' :func:`arm_model`, if at hand;
+    ``model_g``: the gravity the arms are tilted against, as on the CPU engine (None: each
+    arm its own)."""
     from twolink.controllers.batch import batch_laws, on_namespace
     from twolink.simulation.batch import schedule
 
@@ -163,8 +168,8 @@ def prepare_batch_mjx(
     if any(a.flexibility is not None for a in arms):
         raise ValueError("the mjx backend runs rigid arms only (no [plant.flexibility])")
     dtype = jnp.float64 if precision == "float64" else jnp.float32
-    models = [arm_model(a, timestep) for a in arms] if models is None else models
-    first = BatchPlant(arms[:1], timestep)  # a single arm's addresses
+    models = [arm_model(a, timestep, model_g) for a in arms] if models is None else models
+    first = BatchPlant(arms[:1], timestep, model_g)  # a single arm's addresses
     dt = first.dt
     steps, substeps, times, q0, qd0, noise_all = schedule(
         n_arms, dt, durations, control_dt, q0, qd0, noise

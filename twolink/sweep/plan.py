@@ -128,6 +128,9 @@ TRUNCATION_TRIES = 10_000
 # draw in the truncation is then a chance of (1 - 0.01)**10_000 ~ 1e-44.
 MIN_TRUNCATION_MASS = 0.01
 MAX_SAMPLES = 1_000_000
+# Where the sweep's model gravity puts the end of a normal g with no bound on a side
+# (SweepPlan.model_gravity): a draw beyond it (a chance of 1.5e-23) is an error row.
+NORMAL_REACH = 10.0
 
 
 # ----------------------------------------------------------------------------- the plan
@@ -325,6 +328,30 @@ class SweepPlan:
                 ]
             plant["flexibility"] = flex
         return merge(self.base, {"plant": plant, "seed": noise_seed})
+
+    def model_gravity(self) -> float:
+        """The gravity of every batch model of this sweep (its arms are tilted against it,
+        :func:`twolink.simulation.batch.batch_model`): the largest |g| any sample can draw,
+        from the sweep's definition alone (the nominal g where ``g`` is not swept; else
+        the g of each end of its distribution, each choice or grid value; a normal open on
+        a side reaches ``NORMAL_REACH`` standard deviations there). So an arm's run depends
+        on its own plant, never on the other arms of its batch, N, the chunk size, the
+        executor or the number of workers."""
+        arm = self.nominal_scenario().arm
+        p = next((p for p in self.parameters if p.name == "g"), None)
+        if p is None:
+            return self.nominal_scenario().plant_params.g
+        if p.values:
+            ends: tuple[float, ...] = p.values
+        elif p.dist == "normal":
+            reach = NORMAL_REACH * p.std
+            ends = (
+                p.mean - reach if p.low is None else p.low,
+                p.mean + reach if p.high is None else p.high,
+            )
+        else:
+            ends = (p.low, p.high)
+        return max((arm.scaled(g=f).g for f in ends), key=abs)
 
     def controller_data(self, name: str, values: Mapping[str, float] = {}) -> dict[str, Any]:  # noqa: B006
         """The base scenario with controller ``name``'s overrides (and a sample's ``wn``)."""
