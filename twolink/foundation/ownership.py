@@ -44,8 +44,16 @@ LOCK_NAME = ".twolink.lock"
 OWNER_NAME = ".twolink-owner.json"  # which command owns the folder, and what it wrote there
 JOURNAL_NAME = ".twolink-journal"  # what the command holding the folder wrote so far
 OWN_NAMES = (LOCK_NAME, OWNER_NAME, JOURNAL_NAME)
-# Temporaries twolink leaves beside a target while it writes (".NAME.xxxx.tmp", ".NAME.xxxx.old").
-TEMPORARY = re.compile(r"^\.[A-Za-z0-9_][A-Za-z0-9_.-]*\.(tmp|old)$")
+# The names twolink's writers make exactly: io.atomic_path's and io.scratch_folder's
+# (tempfile's 8 random characters between ".NAME." and an optional suffix, ".tmp" last),
+# and the owner record's own (".<record>.PID.tmp", :func:`_write_record`). A journal's
+# temporary is removed only if its name is one of these, and the entry there is the very
+# file or folder twolink made (its kind and inode, noted as it was made).
+GENERATED = re.compile(r"^\..+\.[a-z0-9_]{8}(\.[A-Za-z0-9_-]+)?\.tmp$")
+RECORD_TEMPORARY = re.compile(r"^\." + re.escape(OWNER_NAME) + r"\.[0-9]+\.tmp$")
+# Any temporary twolink makes, by its name alone (what a folder holds less these:
+# io.folder_entries); a user's ".notes.tmp" or ".mydata.old" is none of them.
+TEMPORARY = re.compile(f"(?:{GENERATED.pattern})|(?:{RECORD_TEMPORARY.pattern})")
 RECORD_KIND = "twolink owner record"
 RECORD_VERSION = 2
 MAX_JOURNAL_BYTES = 64 << 20
@@ -121,32 +129,85 @@ def read_record(folder: Path, dir_fd: int | None = None) -> dict[str, Any] | Non
     return record
 
 
-def read_journal(folder: Path, dir_fd: int | None = None) -> tuple[dict[str, tuple], set[str]]:
+def read_journal(
+    folder: Path, dir_fd: int | None = None
+) -> tuple[dict[str, tuple], dict[str, tuple[str, int]]]:
     """What a journal lists: {name: (sha256, size, mtime_ns, inode)} of the files written,
-    later lines winning, and the names of the temporaries made. Lines that are not
-    twolink's are skipped; a journal that is not a regular file is :class:`PlantedFile`."""
+    later lines winning, and the temporaries made as {name: (kind, inode)} (kind "file"
+    or "dir"). Lines that are not twolink's are skipped (a bare ``tmp NAME`` too: it
+    does not say what twolink made); a journal that is not a regular file is
+    :class:`PlantedFile`. The command that holds the folder: :func:`journal_command`."""
+    return _read_journal(folder, dir_fd)[:2]
+
+
+def journal_command(folder: Path, dir_fd: int | None = None) -> str | None:
+    """The command a journal says holds (or held, if it was killed) the folder, None
+    where it names none (no journal, or one of an older twolink)."""
+    return _read_journal(folder, dir_fd)[2]
+
+
+def _read_journal(folder: Path, dir_fd: int | None) -> tuple[dict, dict, str | None]:
     where = JOURNAL_NAME if dir_fd is not None else folder / JOURNAL_NAME
     try:
         data = read_bounded(where, MAX_JOURNAL_BYTES, dir_fd)
     except FileNotFoundError:
-        return {}, set()
+        return {}, {}, None
     files: dict[str, tuple] = {}
-    temporaries: set[str] = set()
-    for line in data.decode("utf-8", "replace").splitlines():
+    temporaries: dict[str, tuple[str, int]] = {}
+    command = None
+    for n, line in enumerate(data.decode("utf-8", "replace").splitlines()):
         parts = line.split(" ", 4)
-        if len(parts) == 2 and parts[0] == "tmp" and _temporary_name(parts[1]):
-            temporaries.add(parts[1])
+        if n == 0 and len(parts) == 2 and parts[0] == "command":
+            command = parts[1]
+        elif len(parts) == 4 and parts[0] == "tmp" and parts[1] in ("file", "dir"):
+            if _temporary_name(parts[3]) and parts[2].isdigit():
+                temporaries[parts[3]] = (parts[1], int(parts[2]))
         elif len(parts) == 5 and HEX64.match(parts[0]) and plain_relative(parts[4]):
             try:
                 files[parts[4]] = (parts[0], int(parts[1]), int(parts[2]), int(parts[3]))
             except ValueError:
                 continue
-    return files, temporaries
+    return files, temporaries, command
 
 
 def _temporary_name(name: str) -> bool:
     *above, last = name.split("/")
-    return bool(TEMPORARY.match(last)) and (not above or plain_relative("/".join(above)))
+    return bool(GENERATED.match(last)) and (not above or plain_relative("/".join(above)))
+
+
+def _is_noted(entry: os.DirEntry, noted: tuple[str, int]) -> bool:
+    """Whether ``entry`` is the temporary the journal noted: the same kind (never a
+    link) and the same inode."""
+    kind, inode = noted
+    if entry.is_symlink():
+        return False
+    is_kind = (
+        entry.is_dir(follow_symlinks=False)
+        if kind == "dir"
+        else entry.is_file(follow_symlinks=False)
+    )
+    try:
+        return is_kind and entry.inode() == inode
+    except OSError:
+        return False
+
+
+def _is_record_temporary(folder: Path, entry: os.DirEntry) -> bool:
+    """Whether ``entry`` is an owner record's temporary a killed command left
+    (:func:`_write_record`): its exact name, a regular file with one link, holding a
+    beginning of an owner record as twolink writes it (empty if killed before a byte)."""
+    if not RECORD_TEMPORARY.match(entry.name):
+        return False
+    head = b'{\n "kind": "' + RECORD_KIND.encode() + b'"'
+    try:
+        fd, st = open_regular(folder / entry.name)
+        try:
+            data = os.read(fd, len(head)) if st.st_nlink == 1 else None
+        finally:
+            os.close(fd)
+    except OSError:
+        return False
+    return data is not None and head.startswith(data[: len(head)])
 
 
 # --------------------------------------------------------------------------- the journal
@@ -253,7 +314,9 @@ def note_temporary(path: str | os.PathLike) -> None:
     rel = path.relative_to(owner).as_posix()
     if _temporary_name(rel):
         try:
-            _journal_line(f"tmp {rel}\n", owner, fd)
+            st = os.stat(path, follow_symlinks=False)
+            kind = "dir" if stat.S_ISDIR(st.st_mode) else "file"
+            _journal_line(f"tmp {kind} {st.st_ino} {rel}\n", owner, fd)
         except OSError as exc:
             raise write_failed(path, exc) from None
 
@@ -261,7 +324,9 @@ def note_temporary(path: str | os.PathLike) -> None:
 # ----------------------------------------------------------------------------- checking
 
 
-def _claims(folder: Path) -> tuple[dict[str, str], set[str], dict[str, Any] | None]:
+def _claims(
+    folder: Path,
+) -> tuple[dict[str, str], dict[str, tuple[str, int]], dict[str, Any] | None]:
     """What twolink wrote in ``folder`` by its own account: {name: sha256} from the owner
     record and a journal a killed command left, the temporaries listed, and the record."""
     record = read_record(folder)
@@ -294,7 +359,10 @@ def foreign_entries(
             name = prefix + entry.name
             if not prefix and entry.name in OWN_NAMES:
                 continue
-            if name in temporaries:
+            if name in temporaries and _is_noted(entry, temporaries[name]):
+                removable.append(Path(entry.path))
+                continue
+            if not prefix and _is_record_temporary(sub, entry):
                 removable.append(Path(entry.path))
                 continue
             if entry.is_symlink():
@@ -360,6 +428,13 @@ def check_ownership(
             f"{option} {path}: holds files twolink did not write ({show_names(foreign)}); "
             "twolink writes only into a new or empty folder or one whose owner record lists "
             f"every file in it: move them away or choose another {option}"
+        )
+    held_by = journal_command(path)
+    if held_by is not None and held_by != command:
+        raise ForeignOutput(
+            f"{option} {path}: holds what `twolink {shown(held_by, 40)}` wrote before it was "
+            f"stopped; `twolink {command}` would mix with it: rerun `twolink "
+            f"{shown(held_by, 40)}` there to finish it, or choose another {option}"
         )
     if record is None:
         return removable
@@ -506,6 +581,8 @@ def owned_output(
             raise write_failed(path / JOURNAL_NAME, exc) from None
         # the files twolink wrote before stay listed (checked above: same bytes)
         try:
+            # first, which command writes here: a killed command's folder is its own
+            os.write(jfd, f"command {command}\n".encode())
             for name, digest in claims.items():
                 try:
                     st = os.stat(name, dir_fd=dfd, follow_symlinks=False)
