@@ -31,7 +31,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from twolink.arm.params import ArmParams, Flexibility
-from twolink.arm.plant import add_arm, holding_motor_q, mujoco, new_spec
+from twolink.arm.plant import (
+    add_arm,
+    holding_motor_q,
+    mujoco,
+    new_spec,
+    warning_counts,
+    warning_notes,
+)
 from twolink.controllers.base import Controller
 from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import (
@@ -195,6 +202,7 @@ class BatchResult:
     message: list[str]
     controllers: Sequence[Controller]
     flexible: np.ndarray
+    warnings: tuple[tuple[str, ...], ...] = ()  # per arm: MuJoCo's warnings, in words
 
     def trajectory(self, i: int) -> Trajectory:
         """Arm i's run, as :func:`twolink.simulation.sim.simulate` returns it."""
@@ -213,6 +221,7 @@ class BatchResult:
             motor_q=motor,
             status=self.status[i],
             message=self.message[i],
+            warnings=self.warnings[i] if self.warnings else (),
         )
 
 
@@ -285,6 +294,8 @@ def simulate_batch(
     bounds = bounds or Bounds()
     qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
     tau = np.zeros((n_arms, 2))
+    counts = warning_counts(data)  # MuJoCo's warnings so far (none: reset)
+    warned: list[list[str]] = [[] for _ in range(n_arms)]
 
     ends = set(steps.tolist())  # instants where some arm's run is over
     for k in range(n_max + 1):
@@ -297,9 +308,13 @@ def simulate_batch(
         # arms rest at zero, inside the bounds.)
         if not (np.abs(q).max() < qmax and np.abs(qd).max() < wmax):
             escaped = active & ~((np.abs(q) < qmax).all(axis=1) & (np.abs(qd) < wmax).all(axis=1))
+            # MuJoCo warns of a non-finite or huge state in the steps before (its counts
+            # are the batch's): the arms that left their bounds now are the ones it meant
+            notes, counts = _new_warnings(data, counts)
             for i in np.flatnonzero(escaped):
                 status[i] = STATUS_DIVERGED
                 message[i] = state_message(t, *q[i], *qd[i])
+                warned[i] += notes
             length[escaped] = k if k else 1  # at once: keep the one state, with no torque
             active &= ~escaped
             q[escaped] = qd[escaped] = 0.0  # the laws see finite numbers
@@ -340,6 +355,12 @@ def simulate_batch(
         force[force_index] = tau
         for _ in range(substeps):
             mujoco.mj_step(model, data)
+    notes, _ = _new_warnings(data, counts)
+    if notes:  # after the last escape: the arm of the last warning's degree of freedom
+        dof = max(int(w.lastinfo) for w in data.warning)
+        arm = np.flatnonzero((plant.v_index == dof).any(1) | (plant.motor_v_index == dof).any(1))
+        for i in arm[:1] if len(arm) else range(n_arms):
+            warned[i] += notes
     return BatchResult(
         times,
         rec_q,
@@ -351,7 +372,14 @@ def simulate_batch(
         message,
         controllers,
         plant.flexible,
+        tuple(tuple(w) for w in warned),
     )
+
+
+def _new_warnings(data, counts: list[int]) -> tuple[list[str], list[int]]:
+    """MuJoCo's warnings since ``counts``, in words without their batch-wide counts, and
+    the counts now."""
+    return warning_notes(data, counts), warning_counts(data)
 
 
 def schedule(

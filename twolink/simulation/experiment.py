@@ -387,10 +387,13 @@ class RunMetrics:
     # Flexible joints: the largest spring twist |φ − θ| per joint (NaN for the rigid arm);
     # beyond twolink.arm.params.TWIST_LIMIT the joint is no physical spring (``warnings``).
     max_twist: tuple[float, float] = (math.nan, math.nan)
+    # MuJoCo's warnings during the run (an unstable step), in words: Trajectory.warnings
+    mujoco_warnings: tuple[str, ...] = ()
 
     @property
     def warnings(self) -> list[str]:
-        """Physically meaningless states of the run, in words (empty when none)."""
+        """Physically meaningless states of the run, and MuJoCo's warnings during it, in
+        words (empty when none)."""
         from twolink.arm.params import TWIST_LIMIT
 
         return [
@@ -398,7 +401,7 @@ class RunMetrics:
             "elastic joint takes (docs/model.md, 'Realistic joints')"
             for j, twist in enumerate(self.max_twist, start=1)
             if twist > TWIST_LIMIT
-        ]
+        ] + list(self.mujoco_warnings)
 
     def table(self) -> Any:
         """Every metric by key (rows) for both joints (columns), as a pandas DataFrame:
@@ -481,6 +484,7 @@ class Measured:
             oscillation=_oscillation(s, traj),
             settling_target=(to_target[0], to_target[1]),
             max_twist=max_twist(traj),
+            mujoco_warnings=traj.warnings,
         )
         return cls(metrics, _tails(s, traj))
 
