@@ -515,6 +515,45 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     """
     path = locate(path)
     file = str(path)
+    raw, data = _read_sweep_file(path, file, overrides)
+    top = TomlTable(data, "", file)
+    name, samples, seed, chunk_size = _sizes(top, path)
+    execution = _execution(top)
+    success = _success(top)
+    base = _base_scenario(top, path, file)
+    parameters = _parameters(top, file)
+    controllers = _controllers(top, base, path, file)
+    top.done()
+
+    nominal = scenario_from_dict(base, file)
+    joints = tuple(
+        j + 1
+        for j, target in enumerate(nominal.reference.final)
+        if math.isfinite(target) and target != nominal.q0[j]
+    )
+    return SweepPlan(
+        name=name,
+        file=file,
+        samples=samples,
+        seed=seed,
+        chunk_size=chunk_size,
+        base=base,
+        controllers=tuple(controllers),
+        parameters=parameters,
+        execution=execution,
+        digest=_digest(data, base, controllers),
+        file_sha256=hashlib.sha256(raw).hexdigest(),
+        joints=joints,
+        success=success,
+        step=largest_step(nominal.reference, nominal.q0),
+        finished=finished(nominal.reference, nominal.duration),
+    )
+
+
+def _read_sweep_file(
+    path: Path, file: str, overrides: Mapping[str, Any] | None
+) -> tuple[bytes, dict[str, Any]]:
+    """The sweep file's bytes and its data, with ``overrides`` merged in."""
     refuse_fis(path)
     if not path.is_file():
         raise ConfigError(f"{file}: no such file{shipped_hint(path)}")
@@ -530,8 +569,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     expect_kind(data, file, "sweep")
     if overrides:
         data = merge(data, dict(overrides))
-    data = strip_replace(data)  # the flags merged onto the sweep's own tables are spent
-    top = TomlTable(data, "", file)
+    return raw, strip_replace(data)  # the flags merged onto the sweep's own tables are spent
+
+
+def _sizes(top: TomlTable, path: Path) -> tuple[str, int, int, int]:
+    """The sweep's name, samples, seed and chunk size."""
     name = top.string("name", path.stem)
     if problem := unsafe_name_problem(name):
         top.fail("name", problem)
@@ -555,7 +597,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     chunk_size = top.raw("chunk_size", DEFAULT_CHUNK_SIZE)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         top.fail("chunk_size", f"must be an integer >= 1, got {chunk_size!r}")
+    return name, samples, seed, chunk_size
 
+
+def _execution(top: TomlTable) -> Execution:
+    """The file's ``[execution]`` defaults."""
     ex = top.table("execution")
     workers = ex.raw("workers")
     if workers is not None and (
@@ -576,7 +622,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         scheduler=None,
     )
     ex.done()
+    return execution
 
+
+def _success(top: TomlTable) -> SuccessSpec:
+    """The file's ``[success]`` spec."""
     st = top.table("success")
     defaults = SuccessSpec()
     success = SuccessSpec(
@@ -589,8 +639,13 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         ),
     )
     st.done()
+    return success
 
-    # The base scenario: its own errors name its own file.
+
+def _base_scenario(top: TomlTable, path: Path, file: str) -> dict[str, Any]:
+    """The base scenario as data, with the sweep's ``[overrides]`` and ``[reference]``
+    merged in; its own errors name its own file."""
+    scenario_path = top.raw("scenario")
     base_path = locate_beside(path.parent, scenario_path)  # beside the file, else shipped
     try:
         base = read_toml(base_path)
@@ -615,7 +670,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
                 f"{file}: {problem}" if key == "reference" else f"{file}: {key}.{problem}"
             ) from None
         base = merged
+    return base
 
+
+def _parameters(top: TomlTable, file: str) -> tuple[Parameter, ...]:
+    """The ``[parameters]`` drawn, sorted by name."""
     pt = top.table("parameters")
     for pname in pt.data:
         if pname not in PARAMETERS:
@@ -629,7 +688,13 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
             pt.fail(damping, "conflicts with 'zeta_joint', which sets the damping of both joints")
     parameters = tuple(_parameter(n, pt.raw(n), file) for n in sorted(pt.data))
     pt.done()
+    return parameters
 
+
+def _controllers(
+    top: TomlTable, base: dict[str, Any], path: Path, file: str
+) -> list[tuple[str, dict[str, Any]]]:
+    """The ``[controllers.NAME]`` tables, each checked on the base scenario."""
     ct = top.table("controllers")
     if not ct.data:
         top.fail("controllers", "missing: at least one [controllers.<name>] table")
@@ -653,15 +718,14 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
             top.fail(where, problem)
         controllers.append((cname, over))
     ct.done()
-    top.done()
+    return controllers
 
-    nominal = scenario_from_dict(base, file)
-    joints = tuple(
-        j + 1
-        for j, target in enumerate(nominal.reference.final)
-        if math.isfinite(target) and target != nominal.q0[j]
-    )
-    # What decides the chunks' contents; the [success] spec only classifies finished rows.
+
+def _digest(
+    data: dict[str, Any], base: dict[str, Any], controllers: list[tuple[str, dict[str, Any]]]
+) -> str:
+    """SHA-256 of what decides the chunks' contents (the [success] spec only classifies
+    finished rows; N, the name and the execution decide none)."""
     content = {
         k: v for k, v in data.items() if k not in ("samples", "name", "execution", "success")
     }
@@ -671,23 +735,6 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         "base": base,
         "rule_bases": _rule_base_hashes(controllers, base),
     }
-    digest = hashlib.sha256(
+    return hashlib.sha256(
         json.dumps(digest_source, sort_keys=True, default=str).encode()
     ).hexdigest()
-    return SweepPlan(
-        name=name,
-        file=file,
-        samples=samples,
-        seed=seed,
-        chunk_size=chunk_size,
-        base=base,
-        controllers=tuple(controllers),
-        parameters=parameters,
-        execution=execution,
-        digest=digest,
-        file_sha256=hashlib.sha256(raw).hexdigest(),
-        joints=joints,
-        success=success,
-        step=largest_step(nominal.reference, nominal.q0),
-        finished=finished(nominal.reference, nominal.duration),
-    )
