@@ -128,3 +128,20 @@ def test_compare_gives_the_same_rows_on_1_and_2_workers(tmp_path):
     one = twolink.compare("theta1_step", "CTC", "FCM-CTC", 6, workers=1, overrides=short)
     two = twolink.compare("theta1_step", "CTC", "FCM-CTC", 6, workers=2, overrides=short)
     rows_equal(list(one.results.itertuples(index=False)), list(two.results.itertuples(index=False)))
+
+
+def test_the_mjx_engine_builds_an_arm_under_the_same_gravity_and_tilt():
+    """MJX's arms are single-arm models; with the sweep's gravity each is tilted exactly
+    as the CPU engine tilts it beside others (no JAX needed to build them)."""
+    from twolink.simulation.mjx_engine import arm_model
+
+    plan = short_plan(3, 3)
+    s = load_scenario(REPO / "runs" / "paper" / "base.toml")
+    arm = _arm(s)
+    light = type(arm)(arm.params.scaled(g=0.93), arm.flexibility, arm.payload)
+    g = plan.model_gravity()
+    alone = arm_model(light, 1e-3, g)
+    batch = BatchPlant([arm, light], 1e-3, model_g=g).model
+    assert np.array_equal(alone.opt.gravity, batch.opt.gravity)
+    assert np.array_equal(alone.body("arm0_link1").quat, batch.body("arm1_link1").quat)
+    assert np.array_equal(arm_model(light, 1e-3).opt.gravity, [0, 0, -light.params.g])
