@@ -9,6 +9,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 REPO = Path(__file__).resolve().parents[1]
 # Joints far too stiff for the time step (√(k/j) = 1e9 rad/s): RK4 blows up at once, and
 # with 10 physics steps per control period MuJoCo meets the huge values before the loop.
@@ -57,3 +59,24 @@ def test_an_arm_of_a_batch_that_goes_unstable_carries_the_warning_alone(tmp_path
     assert lines[1].startswith("diverged") and UNSTABLE_TEXT in lines[1]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["unstable.toml"]
     assert "WARNING" not in done.stderr
+
+
+@pytest.mark.slow  # ~15 s: the flexible map's 288 runs, measured
+def test_a_runaway_linearisation_prints_no_numpy_warning(tmp_path):
+    """The reproduction's flexible study with model error: the linearisation's search
+    evaluates flexible-FL laws far from any rest state, where w² overflows. Before, numpy
+    printed ~30 RuntimeWarnings into `twolink reproduce`'s output; the answer (no rest
+    state, NaN σ) is the run's record."""
+    code = (
+        "from twolink.sweep.plan import load_sweep\n"
+        "from twolink.sweep.chunks import run_chunk\n"
+        f"plan = load_sweep({str(REPO / 'runs' / 'sweeps' / 'flexible_map.toml')!r}, "
+        "{'overrides': {'plant': {'scale': {'m1': 1.2, 'm2': 1.2, 'g': 1.1, "
+        "'k': 0.8333333333333334}}}})\n"
+        "print(len(run_chunk(plan, 0).rows))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True, timeout=600
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "288", done.stderr
+    assert "Warning" not in done.stderr, done.stderr[:2000]

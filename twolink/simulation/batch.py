@@ -226,6 +226,10 @@ class BatchResult:
         )
 
 
+# An arm running away may overflow its law's arithmetic (w² of a rotor at 1e160 rad/s)
+# before its torque leaves the bounds: expected, not printed; the arm's record says so
+# (diverged, its torque message showing the non-finite torque).
+@np.errstate(over="ignore", invalid="ignore", divide="ignore")
 def simulate_batch(
     plant: BatchPlant,
     controllers: Sequence[Controller],
