@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from cli_inputs import invoke
 
-from controllers.fuzzy.fis import MAX_FIS_BYTES, read_fis
+from twolink.controllers.fuzzy.fis import MAX_FIS_BYTES, read_fis
 from twolink.foundation.io import MARK_LINE, RULE_BASE_TITLE, carries_mark
 from twolink.foundation.ownership import (
     JOURNAL_NAME,
@@ -114,8 +114,8 @@ def test_a_scenario_and_a_sweep_file_at_the_cap_are_read_and_one_byte_over_refus
 
 
 def test_a_fis_file_at_the_cap_is_read_and_one_byte_over_refused(tmp_path):
-    from controllers.fuzzy import default_fuzzy_pd
-    from controllers.fuzzy.fis import write_fis
+    from twolink.controllers.fuzzy import default_fuzzy_pd
+    from twolink.controllers.fuzzy.fis import write_fis
 
     source = tmp_path / "a.fis"
     write_fis(source, default_fuzzy_pd())
