@@ -15,9 +15,9 @@ from cli_inputs import invoke
 
 from twolink.controllers.fuzzy.fis import MAX_FIS_BYTES, read_fis
 from twolink.foundation.io import MARK_LINE, RULE_BASE_TITLE, carries_mark
+from twolink.foundation.journal import MAX_JOURNAL_BYTES
 from twolink.foundation.ownership import (
     JOURNAL_NAME,
-    MAX_JOURNAL_BYTES,
     OWNER_NAME,
     RECORD_KIND,
     RECORD_VERSION,
