@@ -202,9 +202,9 @@ def test_records_are_split_into_batches_under_the_memory_bound(monkeypatch):
     sizes = []
 
     class Counting(BatchPlant):
-        def __init__(self, arms, timestep):
+        def __init__(self, arms, timestep, model_g=None):
             sizes.append(len(arms))
-            super().__init__(arms, timestep)
+            super().__init__(arms, timestep, model_g)
 
     monkeypatch.setattr("twolink.simulation.batch.BatchPlant", Counting)
     scenarios = [scenario(plant={"scale": {"m1": 1 + i / 20}}) for i in range(7)]

@@ -13,11 +13,31 @@ package imports nothing it does not need: MuJoCo comes with ``Plant``, matplotli
 from __future__ import annotations
 
 import importlib
+import os
 import time
 from importlib.metadata import PackageNotFoundError, version
 from typing import Any
 
 IMPORTED_AT = time.perf_counter()  # a command's clock where the OS does not give its start
+
+
+def _numba_cache_in_the_users_cache() -> None:
+    """numba caches the compiled fuzzy kernels (``controllers/fuzzy/kernels.py``,
+    ``cache=True``) beside their source by default: in a wheel install, inside
+    site-packages. Unless the user chose a folder (``NUMBA_CACHE_DIR``), they go to
+    ``$XDG_CACHE_HOME/twolink/numba`` (an absolute XDG_CACHE_HOME), else
+    ``~/.cache/twolink/numba``. Set here, as the package is imported, so before any of
+    its modules imports numba (numba reads it once, at its own import), and inherited
+    by the pools' fork server and workers."""
+    if "NUMBA_CACHE_DIR" in os.environ:
+        return
+    base = os.environ.get("XDG_CACHE_HOME", "")
+    if not os.path.isabs(base):
+        base = os.path.join(os.path.expanduser("~"), ".cache")
+    os.environ["NUMBA_CACHE_DIR"] = os.path.join(base, "twolink", "numba")
+
+
+_numba_cache_in_the_users_cache()
 
 try:
     __version__ = version("twolink")

@@ -20,6 +20,8 @@ joint spring. ``qpos == [theta1, theta2, phi1, phi2]`` and ``ctrl`` drives the r
 
 from __future__ import annotations
 
+import re
+from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,6 +31,45 @@ from twolink.arm.params import ArmParams, Flexibility
 from twolink.foundation.interrupts import import_mujoco
 
 mujoco = import_mujoco()
+
+
+# MuJoCo's warnings ("Nan, Inf or huge value in QACC at DOF 2. The simulation is
+# unstable.") are printed to stderr and appended to MUJOCO_LOG.TXT in the working folder
+# by MuJoCo's own handler: a file outside --out, on every unstable step. twolink takes
+# them instead (unless the user has set a handler): each run's record names them, from
+# the counters of its own data (:func:`warning_notes`), and the last few texts are kept
+# here for whoever asks (``RECENT_WARNINGS``).
+RECENT_WARNINGS: deque[str] = deque(maxlen=64)
+
+
+def _keep_warning(text: str) -> None:
+    RECENT_WARNINGS.append(text)
+
+
+if mujoco.get_mju_user_warning() is None:
+    mujoco.set_mju_user_warning(_keep_warning)
+
+
+def warning_counts(data: mujoco.MjData) -> list[int]:
+    """How many times MuJoCo warned of each kind (``mjtWarning``) since ``data`` was reset."""
+    return [int(w.number) for w in data.warning]
+
+
+def warning_notes(data: mujoco.MjData, since: list[int] | None = None) -> list[str]:
+    """MuJoCo's warnings counted in ``data`` (since the counts ``since``), in words: what a
+    run's record names ("MuJoCo warned: Nan, Inf or huge value in QACC; the simulation is
+    unstable"), the same for a single arm and an arm of a batch (whose counts are all its
+    arms')."""
+    notes = []
+    for kind, w in enumerate(data.warning):
+        if int(w.number) > (since[kind] if since else 0):
+            text = mujoco.mju_warningText(kind, int(w.lastinfo))
+            head, _, tail = re.sub(r" at DOF \d+", "", text).rstrip(".").partition(". ")
+            notes.append(
+                f"MuJoCo warned: {head}" + (f"; {tail[:1].lower()}{tail[1:]}" * bool(tail))
+            )
+    return notes
+
 
 ROD_RADIUS = 0.02  # visual and for the rod's (irrelevant) spin inertia about its axis [m]
 ROTOR_MASS = 1e-3  # rotors sit on their axes: mass has no effect, MuJoCo needs it > 0 [kg]

@@ -148,11 +148,11 @@ def _check_writable(folder: Path, shown: Path, option: str) -> None:
         ) from None
 
 
+from twolink.foundation.journal import TEMPORARY  # noqa: E402
 from twolink.foundation.ownership import (  # noqa: E402  (one home; the old names import)
     JOURNAL_NAME,
     LOCK_NAME,
     OWNER_NAME,
-    TEMPORARY,
     ForeignOutput,
     OutputBusy,
     WriteFailed,

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import errno
 import os
-import re
 import stat
 import threading
 from collections.abc import Iterator
@@ -29,26 +28,28 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from twolink.foundation.journal import (  # the names, and the journal read back
+    JOURNAL_NAME,
+    LOCK_NAME,
+    OWN_NAMES,
+    OWNER_NAME,
+    RECORD_KIND,
+    RECORD_VERSION,
+    _is_noted,
+    _is_record_temporary,
+    _temporary_name,
+    journal_command,
+    read_journal,
+)
 from twolink.foundation.planted import (
     HEX64,
     PlantedFile,
     open_regular,
     plain_relative,
-    read_bounded,
     read_json,
     sha256_of,
     shown,
 )
-
-LOCK_NAME = ".twolink.lock"
-OWNER_NAME = ".twolink-owner.json"  # which command owns the folder, and what it wrote there
-JOURNAL_NAME = ".twolink-journal"  # what the command holding the folder wrote so far
-OWN_NAMES = (LOCK_NAME, OWNER_NAME, JOURNAL_NAME)
-# Temporaries twolink leaves beside a target while it writes (".NAME.xxxx.tmp", ".NAME.xxxx.old").
-TEMPORARY = re.compile(r"^\.[A-Za-z0-9_][A-Za-z0-9_.-]*\.(tmp|old)$")
-RECORD_KIND = "twolink owner record"
-RECORD_VERSION = 2
-MAX_JOURNAL_BYTES = 64 << 20
 
 
 class OutputBusy(OSError):
@@ -119,34 +120,6 @@ def read_record(folder: Path, dir_fd: int | None = None) -> dict[str, Any] | Non
     if not ok:
         raise PlantedFile(errno.EINVAL, f"{folder / OWNER_NAME}: not an owner record twolink wrote")
     return record
-
-
-def read_journal(folder: Path, dir_fd: int | None = None) -> tuple[dict[str, tuple], set[str]]:
-    """What a journal lists: {name: (sha256, size, mtime_ns, inode)} of the files written,
-    later lines winning, and the names of the temporaries made. Lines that are not
-    twolink's are skipped; a journal that is not a regular file is :class:`PlantedFile`."""
-    where = JOURNAL_NAME if dir_fd is not None else folder / JOURNAL_NAME
-    try:
-        data = read_bounded(where, MAX_JOURNAL_BYTES, dir_fd)
-    except FileNotFoundError:
-        return {}, set()
-    files: dict[str, tuple] = {}
-    temporaries: set[str] = set()
-    for line in data.decode("utf-8", "replace").splitlines():
-        parts = line.split(" ", 4)
-        if len(parts) == 2 and parts[0] == "tmp" and _temporary_name(parts[1]):
-            temporaries.add(parts[1])
-        elif len(parts) == 5 and HEX64.match(parts[0]) and plain_relative(parts[4]):
-            try:
-                files[parts[4]] = (parts[0], int(parts[1]), int(parts[2]), int(parts[3]))
-            except ValueError:
-                continue
-    return files, temporaries
-
-
-def _temporary_name(name: str) -> bool:
-    *above, last = name.split("/")
-    return bool(TEMPORARY.match(last)) and (not above or plain_relative("/".join(above)))
 
 
 # --------------------------------------------------------------------------- the journal
@@ -253,7 +226,9 @@ def note_temporary(path: str | os.PathLike) -> None:
     rel = path.relative_to(owner).as_posix()
     if _temporary_name(rel):
         try:
-            _journal_line(f"tmp {rel}\n", owner, fd)
+            st = os.stat(path, follow_symlinks=False)
+            kind = "dir" if stat.S_ISDIR(st.st_mode) else "file"
+            _journal_line(f"tmp {kind} {st.st_ino} {rel}\n", owner, fd)
         except OSError as exc:
             raise write_failed(path, exc) from None
 
@@ -261,7 +236,9 @@ def note_temporary(path: str | os.PathLike) -> None:
 # ----------------------------------------------------------------------------- checking
 
 
-def _claims(folder: Path) -> tuple[dict[str, str], set[str], dict[str, Any] | None]:
+def _claims(
+    folder: Path,
+) -> tuple[dict[str, str], dict[str, tuple[str, int]], dict[str, Any] | None]:
     """What twolink wrote in ``folder`` by its own account: {name: sha256} from the owner
     record and a journal a killed command left, the temporaries listed, and the record."""
     record = read_record(folder)
@@ -294,7 +271,10 @@ def foreign_entries(
             name = prefix + entry.name
             if not prefix and entry.name in OWN_NAMES:
                 continue
-            if name in temporaries:
+            if name in temporaries and _is_noted(entry, temporaries[name]):
+                removable.append(Path(entry.path))
+                continue
+            if not prefix and _is_record_temporary(sub, entry):
                 removable.append(Path(entry.path))
                 continue
             if entry.is_symlink():
@@ -360,6 +340,13 @@ def check_ownership(
             f"{option} {path}: holds files twolink did not write ({show_names(foreign)}); "
             "twolink writes only into a new or empty folder or one whose owner record lists "
             f"every file in it: move them away or choose another {option}"
+        )
+    held_by = journal_command(path)
+    if held_by is not None and held_by != command:
+        raise ForeignOutput(
+            f"{option} {path}: holds what `twolink {shown(held_by, 40)}` wrote before it was "
+            f"stopped; `twolink {command}` would mix with it: rerun `twolink "
+            f"{shown(held_by, 40)}` there to finish it, or choose another {option}"
         )
     if record is None:
         return removable
@@ -506,6 +493,8 @@ def owned_output(
             raise write_failed(path / JOURNAL_NAME, exc) from None
         # the files twolink wrote before stay listed (checked above: same bytes)
         try:
+            # first, which command writes here: a killed command's folder is its own
+            os.write(jfd, f"command {command}\n".encode())
             for name, digest in claims.items():
                 try:
                     st = os.stat(name, dir_fd=dfd, follow_symlinks=False)

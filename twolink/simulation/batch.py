@@ -6,7 +6,9 @@ arm) and advanced by one ``mj_step`` per physics step. The arms are separate kin
 trees with no contacts, so MuJoCo's (block-diagonal) dynamics keep them independent:
 each arm moves as it does alone in its own model (``tests/test_batch.py``).
 
-Gravity is one option per model, the largest in magnitude of the arms'; an arm whose g
+Gravity is one option per model: the one its caller fixes (``model_g``: a sweep's comes
+from its definition, so an arm's run never depends on the other arms of its batch), else
+the largest in magnitude of the arms'; an arm whose g
 differs moves in a plane tilted about the horizontal x axis by the angle whose cosine is
 ``g / g_model`` (:func:`twolink.arm.plant.incline`): the model's gravity then has exactly the
 component g in the arm's plane, and the rest lies along its hinges, where it does no
@@ -25,11 +27,19 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from twolink.arm.params import ArmParams, Flexibility
-from twolink.arm.plant import add_arm, holding_motor_q, mujoco, new_spec
+from twolink.arm.plant import (
+    add_arm,
+    holding_motor_q,
+    mujoco,
+    new_spec,
+    warning_counts,
+    warning_notes,
+)
 from twolink.controllers.base import Controller
 from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import (
@@ -61,10 +71,19 @@ def model_gravity(gs: Sequence[float]) -> float:
     return max(gs, key=abs, default=0.0)
 
 
-def batch_model(arms: Sequence[Arm], timestep: float, name: str = "twolink_batch"):
+def batch_model(
+    arms: Sequence[Arm],
+    timestep: float,
+    name: str = "twolink_batch",
+    model_g: float | None = None,
+):
     """One MuJoCo model of ``arms``, ``arm{i}_`` their names' prefixes, under the gravity
-    of :func:`model_gravity` (the batch engine's, and the batch linearisation's)."""
-    g_model = model_gravity([a.params.g for a in arms])
+    ``model_g`` (None: :func:`model_gravity` of the arms; the batch engine's, and the batch
+    linearisation's). An arm's tilt, and so its run to the last bit, depends on its own g
+    and ``model_g`` only: a caller that fixes ``model_g`` for all its arms gets the same run
+    of an arm whatever batch it lands in. An arm of larger |g| than ``model_g`` is a
+    ValueError (no tilt adds gravity)."""
+    g_model = model_gravity([a.params.g for a in arms]) if model_g is None else model_g
     spec = new_spec(timestep, g_model, name)
     for i, a in enumerate(arms):
         # No geoms (nothing renders a batch) and no actuators (see force_index): each
@@ -87,14 +106,17 @@ def batch_model(arms: Sequence[Arm], timestep: float, name: str = "twolink_batch
 
 
 class BatchPlant:
-    """N arms in one MuJoCo model. ``q_index``/``v_index``: (N, 2) addresses of each
-    arm's link angles in ``qpos``/``qvel``, and ``force_index`` the (N, 2) ``qfrc_applied``
-    addresses its torques are written to (its motors' joints)."""
+    """N arms in one MuJoCo model (its gravity ``model_g``: :func:`batch_model`).
+    ``q_index``/``v_index``: (N, 2) addresses of each arm's link angles in
+    ``qpos``/``qvel``, and ``force_index`` the (N, 2) ``qfrc_applied`` addresses its
+    torques are written to (its motors' joints)."""
 
-    def __init__(self, arms: Sequence[Arm], timestep: float = 1e-3) -> None:
+    def __init__(
+        self, arms: Sequence[Arm], timestep: float = 1e-3, model_g: float | None = None
+    ) -> None:
         if not arms:
             raise ValueError("a batch needs at least one arm")
-        self.model = batch_model(arms, timestep)
+        self.model = batch_model(arms, timestep, model_g=model_g)
         self.data = mujoco.MjData(self.model)
         self.dt = float(self.model.opt.timestep)
         self.arms = list(arms)
@@ -181,6 +203,7 @@ class BatchResult:
     message: list[str]
     controllers: Sequence[Controller]
     flexible: np.ndarray
+    warnings: tuple[tuple[str, ...], ...] = ()  # per arm: MuJoCo's warnings, in words
 
     def trajectory(self, i: int) -> Trajectory:
         """Arm i's run, as :func:`twolink.simulation.sim.simulate` returns it."""
@@ -199,9 +222,14 @@ class BatchResult:
             motor_q=motor,
             status=self.status[i],
             message=self.message[i],
+            warnings=self.warnings[i] if self.warnings else (),
         )
 
 
+# An arm running away may overflow its law's arithmetic (w² of a rotor at 1e160 rad/s)
+# before its torque leaves the bounds: expected, not printed; the arm's record says so
+# (diverged, its torque message showing the non-finite torque).
+@np.errstate(over="ignore", invalid="ignore", divide="ignore")
 def simulate_batch(
     plant: BatchPlant,
     controllers: Sequence[Controller],
@@ -224,15 +252,84 @@ def simulate_batch(
     sensor for the batch; :mod:`twolink.simulation.sensor`). Every arm shares the plant's
     timestep and ``control_dt``.
     """
-    from twolink.controllers.batch import batch_laws
-
     n_arms = plant.n_arms
     if len(controllers) != n_arms or len(durations) != n_arms:
         raise ValueError(f"need one controller and one duration per arm ({n_arms})")
     steps, substeps, times, q0, qd0, noise_all = schedule(
         n_arms, plant.dt, durations, control_dt, q0, qd0, noise
     )
-    n_max = len(times) - 1
+    laws, motor_laws = _laws(plant, controllers, times)
+    reader, motor_reader, noise_all = _readers(sensor, control_dt, noise_all, any(motor_laws))
+    plant.reset(q0, qd0, None if holding is None else np.asarray(holding, bool))
+    run = _Run(plant, len(times) - 1, bounds or Bounds())
+    model, data = plant.model, plant.data
+    qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
+    q_index, v_index, force_index = plant.q_index, plant.v_index, plant.force_index
+    any_flexible, any_motor = bool(plant.flexible.any()), any(motor_laws)
+    qmax, wmax, tmax = run.bounds.angle, run.bounds.rate, run.bounds.torque
+    active, tau = run.active, run.tau
+    ends = set(steps.tolist())  # instants where some arm's run is over
+    for k in range(len(times)):
+        t = float(times[k])
+        q, qd = qpos[q_index], qvel[v_index]
+        run.q[k], run.qd[k] = q, qd
+        if any_flexible:
+            run.motor[k] = qpos[plant.motor_index]
+        # NaN fails every comparison, so this also catches non-finite states. (Frozen
+        # arms rest at zero, inside the bounds.)
+        if not (np.abs(q).max() < qmax and np.abs(qd).max() < wmax):
+            run.escape(k, t, q, qd)
+        seen, rates = q, qd
+        if reader is not None:
+            seen, rates = reader(k, q, qd)
+        elif noise_all is not None:
+            seen = q + noise_all[k]
+        if any_motor:  # the rotors, for the laws of flexible joints
+            mq, mqd = qpos[plant.motor_index], qvel[plant.motor_v_index]
+            mq[~active] = mqd[~active] = 0.0
+            if motor_reader is not None:
+                mq, mqd = motor_reader(k, mq, mqd)
+        for (idx, law), motor in zip(laws, motor_laws, strict=True):
+            if motor:
+                tau[idx] = law(k, seen[idx], rates[idx], mq[idx], mqd[idx])
+            else:
+                tau[idx] = law(k, seen[idx], rates[idx])
+        stopped = not active.all()
+        if stopped:
+            tau[~active] = np.nan if k == 0 else 0.0
+        run.tau_record[k] = tau
+        if not np.abs(tau).max() < tmax or k in ends:
+            if not run.stop(k, t, steps):
+                break
+            stopped = True
+        if stopped:
+            plant.freeze(np.flatnonzero(~active))
+            tau[~active] = 0.0
+        force[force_index] = tau
+        for _ in range(substeps):
+            mujoco.mj_step(model, data)
+    return run.result(times, controllers)
+
+
+def _readers(
+    sensor: Sensor | None, control_dt: float, noise_all: np.ndarray | None, motors: bool
+) -> tuple[Any, Any, np.ndarray | None]:
+    """What the laws see through ``sensor``: the links' reader (the noise in it), the
+    rotors' (where a law reads them), and the noise left to add (None once read)."""
+    if sensor is None or sensor.ideal:
+        return None, None, noise_all
+    reader = sensor.reader(control_dt, noise_all, batch=True)
+    return reader, sensor.reader(control_dt, batch=True) if motors else None, None
+
+
+def _laws(
+    plant: BatchPlant, controllers: Sequence[Controller], times: np.ndarray
+) -> tuple[list[tuple[Any, Any]], list[bool]]:
+    """The controllers reset and their batch laws, ``(arms, law)``, and which of them read
+    the rotors; a law of flexible joints on a rigid arm is a ValueError."""
+    from twolink.controllers.batch import batch_laws
+
+    n_arms = plant.n_arms
     for c in controllers:
         c.reset()
     laws = batch_laws(controllers, times)
@@ -249,95 +346,88 @@ def simulate_batch(
             f"arm {rigid[0]}'s controller ({type(controllers[rigid[0]]).__name__}) reads the "
             "motor states of flexible joints; that arm is rigid"
         )
-    reader = motor_reader = None
-    if sensor is not None and not sensor.ideal:
-        reader = sensor.reader(control_dt, noise_all, batch=True)
-        motor_reader = sensor.reader(control_dt, batch=True) if any(motor_laws) else None
-        noise_all = None
-    plant.reset(q0, qd0, None if holding is None else np.asarray(holding, bool))
-    model, data = plant.model, plant.data
-    qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
-    q_index, v_index, force_index = plant.q_index, plant.v_index, plant.force_index
-    any_flexible = bool(plant.flexible.any())
+    return laws, motor_laws
 
-    rec_q = np.empty((n_max + 1, n_arms, 2))
-    rec_qd = np.empty_like(rec_q)
-    rec_tau = np.empty_like(rec_q)
-    rec_motor = np.empty_like(rec_q) if any_flexible else None
-    length = np.zeros(n_arms, dtype=int)
-    status = [STATUS_OK] * n_arms
-    message = [""] * n_arms
-    active = np.ones(n_arms, dtype=bool)
-    bounds = bounds or Bounds()
-    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
-    tau = np.zeros((n_arms, 2))
 
-    ends = set(steps.tolist())  # instants where some arm's run is over
-    for k in range(n_max + 1):
-        t = float(times[k])
-        q, qd = qpos[q_index], qvel[v_index]
-        rec_q[k], rec_qd[k] = q, qd
-        if any_flexible:
-            rec_motor[k] = qpos[plant.motor_index]
-        # NaN fails every comparison, so this also catches non-finite states. (Frozen
-        # arms rest at zero, inside the bounds.)
-        if not (np.abs(q).max() < qmax and np.abs(qd).max() < wmax):
-            escaped = active & ~((np.abs(q) < qmax).all(axis=1) & (np.abs(qd) < wmax).all(axis=1))
-            for i in np.flatnonzero(escaped):
-                status[i] = STATUS_DIVERGED
-                message[i] = state_message(t, *q[i], *qd[i])
-            length[escaped] = k if k else 1  # at once: keep the one state, with no torque
-            active &= ~escaped
-            q[escaped] = qd[escaped] = 0.0  # the laws see finite numbers
-        seen, rates = q, qd
-        if reader is not None:
-            seen, rates = reader(k, q, qd)
-        elif noise_all is not None:
-            seen = q + noise_all[k]
-        if any(motor_laws):  # the rotors, for the laws of flexible joints
-            mq, mqd = qpos[plant.motor_index], qvel[plant.motor_v_index]
-            mq[~active] = mqd[~active] = 0.0
-            if motor_reader is not None:
-                mq, mqd = motor_reader(k, mq, mqd)
-        for (idx, law), motor in zip(laws, motor_laws, strict=True):
-            if motor:
-                tau[idx] = law(k, seen[idx], rates[idx], mq[idx], mqd[idx])
-            else:
-                tau[idx] = law(k, seen[idx], rates[idx])
-        stopped = not active.all()
-        if stopped:
-            tau[~active] = np.nan if k == 0 else 0.0
-        rec_tau[k] = tau
-        if not np.abs(tau).max() < tmax or k in ends:
-            runaway = active & ~(np.abs(tau) < tmax).all(axis=1)
-            for i in np.flatnonzero(runaway):
-                # Kept: the state measured and the torque asked for (not applied).
-                status[i] = STATUS_DIVERGED
-                message[i] = torque_message(t, *tau[i])
-            done = active & (runaway | (steps == k))
-            length[done] = k + 1
-            active &= ~done
-            if not active.any():
-                break
-            stopped = True
-        if stopped:
-            plant.freeze(np.flatnonzero(~active))
-            tau[~active] = 0.0
-        force[force_index] = tau
-        for _ in range(substeps):
-            mujoco.mj_step(model, data)
-    return BatchResult(
-        times,
-        rec_q,
-        rec_qd,
-        rec_tau,
-        rec_motor,
-        length,
-        status,
-        message,
-        controllers,
-        plant.flexible,
-    )
+class _Run:
+    """The records of a batch run and its arms' fates (:func:`simulate_batch`'s loop)."""
+
+    def __init__(self, plant: BatchPlant, n_max: int, bounds: Bounds) -> None:
+        n_arms = plant.n_arms
+        self.plant, self.bounds = plant, bounds
+        self.q = np.empty((n_max + 1, n_arms, 2))
+        self.qd = np.empty_like(self.q)
+        self.tau_record = np.empty_like(self.q)
+        self.motor = np.empty_like(self.q) if plant.flexible.any() else None
+        self.length = np.zeros(n_arms, dtype=int)
+        self.status = [STATUS_OK] * n_arms
+        self.message = [""] * n_arms
+        self.active = np.ones(n_arms, dtype=bool)
+        self.tau = np.zeros((n_arms, 2))
+        self.counts = warning_counts(plant.data)  # MuJoCo's warnings so far (none: reset)
+        self.warned: list[list[str]] = [[] for _ in range(n_arms)]
+
+    def escape(self, k: int, t: float, q: np.ndarray, qd: np.ndarray) -> None:
+        """Stop the active arms whose state left its bounds at instant k ("diverged", their
+        one state kept if at once); ``q`` and ``qd`` are zeroed there for the laws."""
+        qmax, wmax, active = self.bounds.angle, self.bounds.rate, self.active
+        escaped = active & ~((np.abs(q) < qmax).all(axis=1) & (np.abs(qd) < wmax).all(axis=1))
+        # MuJoCo warns of a non-finite or huge state in the steps before (its counts
+        # are the batch's): the arms that left their bounds now are the ones it meant
+        notes, self.counts = _new_warnings(self.plant.data, self.counts)
+        for i in np.flatnonzero(escaped):
+            self.status[i] = STATUS_DIVERGED
+            self.message[i] = state_message(t, *q[i], *qd[i])
+            self.warned[i] += notes
+        self.length[escaped] = k if k else 1  # at once: keep the one state, with no torque
+        active &= ~escaped
+        q[escaped] = qd[escaped] = 0.0  # the laws see finite numbers
+
+    def stop(self, k: int, t: float, steps: np.ndarray) -> bool:
+        """Stop the active arms whose torque is out of bounds (kept: the state measured and
+        the torque asked for, not applied) or whose run ends at instant k; whether any
+        arm is still active."""
+        tau, active = self.tau, self.active
+        runaway = active & ~(np.abs(tau) < self.bounds.torque).all(axis=1)
+        for i in np.flatnonzero(runaway):
+            self.status[i] = STATUS_DIVERGED
+            self.message[i] = torque_message(t, *tau[i])
+        done = active & (runaway | (steps == k))
+        self.length[done] = k + 1
+        active &= ~done
+        return bool(active.any())
+
+    def result(self, times: np.ndarray, controllers: Sequence[Controller]) -> BatchResult:
+        """The BatchResult; MuJoCo's warnings after the last escape go to the arm of the
+        last warning's degree of freedom."""
+        plant, warned = self.plant, self.warned
+        notes, _ = _new_warnings(plant.data, self.counts)
+        if notes:
+            dof = max(int(w.lastinfo) for w in plant.data.warning)
+            arm = np.flatnonzero(
+                (plant.v_index == dof).any(1) | (plant.motor_v_index == dof).any(1)
+            )
+            for i in arm[:1] if len(arm) else range(plant.n_arms):
+                warned[i] += notes
+        return BatchResult(
+            times,
+            self.q,
+            self.qd,
+            self.tau_record,
+            self.motor,
+            self.length,
+            self.status,
+            self.message,
+            controllers,
+            plant.flexible,
+            tuple(tuple(w) for w in warned),
+        )
+
+
+def _new_warnings(data, counts: list[int]) -> tuple[list[str], list[int]]:
+    """MuJoCo's warnings since ``counts``, in words without their batch-wide counts, and
+    the counts now."""
+    return warning_notes(data, counts), warning_counts(data)
 
 
 def schedule(

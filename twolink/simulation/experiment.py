@@ -183,11 +183,12 @@ def run_scenarios(
     scenarios: Sequence[Scenario],
     controllers: Sequence[Controller] | None = None,
     backend: str = "cpu",
+    model_g: float | None = None,
 ) -> list[Trajectory | Exception]:
     """Every trajectory of :func:`iter_scenarios`, in order (all of them in memory: for
     many arms, iterate instead)."""
     results: list[Trajectory | Exception] = [ValueError("not run")] * len(scenarios)
-    for i, traj in iter_scenarios(scenarios, controllers, backend):
+    for i, traj in iter_scenarios(scenarios, controllers, backend, model_g):
         results[i] = traj
     return results
 
@@ -196,6 +197,7 @@ def iter_scenarios(
     scenarios: Sequence[Scenario],
     controllers: Sequence[Controller] | None = None,
     backend: str = "cpu",
+    model_g: float | None = None,
 ) -> Iterator[tuple[int, Trajectory | Exception]]:
     """Simulate many scenarios on the batch engine (:mod:`twolink.simulation.batch`), yielding
     ``(i, trajectory)`` as each batch ends: arm i is ``scenarios[i]`` under
@@ -207,12 +209,23 @@ def iter_scenarios(
     ``backend``: "cpu" (MuJoCo, :mod:`twolink.simulation.batch`), or "mjx" / "mjx-float32"
     (MuJoCo's accelerator backend, :mod:`twolink.simulation.mjx_engine`, in float64 /
     float32).
+
+    ``model_g``: the gravity of every batch's model, which an arm off it is tilted against
+    (:func:`twolink.simulation.batch.batch_model`); None: the largest |g| of all
+    ``scenarios``, not of one batch, so no arm's run depends on how the arms were split
+    into batches. A caller that splits one set of runs over several calls (a sweep's
+    chunks and their parts) passes the same ``model_g`` to each, so that an arm's run
+    depends on its own scenario alone (a sweep's:
+    :meth:`twolink.sweep.plan.SweepPlan.model_gravity`). An arm of larger |g| than
+    ``model_g`` yields a ValueError.
     """
-    from twolink.simulation.batch import record_bytes
+    from twolink.simulation.batch import model_gravity, record_bytes
 
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
     controllers = controllers or [build_controller(s) for s in scenarios]
+    if model_g is None:
+        model_g = model_gravity([s.plant_params.g for s in scenarios])
     groups: dict[tuple[float, float, Sensor], list[int]] = {}
     for i, s in enumerate(scenarios):
         groups.setdefault((s.timestep, s.control_dt, s.sensor), []).append(i)
@@ -223,7 +236,7 @@ def iter_scenarios(
             batch = members[start : start + size]
             yield from _trajectories(
                 *_simulate_batch(
-                    scenarios, controllers, batch, timestep, control_dt, sensor, backend
+                    scenarios, controllers, batch, timestep, control_dt, sensor, backend, model_g
                 )
             )
 
@@ -236,6 +249,7 @@ def _simulate_batch(
     control_dt: float,
     sensor: Sensor,
     backend: str = "cpu",
+    model_g: float | None = None,
 ) -> tuple[list[tuple[int, Exception]], list[int], Any]:
     """One batch of :func:`iter_scenarios`: the arms MuJoCo refuses with their errors, and
     the arms simulated with their records (a :class:`twolink.simulation.batch.BatchResult`)."""
@@ -250,18 +264,18 @@ def _simulate_batch(
             errors.append((i, exc))
     if backend != "cpu":
         return errors, *_simulate_batch_mjx(
-            scenarios, controllers, arms, timestep, control_dt, sensor, backend, errors
+            scenarios, controllers, arms, timestep, control_dt, sensor, backend, errors, model_g
         )
     try:
-        plant = BatchPlant(list(arms.values()), timestep) if arms else None
+        plant = BatchPlant(list(arms.values()), timestep, model_g) if arms else None
     except ValueError:  # find the arms MuJoCo refuses; run the rest
         for i in list(arms):
             try:
-                BatchPlant([arms[i]], timestep)
+                BatchPlant([arms[i]], timestep, model_g)
             except ValueError as exc:
                 del arms[i]
                 errors.append((i, exc))
-        plant = BatchPlant(list(arms.values()), timestep) if arms else None
+        plant = BatchPlant(list(arms.values()), timestep, model_g) if arms else None
     if plant is None:
         return errors, [], None
     batch = list(arms)
@@ -288,6 +302,7 @@ def _simulate_batch_mjx(
     sensor: Sensor,
     backend: str,
     errors: list[tuple[int, Exception]],
+    model_g: float | None = None,
 ) -> tuple[list[int], Any]:
     """:func:`_simulate_batch` on MJX (the arms MuJoCo refuses are added to ``errors``)."""
     from twolink.simulation.mjx_engine import arm_model, simulate_batch_mjx
@@ -295,7 +310,7 @@ def _simulate_batch_mjx(
     models = {}
     for i in list(arms):
         try:
-            models[i] = arm_model(arms[i], timestep)
+            models[i] = arm_model(arms[i], timestep, model_g)
         except ValueError as exc:
             del arms[i]
             errors.append((i, exc))
@@ -314,6 +329,7 @@ def _simulate_batch_mjx(
         sensor=sensor,
         precision="float32" if backend == "mjx-float32" else "float64",
         models=[models[i] for i in batch],
+        model_g=model_g,
     )
     return batch, run
 
@@ -371,10 +387,13 @@ class RunMetrics:
     # Flexible joints: the largest spring twist |φ − θ| per joint (NaN for the rigid arm);
     # beyond twolink.arm.params.TWIST_LIMIT the joint is no physical spring (``warnings``).
     max_twist: tuple[float, float] = (math.nan, math.nan)
+    # MuJoCo's warnings during the run (an unstable step), in words: Trajectory.warnings
+    mujoco_warnings: tuple[str, ...] = ()
 
     @property
     def warnings(self) -> list[str]:
-        """Physically meaningless states of the run, in words (empty when none)."""
+        """Physically meaningless states of the run, and MuJoCo's warnings during it, in
+        words (empty when none)."""
         from twolink.arm.params import TWIST_LIMIT
 
         return [
@@ -382,7 +401,7 @@ class RunMetrics:
             "elastic joint takes (docs/model.md, 'Realistic joints')"
             for j, twist in enumerate(self.max_twist, start=1)
             if twist > TWIST_LIMIT
-        ]
+        ] + list(self.mujoco_warnings)
 
     def table(self) -> Any:
         """Every metric by key (rows) for both joints (columns), as a pandas DataFrame:
@@ -465,6 +484,7 @@ class Measured:
             oscillation=_oscillation(s, traj),
             settling_target=(to_target[0], to_target[1]),
             max_twist=max_twist(traj),
+            mujoco_warnings=traj.warnings,
         )
         return cls(metrics, _tails(s, traj))
 

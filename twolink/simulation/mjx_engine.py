@@ -77,10 +77,12 @@ def _jax(precision: str = "float64"):
     return jax, jax.numpy, mjx
 
 
-def arm_model(arm: Arm, timestep: float) -> Any:
-    """An arm's own MjModel, as a one-arm :class:`BatchPlant` builds it (without the rest
-    of the plant: 2 ms an arm instead of 5); a ValueError where MuJoCo refuses it."""
-    g = arm.params.g
+def arm_model(arm: Arm, timestep: float, model_g: float | None = None) -> Any:
+    """An arm's own MjModel, as a one-arm :class:`BatchPlant` under gravity ``model_g``
+    builds it (without the rest of the plant: 2 ms an arm instead of 5): the CPU engine's
+    rule, so that an arm off ``model_g`` is tilted as there (None: the arm's own g, no
+    tilt); a ValueError where MuJoCo refuses it."""
+    g = arm.params.g if model_g is None else model_g
     spec = new_spec(timestep, g, "twolink_batch")
     add_arm(spec, arm.params, arm.flexibility, arm.payload, prefix="arm0_", model_g=g,
             visual=False, motors=False)  # fmt: skip
@@ -147,11 +149,13 @@ def prepare_batch_mjx(
     sensor: Sensor | None = None,
     precision: str = "float64",
     models: Sequence[Any] | None = None,
+    model_g: float | None = None,
 ) -> tuple[Any, Any, Any]:
     """The run of :func:`simulate_batch_mjx` before it starts: ``(run, carry, finish)``,
     ``finish(run(carry))`` its BatchResult; ``run`` is compiled at its first call (the
-    benchmarks time the second). ``models``: the arms' :func:`arm_model`, if at hand."""
-    from twolink.controllers.batch import batch_laws, on_namespace
+    benchmarks time the second). ``models``: the arms' :func:`arm_model`, if at hand;
+    ``model_g``: the gravity the arms are tilted against, as on the CPU engine (None: each
+    arm its own)."""
     from twolink.simulation.batch import schedule
 
     if precision not in PRECISIONS:
@@ -163,13 +167,36 @@ def prepare_batch_mjx(
     if any(a.flexibility is not None for a in arms):
         raise ValueError("the mjx backend runs rigid arms only (no [plant.flexibility])")
     dtype = jnp.float64 if precision == "float64" else jnp.float32
-    models = [arm_model(a, timestep) for a in arms] if models is None else models
-    first = BatchPlant(arms[:1], timestep)  # a single arm's addresses
-    dt = first.dt
+    models = [arm_model(a, timestep, model_g) for a in arms] if models is None else models
+    first = BatchPlant(arms[:1], timestep, model_g)  # a single arm's addresses
     steps, substeps, times, q0, qd0, noise_all = schedule(
-        n_arms, dt, durations, control_dt, q0, qd0, noise
+        n_arms, first.dt, durations, control_dt, q0, qd0, noise
     )
-    n_max = len(times) - 1
+    laws = _laws(controllers, times, jnp, dtype)
+    reader = _reader(sensor, control_dt)
+    cast = _caster(jax, jnp, dtype)
+    model, model_axes = _batched_model(models, mjx, jax, jnp)
+    data = _initial_data(first, q0, qd0, n_arms, mjx, jax, jnp, cast)
+    bounds = bounds or Bounds()
+    loop = _Loop(
+        jax, jnp, laws, reader, None if noise_all is None else jnp.asarray(noise_all, dtype),
+        jnp.asarray(steps), bounds, first, substeps,
+        jax.vmap(mjx.step, in_axes=(model_axes, 0)), cast(model),
+    )  # fmt: skip
+    carry0 = loop.initial(data, n_arms)
+    run = jax.jit(lambda c: jax.lax.scan(loop.body, c, jnp.arange(len(times))))
+
+    def finish(out: Any) -> BatchResult:
+        return _result(out, times, bounds.angle, bounds.rate, controllers)
+
+    return run, carry0, finish
+
+
+def _laws(controllers: Sequence[Controller], times: np.ndarray, jnp: Any, dtype: Any) -> list:
+    """The controllers reset and their batch laws on ``jax.numpy``, ``(arms, law)``; a law
+    without a form for it is a ValueError."""
+    from twolink.controllers.batch import batch_laws, on_namespace
+
     for c in controllers:
         c.reset()
     laws = []
@@ -178,11 +205,21 @@ def prepare_batch_mjx(
             laws.append((idx, on_namespace(law, jnp, dtype)))
         except TypeError as exc:
             raise ValueError(f"the mjx backend cannot run this controller: {exc}") from None
-    reader = None
-    if sensor is not None and not sensor.ideal:
-        reader = sensor.reader(control_dt, None, batch=True)
-        if sensor.delay_samples:
-            raise ValueError("the mjx backend has no sensor delay (delay_samples = 0)")
+    return laws
+
+
+def _reader(sensor: Sensor | None, control_dt: float) -> Any:
+    """The sensor's batch reader (None for the true state); a delay is a ValueError."""
+    if sensor is None or sensor.ideal:
+        return None
+    reader = sensor.reader(control_dt, None, batch=True)
+    if sensor.delay_samples:
+        raise ValueError("the mjx backend has no sensor delay (delay_samples = 0)")
+    return reader
+
+
+def _caster(jax: Any, jnp: Any, dtype: Any) -> Any:
+    """A function that casts every floating array of a tree to ``dtype``."""
 
     def cast(tree: Any) -> Any:
         def leaf(x: Any) -> Any:
@@ -192,33 +229,61 @@ def prepare_batch_mjx(
 
         return jax.tree_util.tree_map(leaf, tree)
 
-    model, model_axes = _batched_model(models, mjx, jax, jnp)
-    model = cast(model)
+    return cast
+
+
+def _initial_data(
+    first: BatchPlant, q0: Any, qd0: Any, n_arms: int, mjx: Any, jax: Any, jnp: Any, cast: Any
+) -> Any:
+    """Every arm's data from the first arm's, its own angles and rates set: mjx.step
+    computes everything else from them (as mj_forward did on the CPU)."""
     qa, va = first.q_index[0], first.v_index[0]
     first.reset(q0[:1], qd0[:1])
     one = mjx.put_data(first.model, first.data)
-    # Every arm's data from the first arm's, its own angles and rates set: mjx.step
-    # computes everything else from them (as mj_forward did on the CPU).
     data = jax.tree_util.tree_map(lambda x: jnp.broadcast_to(x, (n_arms, *x.shape)), one)
-    data = cast(data.replace(
+    return cast(data.replace(
         qpos=jnp.broadcast_to(data.qpos[0], data.qpos.shape).at[:, qa].set(q0),
         qvel=jnp.broadcast_to(data.qvel[0], data.qvel.shape).at[:, va].set(qd0),
     ))  # fmt: skip
-    fa = first.force_index[0]
-    bounds = bounds or Bounds()
-    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
-    step_arms = jax.vmap(mjx.step, in_axes=(model_axes, 0))
-    steps_j = jnp.asarray(steps)
-    noise_j = None if noise_all is None else jnp.asarray(noise_all, dtype)
 
-    def body(carry: Any, k: Any) -> tuple[Any, Any]:
-        data, states, rate_state, active, length, code = carry
-        q, qd = data.qpos[:, qa], data.qvel[:, va]
-        inside = jnp.all(jnp.abs(q) < qmax, axis=1) & jnp.all(jnp.abs(qd) < wmax, axis=1)
-        escaped = active & ~inside
-        length = jnp.where(escaped, jnp.maximum(k, 1), length).astype(length.dtype)
-        code = jnp.where(escaped, 1, code)
-        active = active & ~escaped
+
+class _Loop:
+    """One control instant of every arm (:meth:`body`, what ``jax.lax.scan`` runs): the
+    bounds, the sensor, the laws, the stops and the plant's steps, as the CPU engine's."""
+
+    def __init__(
+        self, jax, jnp, laws, reader, noise_j, steps_j, bounds, first, substeps, step_arms, model
+    ) -> None:  # fmt: skip
+        self.jax, self.jnp, self.laws, self.reader, self.noise_j = jax, jnp, laws, reader, noise_j
+        self.steps_j, self.substeps, self.step_arms, self.model = (
+            steps_j,
+            substeps,
+            step_arms,
+            model,
+        )
+        self.qmax, self.wmax, self.tmax = bounds.angle, bounds.rate, bounds.torque
+        self.qa, self.va, self.fa = first.q_index[0], first.v_index[0], first.force_index[0]
+
+    def initial(self, data: Any, n_arms: int) -> tuple:
+        """The carry at instant 0: data, the laws' states, the rate filter's state, and
+        per arm whether it runs, its samples kept and why it stopped (1 state, 2 torque)."""
+        jnp, reader = self.jnp, self.reader
+        q_start = data.qpos[:, self.qa]
+        rate_state0 = None
+        if reader is not None:
+            rate_state0 = initial_rate_state(reader, jnp.zeros_like(q_start), jnp)
+        return (
+            data,
+            tuple(law.initial() for _, law in self.laws),
+            rate_state0,
+            jnp.ones(n_arms, bool),
+            jnp.zeros(n_arms, jnp.int32),
+            jnp.zeros(n_arms, jnp.int32),
+        )
+
+    def sense(self, k: Any, escaped: Any, q: Any, qd: Any, rate_state: Any) -> tuple:
+        """What the laws see at instant k (arms that left their bounds read as zero)."""
+        jax, jnp, reader, noise_j = self.jax, self.jnp, self.reader, self.noise_j
         zero = jnp.zeros_like(q)
         seen_q = jnp.where(escaped[:, None], zero, q)
         seen_qd = jnp.where(escaped[:, None], zero, qd)
@@ -235,17 +300,29 @@ def prepare_batch_mjx(
             seen_q = x
         elif noise_j is not None:
             seen_q = seen_q + noise_j[k]
+        return seen_q, rates, rate_state
+
+    def body(self, carry: Any, k: Any) -> tuple[Any, Any]:
+        jnp = self.jnp
+        data, states, rate_state, active, length, code = carry
+        q, qd = data.qpos[:, self.qa], data.qvel[:, self.va]
+        inside = jnp.all(jnp.abs(q) < self.qmax, axis=1) & jnp.all(jnp.abs(qd) < self.wmax, axis=1)
+        escaped = active & ~inside
+        length = jnp.where(escaped, jnp.maximum(k, 1), length).astype(length.dtype)
+        code = jnp.where(escaped, 1, code)
+        active = active & ~escaped
+        seen_q, rates, rate_state = self.sense(k, escaped, q, qd, rate_state)
         tau = jnp.zeros_like(q)
         new_states = []
-        for (idx, law), state in zip(laws, states, strict=True):
+        for (idx, law), state in zip(self.laws, states, strict=True):
             part, state = law.step(k, seen_q[idx], rates[idx], state)
             tau = tau.at[idx].set(part)
             new_states.append(state)
         stopped_value = jnp.where(k == 0, jnp.nan, 0.0)
         tau = jnp.where(active[:, None], tau, stopped_value)
-        runaway = active & ~jnp.all(jnp.abs(tau) < tmax, axis=1)
+        runaway = active & ~jnp.all(jnp.abs(tau) < self.tmax, axis=1)
         code = jnp.where(runaway, 2, code)
-        done = active & (runaway | (steps_j == k))
+        done = active & (runaway | (self.steps_j == k))
         length = jnp.where(done, k + 1, length).astype(length.dtype)
         active = active & ~done
         record = (q, qd, tau)
@@ -253,30 +330,11 @@ def prepare_batch_mjx(
         keep = active[:, None]
         qpos = jnp.where(keep, data.qpos, 0.0)
         qvel = jnp.where(keep, data.qvel, 0.0)
-        force = jnp.zeros_like(data.qfrc_applied).at[:, fa].set(applied)
+        force = jnp.zeros_like(data.qfrc_applied).at[:, self.fa].set(applied)
         data = data.replace(qpos=qpos, qvel=qvel, qfrc_applied=force)
-        for _ in range(substeps):
-            data = step_arms(model, data)
+        for _ in range(self.substeps):
+            data = self.step_arms(self.model, data)
         return (data, tuple(new_states), rate_state, active, length, code), record
-
-    q_start = data.qpos[:, qa]
-    rate_state0 = None
-    if reader is not None:
-        rate_state0 = initial_rate_state(reader, jnp.zeros_like(q_start), jnp)
-    carry0 = (
-        data,
-        tuple(law.initial() for _, law in laws),
-        rate_state0,
-        jnp.ones(n_arms, bool),
-        jnp.zeros(n_arms, jnp.int32),
-        jnp.zeros(n_arms, jnp.int32),
-    )
-    run = jax.jit(lambda c: jax.lax.scan(body, c, jnp.arange(n_max + 1)))
-
-    def finish(out: Any) -> BatchResult:
-        return _result(out, times, qmax, wmax, controllers)
-
-    return run, carry0, finish
 
 
 def _result(out: Any, times: np.ndarray, qmax: float, wmax: float, controllers: Any) -> BatchResult:

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from twolink.arm.plant import Plant
+from twolink.arm.plant import Plant, warning_notes
 from twolink.controllers.base import Controller
 from twolink.foundation.io import atomic_path
 from twolink.simulation.sensor import Sensor
@@ -52,6 +52,7 @@ class Trajectory:
     motor_q : rotor angles of the flexible arm (N, 2), or an empty (0, 2) array
     status : "ok" or "diverged"
     message : why a run stopped early ("" if it did not)
+    warnings : MuJoCo's warnings during the run, in words (an unstable step; empty if none)
     """
 
     t: np.ndarray
@@ -64,6 +65,7 @@ class Trajectory:
     motor_q: np.ndarray
     status: str = STATUS_OK
     message: str = ""
+    warnings: tuple[str, ...] = ()
 
     @property
     def e(self) -> np.ndarray:
@@ -88,14 +90,17 @@ class Trajectory:
     def save(self, path: str | Path) -> None:
         """Write to ``.npz`` atomically."""
         arrays = {f.name: getattr(self, f.name) for f in fields(self)}
+        if not self.warnings:  # a run without MuJoCo's warnings: the file as before
+            del arrays["warnings"]
         with atomic_path(path) as tmp, open(tmp, "wb") as fh:
             np.savez(fh, **arrays)
 
     @classmethod
     def load(cls, path: str | Path) -> Trajectory:
         with np.load(path) as data:
-            kwargs = {f.name: data[f.name] for f in fields(cls)}
+            kwargs = {f.name: data[f.name] for f in fields(cls) if f.name in data}
         kwargs["status"] = str(kwargs["status"])
+        kwargs["warnings"] = tuple(str(w) for w in kwargs.get("warnings", ()))
         kwargs["message"] = str(kwargs["message"])
         return cls(**kwargs)
 
@@ -286,4 +291,5 @@ def simulate(
         motor_q=np.array(motor, dtype=float).reshape(-1, 2),
         status=status,
         message=message,
+        warnings=tuple(warning_notes(plant.data)),  # reset with the plant: this run's
     )

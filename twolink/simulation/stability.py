@@ -88,6 +88,10 @@ def closed_loop_growth(
     return linearise(scenario, plant, controller, eps, near).sigma
 
 
+# The search evaluates the loop from points far from any rest state, where a law's
+# arithmetic may overflow (w² of a runaway): expected, not printed; such a point has no
+# finite answer and the search reports "no rest state" (NaN σ, the run's record).
+@np.errstate(over="ignore", invalid="ignore", divide="ignore")
 def linearise(scenario, plant, controller, eps: float = EPSILON, near: Any = None) -> Linearisation:
     """Largest growth rate σ [1/s] of the closed loop of ``scenario``'s plant (``plant``,
     built afresh: it is stepped here) and ``controller`` (a copy of it is reset and

@@ -71,7 +71,7 @@ def run_chunk(plan: SweepPlan, chunk: int, backend: str = "cpu") -> ChunkResult:
     """
     start = time.perf_counter()
     rows, arms = _chunk_arms(plan, chunk)
-    _measure_arms(rows, arms, backend)
+    _measure_arms(rows, arms, backend, plan.model_gravity())
     return ChunkResult(chunk, tuple(rows), time.perf_counter() - start, os.getpid())
 
 
@@ -81,7 +81,7 @@ def run_chunk_part(plan: SweepPlan, chunk: int, start: int, stop: int) -> list[C
     every worker computes; the parts are written as the chunk's one file)."""
     begin = time.perf_counter()
     rows, arms = _chunk_arms(plan, chunk, range(start, stop))
-    _measure_arms(rows, arms, "cpu")
+    _measure_arms(rows, arms, "cpu", plan.model_gravity())
     return [ChunkResult(chunk, tuple(rows), time.perf_counter() - begin, os.getpid())]
 
 
@@ -126,11 +126,15 @@ def _chunk_arms(
     return rows, arms
 
 
-def _measure_arms(rows: list[Any], arms: list[tuple[int, Any, Any]], backend: str) -> None:
+def _measure_arms(
+    rows: list[Any], arms: list[tuple[int, Any, Any]], backend: str, model_g: float
+) -> None:
     """Simulate the arms and fill their rows, measured as each batch ends (one trajectory
     at a time is ever held), their loops linearised together at the end
-    (:func:`twolink.simulation.experiment.measure_runs`: :func:`measure`'s metrics)."""
-    runs = iter_scenarios([s for _, s, _ in arms], [c for _, _, c in arms], backend)
+    (:func:`twolink.simulation.experiment.measure_runs`: :func:`measure`'s metrics).
+    ``model_g``: the sweep's model gravity, the same for every chunk and part of one."""
+    scenarios, controllers = [s for _, s, _ in arms], [c for _, _, c in arms]
+    runs = iter_scenarios(scenarios, controllers, backend, model_g)
     done: list[tuple[int, bool, str, str]] = []  # (row, ok, status, message) per arm run
 
     def measured():
@@ -175,7 +179,7 @@ def run_chunks(
         for part_rows, part_arms in parts:
             arms += [(offset + r, s, c) for r, s, c in part_arms]
             offset += len(part_rows)
-        _measure_arms(rows, arms, backend)
+        _measure_arms(rows, arms, backend, plan.model_gravity())
         share = (time.perf_counter() - start) / max(1, len(rows))
         out, offset = [], 0
         for chunk, (part_rows, _) in zip(chunks, parts, strict=True):

@@ -87,6 +87,12 @@ from twolink.simulation.config import (
     strip_replace,
 )
 from twolink.simulation.outcome import SuccessSpec, finished, largest_step
+from twolink.sweep.parameters import (
+    DISTRIBUTIONS,
+    PARAMETERS,
+    Parameter,
+    _parameter,
+)
 from twolink.sweep.results import METRIC_COLUMNS, SweepMeta
 
 __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan", "load_sweep"]
@@ -101,89 +107,18 @@ FORMAT_VERSION = 8  # 6: tail_error_rad, tail_growth; final error against the ta
 # Samples per task: each task is one batch of arms (samples x controllers) on the batch
 # engine, whose per-step cost is mostly fixed below ~100 arms (docs/sweeps.md).
 DEFAULT_CHUNK_SIZE = 100
-DISTRIBUTIONS = ("uniform", "loguniform", "normal", "choice", "grid")
 SCALE_PARAMETERS = ("m1", "m2", "l1", "l2", "g")
 FLEX_PARAMETERS = ("k", "d", "j")
-# name -> domain of the drawn value: "positive" (> 0), "nonnegative" (>= 0) or "any".
-PARAMETERS: Mapping[str, str] = {
-    "m1": "positive",
-    "m2": "positive",
-    "mass": "positive",  # a factor on both masses (times m1's and m2's own)
-    "l1": "positive",
-    "l2": "positive",
-    "g": "any",
-    "payload": "nonnegative",
-    **{f"{p}{j}": dom for p, dom in zip("kdj", ("positive", "nonnegative", "positive"), strict=True)
-       for j in ("", "1", "2")},
-    "zeta_joint": "nonnegative",  # the joints' damping ratio: d = 2 zeta sqrt(k j)
-    "k_scale": "positive",  # plant.scale.k: the plant's stiffness / the controllers' model
-    "j_scale": "positive",  # plant.scale.j: the same for the rotor inertia
-    "wn": "positive",  # the controllers' bandwidth [rad/s], zeta = 1
-}  # fmt: skip
 FLEX_NAMES = frozenset(
     {"zeta_joint"} | {f"{p}{j}" for p in FLEX_PARAMETERS for j in ("", "1", "2")}
 )
-TRUNCATION_TRIES = 10_000
-# A truncated normal must keep this share of the draws: with 10,000 tries per value, no
-# draw in the truncation is then a chance of (1 - 0.01)**10_000 ~ 1e-44.
-MIN_TRUNCATION_MASS = 0.01
 MAX_SAMPLES = 1_000_000
+# Where the sweep's model gravity puts the end of a normal g with no bound on a side
+# (SweepPlan.model_gravity): a draw beyond it (a chance of 1.5e-23) is an error row.
+NORMAL_REACH = 10.0
 
 
 # ----------------------------------------------------------------------------- the plan
-
-
-@dataclass(frozen=True)
-class Parameter:
-    """One swept plant parameter and its distribution.
-
-    Attributes
-    ----------
-    name : str
-        A key of :data:`PARAMETERS`.
-    dist : str
-        One of :data:`DISTRIBUTIONS`.
-    low, high : float or None
-        Bounds (uniform, loguniform; optional truncation of normal).
-    mean, std : float or None
-        Normal distribution.
-    values, weights : tuple of float
-        Choice and grid points; optional choice weights.
-    """
-
-    name: str
-    dist: str
-    low: float | None = None
-    high: float | None = None
-    mean: float | None = None
-    std: float | None = None
-    values: tuple[float, ...] = ()
-    weights: tuple[float, ...] = ()
-
-    def draw(self, rng: np.random.Generator) -> float:
-        """Draw one value (not for "grid", whose value comes from the sample index)."""
-        if self.dist == "uniform":
-            return float(rng.uniform(self.low, self.high))
-        if self.dist == "loguniform":
-            return float(math.exp(rng.uniform(math.log(self.low), math.log(self.high))))
-        if self.dist == "choice":
-            p = None
-            if self.weights:
-                w = np.asarray(self.weights)
-                p = w / w.sum()
-            return float(self.values[int(rng.choice(len(self.values), p=p))])
-        if self.dist == "normal":
-            lo = -math.inf if self.low is None else self.low
-            hi = math.inf if self.high is None else self.high
-            for _ in range(TRUNCATION_TRIES):
-                x = float(rng.normal(self.mean, self.std))
-                if lo <= x <= hi:
-                    return x
-            raise ValueError(
-                f"{self.name}: no draw of normal({self.mean}, {self.std}) fell in "
-                f"[{lo}, {hi}] in {TRUNCATION_TRIES} tries"
-            )
-        raise ValueError(f"{self.name}: {self.dist!r} values are not drawn")
 
 
 @dataclass(frozen=True)
@@ -326,6 +261,30 @@ class SweepPlan:
             plant["flexibility"] = flex
         return merge(self.base, {"plant": plant, "seed": noise_seed})
 
+    def model_gravity(self) -> float:
+        """The gravity of every batch model of this sweep (its arms are tilted against it,
+        :func:`twolink.simulation.batch.batch_model`): the largest |g| any sample can draw,
+        from the sweep's definition alone (the nominal g where ``g`` is not swept; else
+        the g of each end of its distribution, each choice or grid value; a normal open on
+        a side reaches ``NORMAL_REACH`` standard deviations there). So an arm's run depends
+        on its own plant, never on the other arms of its batch, N, the chunk size, the
+        executor or the number of workers."""
+        arm = self.nominal_scenario().arm
+        p = next((p for p in self.parameters if p.name == "g"), None)
+        if p is None:
+            return self.nominal_scenario().plant_params.g
+        if p.values:
+            ends: tuple[float, ...] = p.values
+        elif p.dist == "normal":
+            reach = NORMAL_REACH * p.std
+            ends = (
+                p.mean - reach if p.low is None else p.low,
+                p.mean + reach if p.high is None else p.high,
+            )
+        else:
+            ends = (p.low, p.high)
+        return max((arm.scaled(g=f).g for f in ends), key=abs)
+
     def controller_data(self, name: str, values: Mapping[str, float] = {}) -> dict[str, Any]:  # noqa: B006
         """The base scenario with controller ``name``'s overrides (and a sample's ``wn``)."""
         return merge(self.base, {"controller": {**dict(self.controllers)[name], **gains(values)}})
@@ -345,106 +304,6 @@ def gains(values: Mapping[str, float]) -> dict[str, float]:
 def _strip_source(exc: ConfigError, source: str) -> str:
     message = str(exc)
     return message[len(source) + 2 :] if message.startswith(f"{source}: ") else message
-
-
-def _check_value(t: TomlTable, key: str, value: Any, domain: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        t.fail(key, f"must be a number, got {value!r}")
-    try:
-        value = float(value)
-    except OverflowError:
-        t.fail(
-            key, f"must be a number a float can hold, got an integer of {len(str(value))} digits"
-        )
-    if not math.isfinite(value):
-        t.fail(key, f"must be finite, got {value!r}")
-    if domain == "positive" and not value > 0:
-        t.fail(key, f"must be > 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
-    if domain == "nonnegative" and value < 0:
-        t.fail(key, f"must be >= 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
-    return float(value)
-
-
-def _normal_mass(mean: float, std: float, low: float | None, high: float | None) -> float:
-    """The probability that a draw of normal(mean, std) lies in [low, high]."""
-    if std == 0:
-        return 1.0  # every draw is the mean, which lies within the truncation
-    lo = -math.inf if low is None else (low - mean) / std
-    hi = math.inf if high is None else (high - mean) / std
-    return 0.5 * (math.erf(hi / math.sqrt(2)) - math.erf(lo / math.sqrt(2)))
-
-
-def _number_list(t: TomlTable, key: str, domain: str) -> tuple[float, ...]:
-    values = t.raw(key)
-    if values is None:
-        t.fail(key, "missing: a list of numbers")
-    if not isinstance(values, list) or not values:
-        t.fail(key, f"must be a non-empty list of numbers, got {values!r}")
-    return tuple(_check_value(t, key, v, domain) for v in values)
-
-
-def _parameter(name: str, data: Any, file: str) -> Parameter:
-    t = TomlTable(data, f"parameters.{name}", file)
-    domain = PARAMETERS[name]
-    dist = t.raw("dist")
-    if dist is None:
-        t.fail("dist", f"missing: one of {list(DISTRIBUTIONS)}")
-    if dist not in DISTRIBUTIONS:
-        t.fail("dist", f"must be one of {list(DISTRIBUTIONS)}, got {dist!r}")
-    known = {
-        "uniform": ("low", "high"),
-        "loguniform": ("low", "high"),
-        "normal": ("mean", "std", "low", "high"),
-        "choice": ("values", "weights"),
-        "grid": ("values",),
-    }[dist]
-    for key in t.data:  # a misspelt key first: it explains a "missing" one
-        if key not in ("dist", *known):
-            t.fail(key, f"unknown key for {dist} (known: {['dist', *known]})")
-
-    def need(key: str, dom: str = domain) -> float:
-        if key not in t.data:
-            t.fail(key, f"missing: {dist} needs it")
-        return _check_value(t, key, t.raw(key), dom)
-
-    if dist in ("uniform", "loguniform"):
-        low = need("low", "positive" if dist == "loguniform" else domain)
-        high = need("high", "positive" if dist == "loguniform" else domain)
-        if low > high:
-            t.fail("high", f"must be >= low ({low}): the distribution is empty, got {high}")
-        p = Parameter(name, dist, low=low, high=high)
-    elif dist == "normal":
-        mean = need("mean", "any")
-        std = need("std", "nonnegative")
-        low = need("low") if "low" in t.data else None
-        high = need("high") if "high" in t.data else None
-        if low is None and domain != "any":
-            t.fail("low", f"missing: a normal draw of {name!r} can be negative; truncate it")
-        if low is not None and high is not None and low > high:
-            t.fail("high", f"must be >= low ({low}): the distribution is empty, got {high}")
-        if (low is not None and mean < low) or (high is not None and mean > high):
-            t.fail("mean", f"must lie within the truncation [{low}, {high}], got {mean}")
-        mass = _normal_mass(mean, std, low, high)
-        if mass < MIN_TRUNCATION_MASS:
-            t.fail(
-                "high" if high is not None else "low",
-                f"the truncation [{low}, {high}] keeps {mass:.3g} of normal({mean}, {std})'s "
-                f"draws; at least {MIN_TRUNCATION_MASS:g} is needed (values are drawn by "
-                "rejection): widen [low, high] or raise std",
-            )
-        p = Parameter(name, dist, low=low, high=high, mean=mean, std=std)
-    else:
-        values = _number_list(t, "values", domain)
-        weights: tuple[float, ...] = ()
-        if dist == "choice" and "weights" in t.data:
-            weights = _number_list(t, "weights", "nonnegative")
-            if len(weights) != len(values):
-                t.fail("weights", f"must have {len(values)} entries (one per value)")
-            if sum(weights) <= 0:
-                t.fail("weights", "must not all be zero")
-        p = Parameter(name, dist, values=values, weights=weights)
-    t.done()
-    return p
 
 
 def _absolute_rule_base(controller: dict[str, Any], relative_to: Path) -> dict[str, Any]:
@@ -488,6 +347,45 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     """
     path = locate(path)
     file = str(path)
+    raw, data = _read_sweep_file(path, file, overrides)
+    top = TomlTable(data, "", file)
+    name, samples, seed, chunk_size = _sizes(top, path)
+    execution = _execution(top)
+    success = _success(top)
+    base = _base_scenario(top, path, file)
+    parameters = _parameters(top, file)
+    controllers = _controllers(top, base, path, file)
+    top.done()
+
+    nominal = scenario_from_dict(base, file)
+    joints = tuple(
+        j + 1
+        for j, target in enumerate(nominal.reference.final)
+        if math.isfinite(target) and target != nominal.q0[j]
+    )
+    return SweepPlan(
+        name=name,
+        file=file,
+        samples=samples,
+        seed=seed,
+        chunk_size=chunk_size,
+        base=base,
+        controllers=tuple(controllers),
+        parameters=parameters,
+        execution=execution,
+        digest=_digest(data, base, controllers),
+        file_sha256=hashlib.sha256(raw).hexdigest(),
+        joints=joints,
+        success=success,
+        step=largest_step(nominal.reference, nominal.q0),
+        finished=finished(nominal.reference, nominal.duration),
+    )
+
+
+def _read_sweep_file(
+    path: Path, file: str, overrides: Mapping[str, Any] | None
+) -> tuple[bytes, dict[str, Any]]:
+    """The sweep file's bytes and its data, with ``overrides`` merged in."""
     refuse_fis(path)
     if not path.is_file():
         raise ConfigError(f"{file}: no such file{shipped_hint(path)}")
@@ -503,8 +401,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     expect_kind(data, file, "sweep")
     if overrides:
         data = merge(data, dict(overrides))
-    data = strip_replace(data)  # the flags merged onto the sweep's own tables are spent
-    top = TomlTable(data, "", file)
+    return raw, strip_replace(data)  # the flags merged onto the sweep's own tables are spent
+
+
+def _sizes(top: TomlTable, path: Path) -> tuple[str, int, int, int]:
+    """The sweep's name, samples, seed and chunk size."""
     name = top.string("name", path.stem)
     if problem := unsafe_name_problem(name):
         top.fail("name", problem)
@@ -528,7 +429,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     chunk_size = top.raw("chunk_size", DEFAULT_CHUNK_SIZE)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:
         top.fail("chunk_size", f"must be an integer >= 1, got {chunk_size!r}")
+    return name, samples, seed, chunk_size
 
+
+def _execution(top: TomlTable) -> Execution:
+    """The file's ``[execution]`` defaults."""
     ex = top.table("execution")
     workers = ex.raw("workers")
     if workers is not None and (
@@ -549,7 +454,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         scheduler=None,
     )
     ex.done()
+    return execution
 
+
+def _success(top: TomlTable) -> SuccessSpec:
+    """The file's ``[success]`` spec."""
     st = top.table("success")
     defaults = SuccessSpec()
     success = SuccessSpec(
@@ -562,8 +471,13 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         ),
     )
     st.done()
+    return success
 
-    # The base scenario: its own errors name its own file.
+
+def _base_scenario(top: TomlTable, path: Path, file: str) -> dict[str, Any]:
+    """The base scenario as data, with the sweep's ``[overrides]`` and ``[reference]``
+    merged in; its own errors name its own file."""
+    scenario_path = top.raw("scenario")
     base_path = locate_beside(path.parent, scenario_path)  # beside the file, else shipped
     try:
         base = read_toml(base_path)
@@ -588,7 +502,11 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
                 f"{file}: {problem}" if key == "reference" else f"{file}: {key}.{problem}"
             ) from None
         base = merged
+    return base
 
+
+def _parameters(top: TomlTable, file: str) -> tuple[Parameter, ...]:
+    """The ``[parameters]`` drawn, sorted by name."""
     pt = top.table("parameters")
     for pname in pt.data:
         if pname not in PARAMETERS:
@@ -602,7 +520,13 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
             pt.fail(damping, "conflicts with 'zeta_joint', which sets the damping of both joints")
     parameters = tuple(_parameter(n, pt.raw(n), file) for n in sorted(pt.data))
     pt.done()
+    return parameters
 
+
+def _controllers(
+    top: TomlTable, base: dict[str, Any], path: Path, file: str
+) -> list[tuple[str, dict[str, Any]]]:
+    """The ``[controllers.NAME]`` tables, each checked on the base scenario."""
     ct = top.table("controllers")
     if not ct.data:
         top.fail("controllers", "missing: at least one [controllers.<name>] table")
@@ -626,15 +550,14 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
             top.fail(where, problem)
         controllers.append((cname, over))
     ct.done()
-    top.done()
+    return controllers
 
-    nominal = scenario_from_dict(base, file)
-    joints = tuple(
-        j + 1
-        for j, target in enumerate(nominal.reference.final)
-        if math.isfinite(target) and target != nominal.q0[j]
-    )
-    # What decides the chunks' contents; the [success] spec only classifies finished rows.
+
+def _digest(
+    data: dict[str, Any], base: dict[str, Any], controllers: list[tuple[str, dict[str, Any]]]
+) -> str:
+    """SHA-256 of what decides the chunks' contents (the [success] spec only classifies
+    finished rows; N, the name and the execution decide none)."""
     content = {
         k: v for k, v in data.items() if k not in ("samples", "name", "execution", "success")
     }
@@ -644,23 +567,6 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
         "base": base,
         "rule_bases": _rule_base_hashes(controllers, base),
     }
-    digest = hashlib.sha256(
+    return hashlib.sha256(
         json.dumps(digest_source, sort_keys=True, default=str).encode()
     ).hexdigest()
-    return SweepPlan(
-        name=name,
-        file=file,
-        samples=samples,
-        seed=seed,
-        chunk_size=chunk_size,
-        base=base,
-        controllers=tuple(controllers),
-        parameters=parameters,
-        execution=execution,
-        digest=digest,
-        file_sha256=hashlib.sha256(raw).hexdigest(),
-        joints=joints,
-        success=success,
-        step=largest_step(nominal.reference, nominal.q0),
-        finished=finished(nominal.reference, nominal.duration),
-    )

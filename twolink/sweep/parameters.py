@@ -1,0 +1,191 @@
+"""A sweep's drawn parameters: their names and domains, their distributions, and the
+``[parameters]`` entries of a sweep file read into :class:`Parameter` (docs/sweeps.md,
+"Parameters" and "Distributions")."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from twolink.simulation.config import TomlTable
+
+__all__ = ["DISTRIBUTIONS", "PARAMETERS", "Parameter"]
+
+DISTRIBUTIONS = ("uniform", "loguniform", "normal", "choice", "grid")
+# name -> domain of the drawn value: "positive" (> 0), "nonnegative" (>= 0) or "any".
+PARAMETERS: Mapping[str, str] = {
+    "m1": "positive",
+    "m2": "positive",
+    "mass": "positive",  # a factor on both masses (times m1's and m2's own)
+    "l1": "positive",
+    "l2": "positive",
+    "g": "any",
+    "payload": "nonnegative",
+    **{f"{p}{j}": dom for p, dom in zip("kdj", ("positive", "nonnegative", "positive"), strict=True)
+       for j in ("", "1", "2")},
+    "zeta_joint": "nonnegative",  # the joints' damping ratio: d = 2 zeta sqrt(k j)
+    "k_scale": "positive",  # plant.scale.k: the plant's stiffness / the controllers' model
+    "j_scale": "positive",  # plant.scale.j: the same for the rotor inertia
+    "wn": "positive",  # the controllers' bandwidth [rad/s], zeta = 1
+}  # fmt: skip
+TRUNCATION_TRIES = 10_000
+# A truncated normal must keep this share of the draws: with 10,000 tries per value, no
+# draw in the truncation is then a chance of (1 - 0.01)**10_000 ~ 1e-44.
+MIN_TRUNCATION_MASS = 0.01
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One swept plant parameter and its distribution.
+
+    Attributes
+    ----------
+    name : str
+        A key of :data:`PARAMETERS`.
+    dist : str
+        One of :data:`DISTRIBUTIONS`.
+    low, high : float or None
+        Bounds (uniform, loguniform; optional truncation of normal).
+    mean, std : float or None
+        Normal distribution.
+    values, weights : tuple of float
+        Choice and grid points; optional choice weights.
+    """
+
+    name: str
+    dist: str
+    low: float | None = None
+    high: float | None = None
+    mean: float | None = None
+    std: float | None = None
+    values: tuple[float, ...] = ()
+    weights: tuple[float, ...] = ()
+
+    def draw(self, rng: np.random.Generator) -> float:
+        """Draw one value (not for "grid", whose value comes from the sample index)."""
+        if self.dist == "uniform":
+            return float(rng.uniform(self.low, self.high))
+        if self.dist == "loguniform":
+            return float(math.exp(rng.uniform(math.log(self.low), math.log(self.high))))
+        if self.dist == "choice":
+            p = None
+            if self.weights:
+                w = np.asarray(self.weights)
+                p = w / w.sum()
+            return float(self.values[int(rng.choice(len(self.values), p=p))])
+        if self.dist == "normal":
+            lo = -math.inf if self.low is None else self.low
+            hi = math.inf if self.high is None else self.high
+            for _ in range(TRUNCATION_TRIES):
+                x = float(rng.normal(self.mean, self.std))
+                if lo <= x <= hi:
+                    return x
+            raise ValueError(
+                f"{self.name}: no draw of normal({self.mean}, {self.std}) fell in "
+                f"[{lo}, {hi}] in {TRUNCATION_TRIES} tries"
+            )
+        raise ValueError(f"{self.name}: {self.dist!r} values are not drawn")
+
+
+def _check_value(t: TomlTable, key: str, value: Any, domain: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        t.fail(key, f"must be a number, got {value!r}")
+    try:
+        value = float(value)
+    except OverflowError:
+        t.fail(
+            key, f"must be a number a float can hold, got an integer of {len(str(value))} digits"
+        )
+    if not math.isfinite(value):
+        t.fail(key, f"must be finite, got {value!r}")
+    if domain == "positive" and not value > 0:
+        t.fail(key, f"must be > 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
+    if domain == "nonnegative" and value < 0:
+        t.fail(key, f"must be >= 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
+    return float(value)
+
+
+def _normal_mass(mean: float, std: float, low: float | None, high: float | None) -> float:
+    """The probability that a draw of normal(mean, std) lies in [low, high]."""
+    if std == 0:
+        return 1.0  # every draw is the mean, which lies within the truncation
+    lo = -math.inf if low is None else (low - mean) / std
+    hi = math.inf if high is None else (high - mean) / std
+    return 0.5 * (math.erf(hi / math.sqrt(2)) - math.erf(lo / math.sqrt(2)))
+
+
+def _number_list(t: TomlTable, key: str, domain: str) -> tuple[float, ...]:
+    values = t.raw(key)
+    if values is None:
+        t.fail(key, "missing: a list of numbers")
+    if not isinstance(values, list) or not values:
+        t.fail(key, f"must be a non-empty list of numbers, got {values!r}")
+    return tuple(_check_value(t, key, v, domain) for v in values)
+
+
+def _parameter(name: str, data: Any, file: str) -> Parameter:
+    t = TomlTable(data, f"parameters.{name}", file)
+    domain = PARAMETERS[name]
+    dist = t.raw("dist")
+    if dist is None:
+        t.fail("dist", f"missing: one of {list(DISTRIBUTIONS)}")
+    if dist not in DISTRIBUTIONS:
+        t.fail("dist", f"must be one of {list(DISTRIBUTIONS)}, got {dist!r}")
+    known = {
+        "uniform": ("low", "high"),
+        "loguniform": ("low", "high"),
+        "normal": ("mean", "std", "low", "high"),
+        "choice": ("values", "weights"),
+        "grid": ("values",),
+    }[dist]
+    for key in t.data:  # a misspelt key first: it explains a "missing" one
+        if key not in ("dist", *known):
+            t.fail(key, f"unknown key for {dist} (known: {['dist', *known]})")
+
+    def need(key: str, dom: str = domain) -> float:
+        if key not in t.data:
+            t.fail(key, f"missing: {dist} needs it")
+        return _check_value(t, key, t.raw(key), dom)
+
+    if dist in ("uniform", "loguniform"):
+        low = need("low", "positive" if dist == "loguniform" else domain)
+        high = need("high", "positive" if dist == "loguniform" else domain)
+        if low > high:
+            t.fail("high", f"must be >= low ({low}): the distribution is empty, got {high}")
+        p = Parameter(name, dist, low=low, high=high)
+    elif dist == "normal":
+        mean = need("mean", "any")
+        std = need("std", "nonnegative")
+        low = need("low") if "low" in t.data else None
+        high = need("high") if "high" in t.data else None
+        if low is None and domain != "any":
+            t.fail("low", f"missing: a normal draw of {name!r} can be negative; truncate it")
+        if low is not None and high is not None and low > high:
+            t.fail("high", f"must be >= low ({low}): the distribution is empty, got {high}")
+        if (low is not None and mean < low) or (high is not None and mean > high):
+            t.fail("mean", f"must lie within the truncation [{low}, {high}], got {mean}")
+        mass = _normal_mass(mean, std, low, high)
+        if mass < MIN_TRUNCATION_MASS:
+            t.fail(
+                "high" if high is not None else "low",
+                f"the truncation [{low}, {high}] keeps {mass:.3g} of normal({mean}, {std})'s "
+                f"draws; at least {MIN_TRUNCATION_MASS:g} is needed (values are drawn by "
+                "rejection): widen [low, high] or raise std",
+            )
+        p = Parameter(name, dist, low=low, high=high, mean=mean, std=std)
+    else:
+        values = _number_list(t, "values", domain)
+        weights: tuple[float, ...] = ()
+        if dist == "choice" and "weights" in t.data:
+            weights = _number_list(t, "weights", "nonnegative")
+            if len(weights) != len(values):
+                t.fail("weights", f"must have {len(values)} entries (one per value)")
+            if sum(weights) <= 0:
+                t.fail("weights", "must not all be zero")
+        p = Parameter(name, dist, values=values, weights=weights)
+    t.done()
+    return p
