@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from cli_inputs import invoke
 
-from twolink.controllers.fuzzy.fis import MAX_FIS_BYTES, read_fis
+from twolink.controllers.fuzzy.fis.engine_files import MAX_FIS_BYTES, read_engine
 from twolink.foundation.io import MARK_LINE, RULE_BASE_TITLE, carries_mark
 from twolink.foundation.journal import MAX_JOURNAL_BYTES
 from twolink.foundation.ownership import (
@@ -121,10 +121,10 @@ def test_a_fis_file_at_the_cap_is_read_and_one_byte_over_refused(tmp_path):
     write_fis(source, default_fuzzy_pd())
     text = source.read_bytes() + b"\n%"
     fis = padded(tmp_path / "b.fis", text, TOML, b"x")
-    read_fis(fis)
+    read_engine(fis)
     padded(fis, text, TOML + 1, b"x")
     with pytest.raises(Exception, match=f"{fis}: larger than"):
-        read_fis(fis)
+        read_engine(fis)
 
 
 def test_a_marked_file_at_the_marks_cap_is_twolinks_and_one_byte_over_is_not(tmp_path):
