@@ -203,3 +203,26 @@ def test_cli_runs_a_small_study_and_refuses_bad_input(tmp_path):
     assert bad.exit_code == 2 and "quantile" in bad.output and "Traceback" not in bad.output
     refused = runner.invoke(main, [*args, *small, "--install"])
     assert refused.exit_code == 2 and "--set" in refused.output
+
+
+def test_a_gain_run_does_not_depend_on_its_chunk():
+    """One model gravity for every chunk (the study's largest |g|): a run's row is the same
+    whether it runs among all the study's plants or alone with a plant of smaller g (the
+    chunk's own largest |g| would tilt it differently, and the lab's numbers with it)."""
+    from twolink.simulation.batch import model_gravity
+    from twolink.simulation.config import scenario_from_dict
+
+    study = gains.load_gain_study()
+    items = list(gains._plans(study))
+    g = [scenario_from_dict(d, study.source).plant_params.g for _, d in items]
+    model_g = model_gravity(g)
+    low = [i for i in range(len(items)) if g[i] < 9.7][:2]  # a chunk without the largest g
+    high = [i for i in range(len(items)) if g[i] == model_g][:1]
+    pick = [items[i] for i in low]
+    alone = gains._run_chunk(study.source, pick, model_g)
+    beside = gains._run_chunk(study.source, pick + [items[i] for i in high], model_g)[:2]
+    assert len(alone) == 2
+    for a, b in zip(alone, beside, strict=True):
+        assert a.keys() == b.keys()
+        for k in a:
+            assert a[k] == b[k] or (a[k] != a[k] and b[k] != b[k]), k  # equal, NaN alike

@@ -220,9 +220,10 @@ def run_rows(
     """Each (row, parameters) run on the batch engine: its metrics by symbol (NaN where
     undefined or the run failed). The arms are split into one batch per core, run in
     threads (MuJoCo releases the GIL while it steps); an arm's run does not depend on its
-    batch, so the split changes no number."""
+    batch (one model gravity for all the shares), so the split changes no number."""
     from concurrent.futures import ThreadPoolExecutor
 
+    from twolink.simulation.batch import model_gravity
     from twolink.simulation.experiment import iter_scenarios
 
     data = [scenario_data(study, row, p) for row, p in jobs]
@@ -231,8 +232,10 @@ def run_rows(
     if not jobs:
         return out
 
+    model_g = model_gravity([s.plant_params.g for s in scenarios])  # one for every share
+
     def measure(share: range) -> None:
-        for k, traj in iter_scenarios([scenarios[i] for i in share]):
+        for k, traj in iter_scenarios([scenarios[i] for i in share], model_g=model_g):
             if isinstance(traj, Exception) or traj.status != "ok" or not len(traj.t):
                 continue
             i = share[k]

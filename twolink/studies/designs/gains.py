@@ -231,13 +231,16 @@ def _row(labels: dict[str, Any], s: Any, traj: Any, limit: tuple[float, float]) 
     return row
 
 
-def _run_chunk(source: str, items: list[tuple[dict[str, Any], dict[str, Any]]]) -> list[dict]:
-    """Run ``items`` (labels, scenario data) as batches; one row each, in order."""
+def _run_chunk(
+    source: str, items: list[tuple[dict[str, Any], dict[str, Any]]], model_g: float | None = None
+) -> list[dict]:
+    """Run ``items`` (labels, scenario data) as batches under the gravity ``model_g``; one
+    row each, in order."""
     from twolink.simulation.experiment import iter_scenarios
 
     scenarios = [scenario_from_dict(data, source) for _, data in items]
     rows: list[dict[str, Any]] = [{}] * len(items)
-    for i, traj in iter_scenarios(scenarios):
+    for i, traj in iter_scenarios(scenarios, model_g=model_g):
         if isinstance(traj, Exception):
             raise ConfigError(f"{source}: run {items[i][0]} failed: {traj}")
         limit = scenarios[i].controller.torque_limit
@@ -257,18 +260,22 @@ def run_gain_study(study: GainStudy, pool: Any = None, progress: bool = False) -
     """
     from tqdm import tqdm
 
+    from twolink.simulation.batch import model_gravity
+
     items = list(_plans(study))
     chunks = max(1, 4 * getattr(pool, "workers", 1))
     size = -(-len(items) // chunks)
     parts = [items[i : i + size] for i in range(0, len(items), size)]
+    # one gravity for every chunk, from all the runs: a run does not depend on its chunk
+    model_g = model_gravity([scenario_from_dict(d, study.source).plant_params.g for _, d in items])
     rows: list[dict[str, Any]] = []
     with tqdm(total=len(items), unit="run", disable=not progress, desc="gain study") as bar:
         if pool is None:
             for part in parts:
-                rows += _run_chunk(study.source, part)
+                rows += _run_chunk(study.source, part, model_g)
                 bar.update(len(part))
         else:
-            futures = [pool.submit(_run_chunk, study.source, part) for part in parts]
+            futures = [pool.submit(_run_chunk, study.source, part, model_g) for part in parts]
             for future, part in zip(futures, parts, strict=True):
                 rows += future.result()
                 bar.update(len(part))

@@ -76,13 +76,16 @@ def plan(
     return specs
 
 
-def _execute(specs: list[RunSpec], out: Path, trace: bool) -> list[dict[str, Any]]:
-    """Run specs as one batch of arms (:mod:`twolink.simulation.batch`) and write their folders;
-    returns their metrics rows (a worker task)."""
+def _execute(
+    specs: list[RunSpec], out: Path, trace: bool, model_g: float | None = None
+) -> list[dict[str, Any]]:
+    """Run specs as one batch of arms (:mod:`twolink.simulation.batch`) under the gravity
+    ``model_g`` and write their folders; returns their metrics rows (a worker task)."""
     scenarios = [load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs]
     controllers = [build_controller(s) for s in scenarios]
     rows: list[dict[str, Any]] = [{}] * len(specs)
-    for i, traj in iter_scenarios(scenarios, controllers):  # written as each batch ends
+    # written as each batch ends
+    for i, traj in iter_scenarios(scenarios, controllers, model_g=model_g):
         spec, scenario, controller = specs[i], scenarios[i], controllers[i]
         if isinstance(traj, Exception):  # validated before: MuJoCo refused this arm
             raise traj
@@ -199,6 +202,8 @@ def run_all(
     reproduction resumes per run. Returns the rows known now (``{}`` where pending) and
     the pending futures with the spec indices each computes.
     """
+    from twolink.simulation.batch import model_gravity
+
     rows: list[dict[str, Any]] = [{}] * len(specs)
     todo = []
     for i, spec in enumerate(specs):
@@ -210,11 +215,23 @@ def run_all(
     # A batch's cost per step is mostly fixed up to ~100 arms: as few batches as keep the
     # workers busy (one worker is left to the flexible study when it runs beside).
     batches = max(1, min(len(todo), pool.workers - busy))
+    # one gravity for every batch, from all the specs: a run does not depend on its share
+    model_g = model_gravity(
+        [
+            (
+                scenarios[sp.folder]
+                if scenarios
+                else load_scenario(sp.experiment.scenario, sp.overrides)
+            ).plant_params.g
+            for sp in specs
+        ]
+    )
     pending = {}
     for b in range(batches):
         share = todo[b::batches]
         if share:
-            pending[pool.submit(_execute, [specs[i] for i in share], out, trace)] = share
+            task = pool.submit(_execute, [specs[i] for i in share], out, trace, model_g)
+            pending[task] = share
     return rows, pending
 
 
