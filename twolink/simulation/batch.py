@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.params import ArmParams, Flexibility, Friction
 from twolink.arm.plant import add_arm, holding_motor_q, mujoco, new_spec
 from twolink.controllers.base import Controller
 from twolink.simulation.sensor import Sensor
@@ -52,6 +52,7 @@ class Arm:
     params: ArmParams
     flexibility: Flexibility | None = None
     payload: float = 0.0
+    friction: Friction | None = None
 
 
 def model_gravity(gs: Sequence[float]) -> float:
@@ -78,6 +79,7 @@ def batch_model(arms: Sequence[Arm], timestep: float, name: str = "twolink_batch
             model_g=g_model,
             visual=False,
             motors=False,
+            friction=a.friction,
         )
     try:
         return spec.compile()
@@ -132,6 +134,23 @@ class BatchPlant:
         # MuJoCo would compute four times a step for nothing. (Sums are unchanged: MuJoCo
         # adds applied, then actuator forces, and one of the two is zero either way.)
         self.force_index = self.motor_v_index
+        # The Stribeck dip of the arms' friction (Plant.step's, per arm): None where no arm
+        # has one, else its (N, 2) excess F_s - F_c (zero for the arms without) and v_s.
+        self.stribeck = None
+        if any(a.friction is not None and a.friction.stribeck for a in arms):
+            none = Friction()
+            frictions = [a.friction or none for a in arms]
+            self.stribeck = (
+                np.array([np.subtract(f.breakaway, f.coulomb) for f in frictions]),
+                np.array([[f.stribeck_velocity] * 2 for f in frictions]),
+            )
+
+    def stribeck_relief(self) -> np.ndarray:
+        """The Stribeck forces (N, 2) at the motors' joints now:
+        :meth:`twolink.arm.params.Friction.stribeck_relief` of each arm's rates."""
+        excess, vs = self.stribeck
+        v = self.data.qvel[self.force_index]
+        return excess * -np.expm1(-((v / vs) ** 2)) * np.sign(v)
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray, holding: np.ndarray | None = None) -> None:
         """Every arm at (q0, qd0), time 0, its rotors at the links (springs relaxed) or,
@@ -259,6 +278,7 @@ def simulate_batch(
     qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
     q_index, v_index, force_index = plant.q_index, plant.v_index, plant.force_index
     any_flexible = bool(plant.flexible.any())
+    stribeck = plant.stribeck is not None
 
     rec_q = np.empty((n_max + 1, n_arms, 2))
     rec_qd = np.empty_like(rec_q)
@@ -325,6 +345,8 @@ def simulate_batch(
             tau[~active] = 0.0
         force[force_index] = tau
         for _ in range(substeps):
+            if stribeck:  # as Plant.step: held over the step, from the rates at its start
+                force[force_index] = tau + plant.stribeck_relief()
             mujoco.mj_step(model, data)
     return BatchResult(
         times,
