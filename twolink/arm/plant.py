@@ -24,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twolink.arm.disturbance import Disturbance
 from twolink.arm.dynamics import gravity
 from twolink.arm.params import ArmParams, Flexibility, Friction
 from twolink.foundation.interrupts import import_mujoco
@@ -228,6 +229,20 @@ def _add_rotors(spec: mujoco.MjSpec, flexibility: Flexibility, prefix: str, visu
         spring.wrap_joint(f"{prefix}theta{i}", -1.0)
 
 
+def lump_point_mass(model: mujoco.MjModel, body: int, mass: float, x: float) -> None:
+    """Make a point mass ``mass`` at ``(x, 0, 0)`` in ``body``'s frame part of that body,
+    mid-run (a payload picked up): its mass, centre of mass and inertia as :func:`add_arm`
+    lumps a payload (parallel axes), then ``mj_setConst`` for what MuJoCo derives from
+    them (subtree masses, the inverse weights that scale its constraints' softness)."""
+    m0, c0 = float(model.body_mass[body]), float(model.body_ipos[body, 0])
+    m = m0 + mass
+    c = (m0 * c0 + mass * x) / m
+    model.body_mass[body] = m
+    model.body_ipos[body, 0] = c
+    model.body_inertia[body, 1:] += m0 * (c0 - c) ** 2 + mass * (x - c) ** 2
+    mujoco.mj_setConst(model, mujoco.MjData(model))
+
+
 def incline(ratio: float) -> list[float]:
     """The orientation (quaternion) of an arm's base that tilts the plane it moves in
     about MuJoCo's x axis until the model's gravity has the fraction ``ratio`` (in
@@ -321,6 +336,8 @@ class Plant:
     model: mujoco.MjModel
     data: mujoco.MjData = None  # type: ignore[assignment]
     friction: Friction | None = None  # the model's; its Stribeck dip is applied in step()
+    disturbance: Disturbance | None = None  # torques on the links, applied in step()
+    tip: float = 0.0  # link 2's length: where a picked-up payload sits
 
     def __post_init__(self) -> None:
         if self.data is None:
@@ -329,6 +346,10 @@ class Plant:
         self.dt = float(self.model.opt.timestep)
         self._stribeck = self.friction is not None and self.friction.stribeck
         self._friction_dofs = slice(2, 4) if self.flexible else slice(0, 2)
+        self._applied = self._stribeck or self.disturbance is not None
+        link2 = self.model.body("link2").id
+        self._link2 = (link2, self.model.body_mass[link2], *self.model.body_ipos[link2])
+        self._link2_inertia = self.model.body_inertia[link2].copy()
 
     @classmethod
     def build(
@@ -338,12 +359,15 @@ class Plant:
         payload: float = 0.0,
         timestep: float = 1e-3,
         friction: Friction | None = None,
+        disturbance: Disturbance | None = None,
     ) -> Plant:
-        return cls(build_model(p, flexibility, payload, timestep, friction), friction=friction)
+        model = build_model(p, flexibility, payload, timestep, friction)
+        return cls(model, friction=friction, disturbance=disturbance, tip=p.l2)
 
     def reset(self, q=(0.0, 0.0), qd=(0.0, 0.0), motor_q=None, motor_qd=None) -> None:
         """Set the state and time 0. Rotors default to the link state (springs relaxed);
         :func:`holding_motor_q` gives the ``motor_q`` that holds the arm at rest."""
+        self._restore_link2()
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:2] = q
         self.data.qvel[:2] = qd
@@ -357,10 +381,28 @@ class Plant:
         ctrl = self.data.ctrl
         ctrl[0] = tau1
         ctrl[1] = tau2
-        if self._stribeck:  # held over the step, from the rates at its start
-            dofs = self._friction_dofs
-            self.data.qfrc_applied[dofs] = self.friction.stribeck_relief(self.data.qvel[dofs])
+        if self._applied:  # held over the step, from its start
+            applied = self.data.qfrc_applied
+            if self._stribeck:
+                dofs = self._friction_dofs
+                applied[dofs] = self.friction.stribeck_relief(self.data.qvel[dofs])
+            if self.disturbance is not None:
+                if not self._stribeck or self.flexible:
+                    applied[:2] = 0.0
+                applied[:2] += self.disturbance.torque(self.data.time, self.dt)
+                if self.disturbance.picks_up(self.data.time, self.dt):
+                    mass, tip = self.disturbance.pickup.mass, self.tip
+                    lump_point_mass(self.model, self._link2[0], mass, tip)
         mujoco.mj_step(self.model, self.data)
+
+    def _restore_link2(self) -> None:
+        """Link 2 as built (a payload picked up in a previous run put down)."""
+        body, mass, *ipos = self._link2
+        if self.model.body_mass[body] != mass:
+            self.model.body_mass[body] = mass
+            self.model.body_ipos[body] = ipos
+            self.model.body_inertia[body] = self._link2_inertia
+            mujoco.mj_setConst(self.model, mujoco.MjData(self.model))
 
     @property
     def time(self) -> float:

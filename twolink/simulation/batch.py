@@ -28,8 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twolink.arm.disturbance import Disturbance
 from twolink.arm.params import ArmParams, Flexibility, Friction
-from twolink.arm.plant import add_arm, holding_motor_q, mujoco, new_spec
+from twolink.arm.plant import add_arm, holding_motor_q, lump_point_mass, mujoco, new_spec
 from twolink.controllers.base import Controller
 from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import (
@@ -53,6 +54,7 @@ class Arm:
     flexibility: Flexibility | None = None
     payload: float = 0.0
     friction: Friction | None = None
+    disturbance: Disturbance | None = None
 
 
 def model_gravity(gs: Sequence[float]) -> float:
@@ -134,6 +136,10 @@ class BatchPlant:
         # MuJoCo would compute four times a step for nothing. (Sums are unchanged: MuJoCo
         # adds applied, then actuator forces, and one of the two is zero either way.)
         self.force_index = self.motor_v_index
+        self.disturbed = [(i, a.disturbance) for i, a in enumerate(arms) if a.disturbance]
+        self._built = tuple(  # the masses as built: a payload picked up is put down at reset
+            a.copy() for a in (self.model.body_mass, self.model.body_ipos, self.model.body_inertia)
+        )
         # The Stribeck dip of the arms' friction (Plant.step's, per arm): None where no arm
         # has one, else its (N, 2) excess F_s - F_c (zero for the arms without) and v_s.
         self.stribeck = None
@@ -144,6 +150,23 @@ class BatchPlant:
                 np.array([np.subtract(f.breakaway, f.coulomb) for f in frictions]),
                 np.array([[f.stribeck_velocity] * 2 for f in frictions]),
             )
+
+    def apply(self, tau: np.ndarray) -> None:
+        """``qfrc_applied`` for the next physics step (where an arm has a Stribeck dip or
+        a disturbance): the torques ``tau`` (N, 2) at the motors' joints plus each arm's
+        dip there, and each arm's disturbance on its links (as Plant.step)."""
+        force = self.data.qfrc_applied
+        force[self.force_index] = tau if self.stribeck is None else tau + self.stribeck_relief()
+        t = self.data.time
+        for i, d in self.disturbed:  # a flexible arm's links carry nothing else
+            if d.picks_up(t, self.dt):
+                body = self.model.body(f"arm{i}_link2").id
+                lump_point_mass(self.model, body, d.pickup.mass, self.arms[i].params.l2)
+            torque = d.torque(t, self.dt)
+            if self.flexible[i]:
+                force[self.v_index[i]] = torque
+            else:
+                force[self.v_index[i]] += torque
 
     def stribeck_relief(self) -> np.ndarray:
         """The Stribeck forces (N, 2) at the motors' joints now:
@@ -158,6 +181,14 @@ class BatchPlant:
         q0 by its own gravity and payload: :func:`twolink.arm.plant.holding_motor_q`, the
         angles a single arm's run starts with
         (:func:`twolink.simulation.experiment.start_motor_q`)."""
+        if not np.array_equal(self.model.body_mass, self._built[0]):
+            for now, built in zip(
+                (self.model.body_mass, self.model.body_ipos, self.model.body_inertia),
+                self._built,
+                strict=True,
+            ):
+                now[:] = built
+            mujoco.mj_setConst(self.model, mujoco.MjData(self.model))
         mujoco.mj_resetData(self.model, self.data)
         motor_q0 = np.array(q0, dtype=float)
         held = np.zeros(self.n_arms, bool) if holding is None else holding & self.flexible
@@ -278,7 +309,7 @@ def simulate_batch(
     qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
     q_index, v_index, force_index = plant.q_index, plant.v_index, plant.force_index
     any_flexible = bool(plant.flexible.any())
-    stribeck = plant.stribeck is not None
+    applied = plant.stribeck is not None or bool(plant.disturbed)
 
     rec_q = np.empty((n_max + 1, n_arms, 2))
     rec_qd = np.empty_like(rec_q)
@@ -345,8 +376,8 @@ def simulate_batch(
             tau[~active] = 0.0
         force[force_index] = tau
         for _ in range(substeps):
-            if stribeck:  # as Plant.step: held over the step, from the rates at its start
-                force[force_index] = tau + plant.stribeck_relief()
+            if applied:  # as Plant.step: held over the step, from its start
+                plant.apply(tau)
             mujoco.mj_step(model, data)
     return BatchResult(
         times,

@@ -31,6 +31,8 @@ Schema (all keys optional except the reference)::
     start = "holding"        # springs holding the arm at rest at q0, or "relaxed"
     [plant.friction]         # joint friction, N m and rad/s (docs/model.md, "Friction")
     coulomb = [0.5, 0.2]  viscous = [0.1, 0.05]  breakaway = [0.6, 0.25]  stribeck_velocity = 0.1
+    [[disturbance.step]]     # also .impulse (size in N m s) and .sine (amplitude, frequency)
+    joint = 1  time = 2.0  size = 1.0   # N m from 2 s on (docs/model.md, "Disturbances")
     [controller]
     kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules);
                              # baselines: "pd_gravity", "ctc_integral", "fuzzy_pd";
@@ -61,6 +63,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from twolink.arm.disturbance import Disturbance
 from twolink.arm.params import ArmParams, Flexibility
 
 # The rule bases by name and the fuzzy scaling rule live with the controllers that use them.
@@ -82,7 +85,7 @@ from twolink.simulation.plant_table import ARM_SCALE_KEYS as ARM_SCALE_KEYS
 from twolink.simulation.plant_table import JOINT_SCALE_KEYS as JOINT_SCALE_KEYS
 from twolink.simulation.plant_table import SPRING_STARTS as SPRING_STARTS
 from twolink.simulation.plant_table import PlantConfig as PlantConfig
-from twolink.simulation.plant_table import read_plant
+from twolink.simulation.plant_table import disturbance_dict, read_disturbance, read_plant
 from twolink.simulation.sensor import VELOCITY_ESTIMATES, Sensor
 
 # Controllers of flexible joints (controllers/flexible.py): they read the motor states and
@@ -169,6 +172,7 @@ class Scenario:
     qd0: tuple[float, float] = (0.0, 0.0)
     source: str = ""
     sensor: Sensor = Sensor()
+    disturbance: Disturbance | None = None  # torques on the links the controllers don't know
 
     @property
     def plant_params(self) -> ArmParams:
@@ -222,6 +226,7 @@ class Scenario:
             },
             "initial": {"q": list(self.q0), "qd": list(self.qd0)},
             **({} if self.sensor.ideal else {"sensor": asdict(self.sensor)}),
+            **({"disturbance": disturbance_dict(self.disturbance)} if self.disturbance else {}),
         }
 
 
@@ -593,6 +598,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         qd0=initial.pair("qd", (0.0, 0.0)),
         source=source,
         sensor=_sensor(top.table("sensor")),
+        disturbance=read_disturbance(top.table("disturbance")) if "disturbance" in data else None,
     )
     initial.done()
     top.done()

@@ -39,7 +39,12 @@ from twolink.simulation.vocabulary import format_value, joint_values
 def build_plant(s: Scenario) -> Plant:
     """The simulated arm: the nominal arm with the scenario's uncertainty."""
     return Plant.build(
-        s.plant_params, s.plant_joints, s.plant.payload, s.timestep, s.plant.friction
+        s.plant_params,
+        s.plant_joints,
+        s.plant.payload,
+        s.timestep,
+        s.plant.friction,
+        s.disturbance,
     )
 
 
@@ -339,7 +344,7 @@ def _arm_bytes(s: Scenario, control_dt: float, record_bytes) -> int:
 def _arm(s: Scenario):
     from twolink.simulation.batch import Arm
 
-    return Arm(s.plant_params, s.plant_joints, s.plant.payload, s.plant.friction)
+    return Arm(s.plant_params, s.plant_joints, s.plant.payload, s.plant.friction, s.disturbance)
 
 
 @dataclass(frozen=True)

@@ -1,12 +1,19 @@
 """A scenario's ``[plant]`` table: how the simulated arm differs from the nominal one
-(uncertainty factors, payload, flexible joints, friction), and its reading
+(uncertainty factors, payload, flexible joints, friction), and its ``[disturbance]``, read
 (:mod:`twolink.simulation.config` reads the rest of the scenario)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING
 
+from twolink.arm.disturbance import (
+    Disturbance,
+    PayloadPickup,
+    SineLoad,
+    TorqueImpulse,
+    TorqueStep,
+)
 from twolink.arm.params import Flexibility, Friction
 
 if TYPE_CHECKING:
@@ -75,3 +82,55 @@ def read_friction(t: TomlTable) -> Friction:
     vs = t.number("stribeck_velocity", Friction.stribeck_velocity, positive=True)
     t.done()
     return Friction(coulomb=fc, viscous=b, breakaway=fs, stribeck_velocity=vs)
+
+
+# [disturbance]: each kind a table or an array of tables, with these keys (all required)
+DISTURBANCE_KINDS = {
+    "step": (TorqueStep, ("joint", "time", "size"), "steps"),
+    "impulse": (TorqueImpulse, ("joint", "time", "size"), "impulses"),
+    "sine": (SineLoad, ("joint", "amplitude", "frequency"), "sines"),
+}
+
+
+def read_disturbance(t: TomlTable) -> Disturbance:
+    """A scenario's ``[disturbance]`` (docs/scenarios.md): ``[[disturbance.step]]``,
+    ``[[disturbance.impulse]]``, ``[[disturbance.sine]]``."""
+    found: dict[str, list] = {}
+    for kind, (cls, keys, field_name) in DISTURBANCE_KINDS.items():
+        items = t.raw(kind, [])
+        items = [items] if isinstance(items, dict) else items
+        if not isinstance(items, list):
+            t.fail(kind, f"must be a table or an array of tables, got {items!r}")
+        found[field_name] = []
+        for n, item in enumerate(items):
+            it = type(t)(item, f"{t.where}.{kind}[{n}]", t.file)
+            for key in keys:
+                if key not in it.data:
+                    it.fail(key, "missing")
+            joint = it.raw("joint")
+            if isinstance(joint, bool) or joint not in (1, 2):
+                it.fail("joint", f"must be 1 or 2, got {joint!r}")
+            values = {k: it.number(k, 0.0, minimum=_MINIMA.get(k)) for k in keys[1:]}
+            it.done()
+            found[field_name].append(cls(joint, *values.values()))
+    pickup = None
+    if "payload" in t.data:
+        pt = t.table("payload")
+        mass, time = pt.number("mass", 0.0, minimum=0.0), pt.number("time", 0.0, minimum=0.0)
+        pickup = PayloadPickup(mass, time)
+        pt.done()
+    t.done()
+    return Disturbance(**{k: tuple(v) for k, v in found.items()}, pickup=pickup)
+
+
+_MINIMA = {"time": 0.0, "frequency": 0.0}
+
+
+def disturbance_dict(d: Disturbance) -> dict[str, list[dict[str, float]]]:
+    """``d`` as a ``[disturbance]`` table (what a run's resolved config holds)."""
+    out: dict = {
+        kind: [asdict(x) for x in getattr(d, name)]
+        for kind, (_, _, name) in DISTURBANCE_KINDS.items()
+        if getattr(d, name)
+    }
+    return out | ({"payload": asdict(d.pickup)} if d.pickup else {})
