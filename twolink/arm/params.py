@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 
+import numpy as np
+
 
 def _check_finite(owner: str, name: str, value: float, positive: bool) -> None:
     if isinstance(value, bool) or not isinstance(value, int | float):
@@ -131,3 +133,77 @@ class Flexibility:
                 if v < 0:
                     raise ValueError(f"Flexibility.{name} must be >= 0, got {value!r}")
             object.__setattr__(self, name, tuple(float(v) for v in value))
+
+
+@dataclass(frozen=True)
+class Friction:
+    """Joint friction per joint: dry (Coulomb, with stiction up to a breakaway torque),
+    viscous, and the Stribeck dip between them.
+
+    The friction torque opposing a sliding joint at rate v is::
+
+        f(v) = (F_c + (F_s - F_c) exp(-(v / v_s)^2)) sign(v) + b v
+
+    and a joint at rest stays at rest while the other torques on it stay within F_s. On a
+    flexible joint it acts at the motor side (the rotor's hinge): the gear and bearings
+    of a real drive rub there (``docs/model.md``, "Friction").
+
+    Parameters
+    ----------
+    coulomb : pair of float
+        F_c, dry friction while sliding [N m], >= 0.
+    viscous : pair of float
+        b, viscous friction [N m s / rad], >= 0.
+    breakaway : pair of float, optional
+        F_s, the torque a joint at rest holds [N m], >= ``coulomb`` (default: equal to it,
+        no Stribeck dip).
+    stribeck_velocity : float
+        v_s, the rate over which friction falls from F_s to F_c [rad/s], > 0.
+    """
+
+    coulomb: tuple[float, float] = (0.0, 0.0)
+    viscous: tuple[float, float] = (0.0, 0.0)
+    breakaway: tuple[float, float] | None = None
+    stribeck_velocity: float = 0.1
+
+    def __post_init__(self) -> None:
+        if self.breakaway is None:
+            object.__setattr__(self, "breakaway", tuple(self.coulomb))
+        for name in ("coulomb", "viscous", "breakaway"):
+            value = tuple(getattr(self, name))
+            if len(value) != 2:
+                raise ValueError(f"Friction.{name} must have 2 entries, got {value!r}")
+            for v in value:
+                _check_finite("Friction", name, v, positive=False)
+                if v < 0:
+                    raise ValueError(f"Friction.{name} must be >= 0, got {value!r}")
+            object.__setattr__(self, name, tuple(float(v) for v in value))
+        _check_finite("Friction", "stribeck_velocity", self.stribeck_velocity, positive=True)
+        object.__setattr__(self, "stribeck_velocity", float(self.stribeck_velocity))
+        for fc, fs in zip(self.coulomb, self.breakaway, strict=True):
+            if fs < fc:
+                raise ValueError(
+                    f"Friction.breakaway must be >= coulomb, got {self.breakaway!r} "
+                    f"below {self.coulomb!r}"
+                )
+
+    @property
+    def stribeck(self) -> bool:
+        """Whether any joint's breakaway exceeds its Coulomb friction (the dip is on)."""
+        return any(fs > fc for fc, fs in zip(self.coulomb, self.breakaway, strict=True))
+
+    def stribeck_relief(self, v: np.ndarray) -> np.ndarray:
+        """The torque that turns MuJoCo's dry friction at the breakaway level F_s into the
+        Stribeck curve while sliding: ``(F_s - F_c) (1 - exp(-(v / v_s)^2)) sign(v)``, along
+        the motion (it relieves friction). Zero at rest and continuous in v; ``v`` (..., 2)."""
+        v = np.asarray(v, dtype=float)
+        excess = np.subtract(self.breakaway, self.coulomb)
+        return excess * -np.expm1(-((v / self.stribeck_velocity) ** 2)) * np.sign(v)
+
+    def torque(self, v: np.ndarray) -> np.ndarray:
+        """The friction law f(v) of a sliding joint (the class docstring), opposing the
+        motion is -f(v); at v = 0 it is zero (stiction is not a function of v)."""
+        v = np.asarray(v, dtype=float)
+        fc, fs = np.asarray(self.coulomb), np.asarray(self.breakaway)
+        dry = fc + (fs - fc) * np.exp(-((v / self.stribeck_velocity) ** 2))
+        return dry * np.sign(v) + np.asarray(self.viscous) * v

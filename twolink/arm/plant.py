@@ -26,8 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from twolink.arm.disturbance import Disturbance
 from twolink.arm.dynamics import gravity
-from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.params import ArmParams, Flexibility, Friction
 from twolink.foundation.interrupts import import_mujoco
 
 mujoco = import_mujoco()
@@ -74,6 +75,12 @@ def warning_notes(data: mujoco.MjData, since: list[int] | None = None) -> list[s
 ROD_RADIUS = 0.02  # visual and for the rod's (irrelevant) spin inertia about its axis [m]
 ROTOR_MASS = 1e-3  # rotors sit on their axes: mass has no effect, MuJoCo needs it > 0 [kg]
 HINGE_AXIS = (0.0, -1.0, 0.0)
+# MuJoCo's dry friction is a soft constraint: a joint held below breakaway creeps at a rate
+# proportional to the torque, (1 - d) / d of what it would be with d = 0.5. The joints use
+# the stiffest impedance MuJoCo allows (its mjMAXIMP, 0.9999), flat over the whole range:
+# the default (0.9 to 0.95) lets the 1 m arm's joint 1 creep at 1.8e-3 rad/s under 0.99 of
+# its breakaway torque, this at 1.7e-6 rad/s (docs/model.md, "Friction").
+STICTION_SOLIMP = [0.9999, 0.9999, 0.001, 0.5, 2.0]
 
 
 def build_spec(
@@ -81,6 +88,7 @@ def build_spec(
     flexibility: Flexibility | None = None,
     payload: float = 0.0,
     timestep: float = 1e-3,
+    friction: Friction | None = None,
 ) -> mujoco.MjSpec:
     """Build the MJCF model of the arm as an editable :class:`mujoco.MjSpec`.
 
@@ -95,9 +103,11 @@ def build_spec(
         rod model does not know about.
     timestep : float
         Integration step [s] (RK4).
+    friction : Friction, optional
+        Joint friction (on the motors' joints; see :func:`add_arm`).
     """
     spec = new_spec(timestep, p.g, "twolink_flexible" if flexibility else "twolink")
-    add_arm(spec, p, flexibility, payload)
+    add_arm(spec, p, flexibility, payload, friction=friction)
     return spec
 
 
@@ -128,6 +138,7 @@ def add_arm(
     model_g: float | None = None,
     visual: bool = True,
     motors: bool = True,
+    friction: Friction | None = None,
 ) -> None:
     """Add one arm to ``spec``: its bodies, joints, springs and motors, every name
     prefixed with ``prefix`` (so several arms can share a model, see
@@ -140,25 +151,67 @@ def add_arm(
     it does no work. ``visual=False`` leaves out the geoms and the tip site, which only
     show the arm (the inertias are explicit) and cost ~5 % of a step; ``motors=False``
     the actuators, for a caller that applies the torques itself as ``qfrc_applied`` at
-    the motors' joints (the batch: another ~5 %).
+    the motors' joints (the batch: another ~5 %). ``friction`` puts joint friction on the
+    motors' joints (the links' of a rigid arm, the rotors' of a flexible one): MuJoCo's
+    dry friction (``frictionloss``) at the breakaway level and its ``damping`` for the
+    viscous part; the Stribeck dip is a force the stepping code applies
+    (:meth:`twolink.arm.params.Friction.stribeck_relief`).
     """
     if not (payload >= 0 and np.isfinite(payload)):
         raise ValueError(f"payload must be a finite mass >= 0, got {payload!r}")
+    tip = _add_links(spec, p, payload, prefix, model_g, visual)
+    if visual:
+        _add_tip(tip, p, payload, prefix)
+    if flexibility is None:
+        targets = ("theta1", "theta2")
+    else:
+        _add_rotors(spec, flexibility, prefix, visual)
+        targets = ("phi1", "phi2")
+    if friction is not None:
+        for i, target in enumerate(targets):
+            joint = spec.joint(f"{prefix}{target}")
+            joint.frictionloss = friction.breakaway[i]
+            joint.solimp_friction = STICTION_SOLIMP
+            joint.damping = [friction.viscous[i], 0.0, 0.0]  # linear term only
+    if not motors:
+        return
+    for i, target in enumerate(targets, start=1):
+        act = spec.add_actuator(name=f"{prefix}tau{i}", target=f"{prefix}{target}")
+        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
+        act.set_to_motor()
+
+
+def _link_inertia(m: float, length: float, payload: float) -> tuple[float, float, float]:
+    """(mass, centre of mass, inertia about it) of a uniform rod with a point mass
+    ``payload`` at its tip."""
+    # Uniform rod along x: centre of mass at L/2, inertia m L^2/12 about it.
+    mass, com, inertia = m, length / 2, m * length**2 / 12
+    if payload > 0:
+        # The payload, a point mass at the tip, is rigidly part of link 2: one body
+        # with the combined mass, centre of mass and (parallel-axis) inertia, which is
+        # the same physics as a welded body and cheaper to step.
+        mass = m + payload
+        com = (m * length / 2 + payload * length) / mass
+        inertia += m * (length / 2 - com) ** 2 + payload * (length - com) ** 2
+    return mass, com, inertia
+
+
+def _add_links(
+    spec: mujoco.MjSpec,
+    p: ArmParams,
+    payload: float,
+    prefix: str,
+    model_g: float | None,
+    visual: bool,
+):
+    """The two links and their hinges; returns link 2's body."""
     parent = spec.worldbody
     for i, (m, length) in enumerate(((p.m1, p.l1), (p.m2, p.l2)), start=1):
         pos = [0, 0, 0] if i == 1 else [p.l1, 0, 0]
         body = parent.add_body(name=f"{prefix}link{i}", pos=pos)
         if i == 1 and model_g is not None and p.g != model_g:
             body.quat = incline(p.g / model_g)
-        # Uniform rod along x: centre of mass at L/2, inertia m L^2/12 about it.
-        mass, com, inertia = m, length / 2, m * length**2 / 12
-        if i == 2 and payload > 0:
-            # The payload, a point mass at the tip, is rigidly part of link 2: one body
-            # with the combined mass, centre of mass and (parallel-axis) inertia, which is
-            # the same physics as a welded body and cheaper to step.
-            mass = m + payload
-            com = (m * length / 2 + payload * length) / mass
-            inertia += m * (length / 2 - com) ** 2 + payload * (length - com) ** 2
+        mass, com, inertia = _link_inertia(m, length, payload if i == 2 else 0.0)
         body.explicitinertial = True
         body.mass = mass
         body.ipos = [com, 0, 0]
@@ -173,53 +226,62 @@ def add_arm(
                 rgba=[0.2, 0.45, 0.8, 1] if i == 1 else [0.85, 0.45, 0.2, 1],
             )
         parent = body
-    if visual:
-        parent.add_site(name=f"{prefix}tip", pos=[p.l2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
-        if payload > 0:  # shown as a ball at the tip (geoms carry no mass here)
-            parent.add_geom(
-                name=f"{prefix}payload",
-                type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                pos=[p.l2, 0, 0],
-                size=[0.05, 0, 0],
-                rgba=[0.3, 0.3, 0.3, 1],
-            )
+    return parent
 
-    if flexibility is None:
-        targets = ("theta1", "theta2")
-    else:
-        for i in (1, 2):
-            rotor = spec.worldbody.add_body(name=f"{prefix}rotor{i}")
-            rotor.explicitinertial = True
-            rotor.mass = ROTOR_MASS
-            rotor.ipos = [0, 0, 0]
-            j = flexibility.j[i - 1]
-            rotor.inertia = [j, j, j]  # only the spin about the hinge axis matters
-            rotor.add_joint(
-                name=f"{prefix}phi{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS
+
+def _add_tip(link2, p: ArmParams, payload: float, prefix: str) -> None:
+    """The tip site and, if any, the payload's ball (shown only: geoms carry no mass)."""
+    link2.add_site(name=f"{prefix}tip", pos=[p.l2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
+    if payload > 0:
+        link2.add_geom(
+            name=f"{prefix}payload",
+            type=mujoco.mjtGeom.mjGEOM_SPHERE,
+            pos=[p.l2, 0, 0],
+            size=[0.05, 0, 0],
+            rgba=[0.3, 0.3, 0.3, 1],
+        )
+
+
+def _add_rotors(spec: mujoco.MjSpec, flexibility: Flexibility, prefix: str, visual: bool) -> None:
+    """Spong's rotors on the world at the joints, and the tendon springs to the links."""
+    for i in (1, 2):
+        rotor = spec.worldbody.add_body(name=f"{prefix}rotor{i}")
+        rotor.explicitinertial = True
+        rotor.mass = ROTOR_MASS
+        rotor.ipos = [0, 0, 0]
+        j = flexibility.j[i - 1]
+        rotor.inertia = [j, j, j]  # only the spin about the hinge axis matters
+        rotor.add_joint(name=f"{prefix}phi{i}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS)
+        if visual:  # a disc behind the arm's plane to show the rotor
+            rotor.add_geom(
+                name=f"{prefix}rotor{i}",
+                type=mujoco.mjtGeom.mjGEOM_CYLINDER,
+                fromto=[0, 0.03, 0, 0, 0.06, 0],
+                size=[0.06, 0, 0],
+                rgba=[0.4, 0.4, 0.4, 1],
             )
-            if visual:  # a disc behind the arm's plane to show the rotor
-                rotor.add_geom(
-                    name=f"{prefix}rotor{i}",
-                    type=mujoco.mjtGeom.mjGEOM_CYLINDER,
-                    fromto=[0, 0.03, 0, 0, 0.06, 0],
-                    size=[0.06, 0, 0],
-                    rgba=[0.4, 0.4, 0.4, 1],
-                )
-            spring = spec.add_tendon(
-                name=f"{prefix}spring{i}",
-                stiffness=flexibility.k[i - 1],
-                damping=flexibility.d[i - 1],
-                springlength=[0.0, 0.0],
-            )
-            spring.wrap_joint(f"{prefix}phi{i}", 1.0)
-            spring.wrap_joint(f"{prefix}theta{i}", -1.0)
-        targets = ("phi1", "phi2")
-    if not motors:
-        return
-    for i, target in enumerate(targets, start=1):
-        act = spec.add_actuator(name=f"{prefix}tau{i}", target=f"{prefix}{target}")
-        act.trntype = mujoco.mjtTrn.mjTRN_JOINT
-        act.set_to_motor()
+        spring = spec.add_tendon(
+            name=f"{prefix}spring{i}",
+            stiffness=flexibility.k[i - 1],
+            damping=flexibility.d[i - 1],
+            springlength=[0.0, 0.0],
+        )
+        spring.wrap_joint(f"{prefix}phi{i}", 1.0)
+        spring.wrap_joint(f"{prefix}theta{i}", -1.0)
+
+
+def lump_point_mass(model: mujoco.MjModel, body: int, mass: float, x: float) -> None:
+    """Make a point mass ``mass`` at ``(x, 0, 0)`` in ``body``'s frame part of that body,
+    mid-run (a payload picked up): its mass, centre of mass and inertia as :func:`add_arm`
+    lumps a payload (parallel axes), then ``mj_setConst`` for what MuJoCo derives from
+    them (subtree masses, the inverse weights that scale its constraints' softness)."""
+    m0, c0 = float(model.body_mass[body]), float(model.body_ipos[body, 0])
+    m = m0 + mass
+    c = (m0 * c0 + mass * x) / m
+    model.body_mass[body] = m
+    model.body_ipos[body, 0] = c
+    model.body_inertia[body, 1:] += m0 * (c0 - c) ** 2 + mass * (x - c) ** 2
+    mujoco.mj_setConst(model, mujoco.MjData(model))
 
 
 def incline(ratio: float) -> list[float]:
@@ -238,6 +300,7 @@ def build_model(
     flexibility: Flexibility | None = None,
     payload: float = 0.0,
     timestep: float = 1e-3,
+    friction: Friction | None = None,
 ) -> mujoco.MjModel:
     """Compile the arm into a :class:`mujoco.MjModel` (see :func:`build_spec`).
 
@@ -248,7 +311,7 @@ def build_model(
         in one line that says so.
     """
     try:
-        return build_spec(p, flexibility, payload, timestep).compile()
+        return build_spec(p, flexibility, payload, timestep, friction).compile()
     except ValueError as exc:
         why = " ".join(str(exc).split()).removeprefix("Error: ")
         raise ValueError(f"MuJoCo cannot build this arm ({p}): {why}") from None
@@ -313,12 +376,21 @@ class Plant:
 
     model: mujoco.MjModel
     data: mujoco.MjData = None  # type: ignore[assignment]
+    friction: Friction | None = None  # the model's; its Stribeck dip is applied in step()
+    disturbance: Disturbance | None = None  # torques on the links, applied in step()
+    tip: float = 0.0  # link 2's length: where a picked-up payload sits
 
     def __post_init__(self) -> None:
         if self.data is None:
             self.data = mujoco.MjData(self.model)
         self.flexible = self.model.nq == 4
         self.dt = float(self.model.opt.timestep)
+        self._stribeck = self.friction is not None and self.friction.stribeck
+        self._friction_dofs = slice(2, 4) if self.flexible else slice(0, 2)
+        self._applied = self._stribeck or self.disturbance is not None
+        link2 = self.model.body("link2").id
+        self._link2 = (link2, self.model.body_mass[link2], *self.model.body_ipos[link2])
+        self._link2_inertia = self.model.body_inertia[link2].copy()
 
     @classmethod
     def build(
@@ -327,12 +399,16 @@ class Plant:
         flexibility: Flexibility | None = None,
         payload: float = 0.0,
         timestep: float = 1e-3,
+        friction: Friction | None = None,
+        disturbance: Disturbance | None = None,
     ) -> Plant:
-        return cls(build_model(p, flexibility, payload, timestep))
+        model = build_model(p, flexibility, payload, timestep, friction)
+        return cls(model, friction=friction, disturbance=disturbance, tip=p.l2)
 
     def reset(self, q=(0.0, 0.0), qd=(0.0, 0.0), motor_q=None, motor_qd=None) -> None:
         """Set the state and time 0. Rotors default to the link state (springs relaxed);
         :func:`holding_motor_q` gives the ``motor_q`` that holds the arm at rest."""
+        self._restore_link2()
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[:2] = q
         self.data.qvel[:2] = qd
@@ -346,7 +422,28 @@ class Plant:
         ctrl = self.data.ctrl
         ctrl[0] = tau1
         ctrl[1] = tau2
+        if self._applied:  # held over the step, from its start
+            applied = self.data.qfrc_applied
+            if self._stribeck:
+                dofs = self._friction_dofs
+                applied[dofs] = self.friction.stribeck_relief(self.data.qvel[dofs])
+            if self.disturbance is not None:
+                if not self._stribeck or self.flexible:
+                    applied[:2] = 0.0
+                applied[:2] += self.disturbance.torque(self.data.time, self.dt)
+                if self.disturbance.picks_up(self.data.time, self.dt):
+                    mass, tip = self.disturbance.pickup.mass, self.tip
+                    lump_point_mass(self.model, self._link2[0], mass, tip)
         mujoco.mj_step(self.model, self.data)
+
+    def _restore_link2(self) -> None:
+        """Link 2 as built (a payload picked up in a previous run put down)."""
+        body, mass, *ipos = self._link2
+        if self.model.body_mass[body] != mass:
+            self.model.body_mass[body] = mass
+            self.model.body_ipos[body] = ipos
+            self.model.body_inertia[body] = self._link2_inertia
+            mujoco.mj_setConst(self.model, mujoco.MjData(self.model))
 
     @property
     def time(self) -> float:

@@ -31,10 +31,12 @@ from typing import Any
 
 import numpy as np
 
-from twolink.arm.params import ArmParams, Flexibility
+from twolink.arm.disturbance import Disturbance
+from twolink.arm.params import ArmParams, Flexibility, Friction
 from twolink.arm.plant import (
     add_arm,
     holding_motor_q,
+    lump_point_mass,
     mujoco,
     new_spec,
     warning_counts,
@@ -62,6 +64,8 @@ class Arm:
     params: ArmParams
     flexibility: Flexibility | None = None
     payload: float = 0.0
+    friction: Friction | None = None
+    disturbance: Disturbance | None = None
 
 
 def model_gravity(gs: Sequence[float]) -> float:
@@ -97,6 +101,7 @@ def batch_model(
             model_g=g_model,
             visual=False,
             motors=False,
+            friction=a.friction,
         )
     try:
         return spec.compile()
@@ -154,6 +159,44 @@ class BatchPlant:
         # MuJoCo would compute four times a step for nothing. (Sums are unchanged: MuJoCo
         # adds applied, then actuator forces, and one of the two is zero either way.)
         self.force_index = self.motor_v_index
+        self.disturbed = [(i, a.disturbance) for i, a in enumerate(arms) if a.disturbance]
+        self._built = tuple(  # the masses as built: a payload picked up is put down at reset
+            a.copy() for a in (self.model.body_mass, self.model.body_ipos, self.model.body_inertia)
+        )
+        # The Stribeck dip of the arms' friction (Plant.step's, per arm): None where no arm
+        # has one, else its (N, 2) excess F_s - F_c (zero for the arms without) and v_s.
+        self.stribeck = None
+        if any(a.friction is not None and a.friction.stribeck for a in arms):
+            none = Friction()
+            frictions = [a.friction or none for a in arms]
+            self.stribeck = (
+                np.array([np.subtract(f.breakaway, f.coulomb) for f in frictions]),
+                np.array([[f.stribeck_velocity] * 2 for f in frictions]),
+            )
+
+    def apply(self, tau: np.ndarray) -> None:
+        """``qfrc_applied`` for the next physics step (where an arm has a Stribeck dip or
+        a disturbance): the torques ``tau`` (N, 2) at the motors' joints plus each arm's
+        dip there, and each arm's disturbance on its links (as Plant.step)."""
+        force = self.data.qfrc_applied
+        force[self.force_index] = tau if self.stribeck is None else tau + self.stribeck_relief()
+        t = self.data.time
+        for i, d in self.disturbed:  # a flexible arm's links carry nothing else
+            if d.picks_up(t, self.dt):
+                body = self.model.body(f"arm{i}_link2").id
+                lump_point_mass(self.model, body, d.pickup.mass, self.arms[i].params.l2)
+            torque = d.torque(t, self.dt)
+            if self.flexible[i]:
+                force[self.v_index[i]] = torque
+            else:
+                force[self.v_index[i]] += torque
+
+    def stribeck_relief(self) -> np.ndarray:
+        """The Stribeck forces (N, 2) at the motors' joints now:
+        :meth:`twolink.arm.params.Friction.stribeck_relief` of each arm's rates."""
+        excess, vs = self.stribeck
+        v = self.data.qvel[self.force_index]
+        return excess * -np.expm1(-((v / vs) ** 2)) * np.sign(v)
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray, holding: np.ndarray | None = None) -> None:
         """Every arm at (q0, qd0), time 0, its rotors at the links (springs relaxed) or,
@@ -161,6 +204,14 @@ class BatchPlant:
         q0 by its own gravity and payload: :func:`twolink.arm.plant.holding_motor_q`, the
         angles a single arm's run starts with
         (:func:`twolink.simulation.experiment.start_motor_q`)."""
+        if not np.array_equal(self.model.body_mass, self._built[0]):
+            for now, built in zip(
+                (self.model.body_mass, self.model.body_ipos, self.model.body_inertia),
+                self._built,
+                strict=True,
+            ):
+                now[:] = built
+            mujoco.mj_setConst(self.model, mujoco.MjData(self.model))
         mujoco.mj_resetData(self.model, self.data)
         motor_q0 = np.array(q0, dtype=float)
         held = np.zeros(self.n_arms, bool) if holding is None else holding & self.flexible
@@ -262,10 +313,10 @@ def simulate_batch(
     reader, motor_reader, noise_all = _readers(sensor, control_dt, noise_all, any(motor_laws))
     plant.reset(q0, qd0, None if holding is None else np.asarray(holding, bool))
     run = _Run(plant, len(times) - 1, bounds or Bounds())
-    model, data = plant.model, plant.data
-    qpos, qvel, force = data.qpos, data.qvel, data.qfrc_applied
-    q_index, v_index, force_index = plant.q_index, plant.v_index, plant.force_index
+    qpos, qvel = plant.data.qpos, plant.data.qvel
+    q_index, v_index = plant.q_index, plant.v_index
     any_flexible, any_motor = bool(plant.flexible.any()), any(motor_laws)
+    applied = plant.stribeck is not None or bool(plant.disturbed)
     qmax, wmax, tmax = run.bounds.angle, run.bounds.rate, run.bounds.torque
     active, tau = run.active, run.tau
     ends = set(steps.tolist())  # instants where some arm's run is over
@@ -305,10 +356,19 @@ def simulate_batch(
         if stopped:
             plant.freeze(np.flatnonzero(~active))
             tau[~active] = 0.0
-        force[force_index] = tau
-        for _ in range(substeps):
-            mujoco.mj_step(model, data)
+        _advance(plant, tau, substeps, applied)
     return run.result(times, controllers)
+
+
+def _advance(plant: BatchPlant, tau: np.ndarray, substeps: int, applied: bool) -> None:
+    """Hold the torques ``tau`` over one control period of ``substeps`` physics steps
+    (with each arm's Stribeck dip and disturbance, as Plant.step, where ``applied``)."""
+    model, data = plant.model, plant.data
+    data.qfrc_applied[plant.force_index] = tau
+    for _ in range(substeps):
+        if applied:  # as Plant.step: held over the step, from its start
+            plant.apply(tau)
+        mujoco.mj_step(model, data)
 
 
 def _readers(

@@ -29,6 +29,10 @@ Schema (all keys optional except the reference)::
     [plant.flexibility]      # present = Spong flexible joints, as the controllers model them
     k = [500, 500]  d = [1, 1]  j = [0.05, 0.05]
     start = "holding"        # springs holding the arm at rest at q0, or "relaxed"
+    [plant.friction]         # joint friction, N m and rad/s (docs/model.md, "Friction")
+    coulomb = [0.5, 0.2]  viscous = [0.1, 0.05]  breakaway = [0.6, 0.25]  stribeck_velocity = 0.1
+    [[disturbance.step]]     # also .impulse (size in N m s) and .sine (amplitude, frequency)
+    joint = 1  time = 2.0  size = 1.0   # N m from 2 s on (docs/model.md, "Disturbances")
     [controller]
     kind = "ctc"             # "ctc", "fuzzy_ctc" (7x7 rules), "fcm_ctc" (reduced rules);
                              # baselines: "pd_gravity", "ctc_integral", "fuzzy_pd";
@@ -55,10 +59,11 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
+from twolink.arm.disturbance import Disturbance
 from twolink.arm.params import ArmParams, Flexibility
 
 # The rule bases by name and the fuzzy scaling rule live with the controllers that use them.
@@ -76,6 +81,11 @@ from twolink.foundation.overrides import set_nested
 from twolink.foundation.overrides import strip_replace as strip_replace
 from twolink.foundation.references import ArmReference, make_reference, reference_params
 from twolink.foundation.shipped import locate, locate_beside, shipped_hint
+from twolink.simulation.plant_table import ARM_SCALE_KEYS as ARM_SCALE_KEYS
+from twolink.simulation.plant_table import JOINT_SCALE_KEYS as JOINT_SCALE_KEYS
+from twolink.simulation.plant_table import SPRING_STARTS as SPRING_STARTS
+from twolink.simulation.plant_table import PlantConfig as PlantConfig
+from twolink.simulation.plant_table import disturbance_dict, read_disturbance, read_plant
 from twolink.simulation.sensor import VELOCITY_ESTIMATES, Sensor
 
 # Controllers of flexible joints (controllers/flexible.py): they read the motor states and
@@ -109,23 +119,6 @@ FUZZY_INFERENCES = ("mamdani", "continuous")
 # controllers/ in a checkout, twolink/controllers/ in a wheel)
 class ConfigError(ValueError):
     """An invalid scenario: the message names the file and the key."""
-
-
-SPRING_STARTS = ("holding", "relaxed")
-ARM_SCALE_KEYS = ("g", "l1", "l2", "m1", "m2")  # [plant.scale] factors on [arm]
-JOINT_SCALE_KEYS = ("j", "k")  # [plant.scale] factors on [plant.flexibility]: model error
-
-
-@dataclass(frozen=True)
-class PlantConfig:
-    """How the simulated arm differs from the nominal one."""
-
-    scale: dict[str, float] = field(default_factory=dict)
-    payload: float = 0.0
-    flexibility: Flexibility | None = None  # the joints as the controllers model them
-    # A flexible arm's springs at t = 0: "holding" (twisted to hold the arm at rest at its
-    # start pose) or "relaxed" (rotors at the links: the arm starts to fall).
-    springs: str = "holding"
 
 
 @dataclass(frozen=True)
@@ -179,6 +172,7 @@ class Scenario:
     qd0: tuple[float, float] = (0.0, 0.0)
     source: str = ""
     sensor: Sensor = Sensor()
+    disturbance: Disturbance | None = None  # torques on the links the controllers don't know
 
     @property
     def plant_params(self) -> ArmParams:
@@ -208,6 +202,9 @@ class Scenario:
         if self.plant.flexibility is not None:
             plant["flexibility"] = {k: list(v) for k, v in asdict(self.plant.flexibility).items()}
             plant["flexibility"]["start"] = self.plant.springs
+        if self.plant.friction is not None:  # absent: digests stay as they were
+            items = asdict(self.plant.friction).items()
+            plant["friction"] = {k: list(v) if isinstance(v, tuple) else v for k, v in items}
         ctrl = asdict(self.controller)
         ctrl["kp"], ctrl["kd"], ctrl["ki"] = list(ctrl["kp"]), list(ctrl["kd"]), list(ctrl["ki"])
         if self.controller.fuzzy.engine == "exact":  # the default: digests stay as they were
@@ -229,6 +226,7 @@ class Scenario:
             },
             "initial": {"q": list(self.q0), "qd": list(self.qd0)},
             **({} if self.sensor.ideal else {"sensor": asdict(self.sensor)}),
+            **({"disturbance": disturbance_dict(self.disturbance)} if self.disturbance else {}),
         }
 
 
@@ -469,39 +467,6 @@ def _arm(t: TomlTable) -> ArmParams:
     return arm
 
 
-def _plant(t: TomlTable) -> PlantConfig:
-    scale_t = t.table("scale")
-    scale = {}
-    known = sorted(ARM_SCALE_KEYS + JOINT_SCALE_KEYS)
-    for key in list(scale_t.data):
-        if key not in known:
-            scale_t.fail(key, f"unknown key (known here: {known})")
-        scale[key] = scale_t.number(key, 1.0, positive=key != "g")
-    if "noise_std" in t.data:
-        t.fail("noise_std", "moved: measurement noise is [sensor] noise_std_rad (docs/sensors.md)")
-    flexibility, springs = None, PlantConfig.springs
-    if "flexibility" in t.data:
-        f = t.table("flexibility")
-        d = Flexibility()
-        flexibility = Flexibility(
-            k=f.pair("k", d.k, positive=True),
-            d=f.pair("d", d.d, minimum=0.0),
-            j=f.pair("j", d.j, positive=True),
-        )
-        springs = f.string("start", "holding", choices=SPRING_STARTS)
-        f.done()
-    plant = PlantConfig(
-        scale=scale,
-        payload=t.number("payload", 0.0, minimum=0.0),
-        flexibility=flexibility,
-        springs=springs,
-    )
-    t.done()
-    if flexibility is None and (scaled := [k for k in JOINT_SCALE_KEYS if k in scale]):
-        scale_t.fail(scaled[0], "scales the flexible joints, and this plant has none")
-    return plant
-
-
 def _sensor(t: TomlTable) -> Sensor:
     d = Sensor()
     sensor = Sensor(
@@ -622,7 +587,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     scenario = Scenario(
         name=top.string("name", Path(source).stem),
         arm=arm,
-        plant=_plant(top.table("plant")),
+        plant=read_plant(top.table("plant")),
         controller=controller_from_table(top.table("controller"), arm),
         reference=_reference(top.table("reference")),
         duration=top.number("duration", 10.0, positive=True),
@@ -633,6 +598,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         qd0=initial.pair("qd", (0.0, 0.0)),
         source=source,
         sensor=_sensor(top.table("sensor")),
+        disturbance=read_disturbance(top.table("disturbance")) if "disturbance" in data else None,
     )
     initial.done()
     top.done()

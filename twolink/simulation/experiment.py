@@ -38,7 +38,14 @@ from twolink.simulation.vocabulary import format_value, joint_values
 
 def build_plant(s: Scenario) -> Plant:
     """The simulated arm: the nominal arm with the scenario's uncertainty."""
-    return Plant.build(s.plant_params, s.plant_joints, s.plant.payload, s.timestep)
+    return Plant.build(
+        s.plant_params,
+        s.plant_joints,
+        s.plant.payload,
+        s.timestep,
+        s.plant.friction,
+        s.disturbance,
+    )
 
 
 def build_controller(s: Scenario) -> Controller:
@@ -353,7 +360,7 @@ def _arm_bytes(s: Scenario, control_dt: float, record_bytes) -> int:
 def _arm(s: Scenario):
     from twolink.simulation.batch import Arm
 
-    return Arm(s.plant_params, s.plant_joints, s.plant.payload)
+    return Arm(s.plant_params, s.plant_joints, s.plant.payload, s.plant.friction, s.disturbance)
 
 
 @dataclass(frozen=True)

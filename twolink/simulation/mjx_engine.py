@@ -160,6 +160,12 @@ def prepare_batch_mjx(
 
     if precision not in PRECISIONS:
         raise ValueError(f"precision must be one of {list(PRECISIONS)}, got {precision!r}")
+    if any(a.friction is not None for a in arms):
+        # MJX has no dry friction (frictionloss) in the MuJoCo this project pins, and the
+        # Stribeck dip is applied by the CPU engines' stepping: refused before JAX compiles.
+        raise ValueError("the mjx backend runs no joint friction ([plant.friction]); use cpu")
+    if any(a.disturbance is not None for a in arms):
+        raise ValueError("the mjx backend applies no [disturbance]; use cpu")
     jax, jnp, mjx = _jax(precision)
     n_arms = len(arms)
     if len(controllers) != n_arms or len(durations) != n_arms:

@@ -9,6 +9,7 @@ when the state or torque becomes non-finite or leaves sane bounds.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -215,6 +216,69 @@ def simulate(
         its bounds), so even one that diverges at once has one sample.
     """
     n, substeps = control_steps(duration, control_dt, plant.dt)
+    ask = _asking(plant, controller, n, control_dt, noise, sensor)
+    plant.reset(q0, qd0, motor_q=motor_q0)
+    controller.reset()
+    records = _run(plant, ask, n, substeps, control_dt, bounds)
+    return _trajectory(*records, controller, warnings=tuple(warning_notes(plant.data)))
+
+
+def _run(
+    plant: Plant,
+    ask: Callable[[int, float, float, float, float, float], tuple[float, float]],
+    n: int,
+    substeps: int,
+    control_dt: float,
+    bounds: Bounds,
+) -> tuple[list[tuple[float, ...]], list[tuple[float, float]], str, str]:
+    """:func:`simulate`'s loop from the reset plant: ``(rows, rotor angles, status,
+    message)``, a row ``(t, q1, q2, w1, w2, tau1, tau2)`` per control instant."""
+    qpos, qvel = plant.data.qpos, plant.data.qvel
+    step = plant.step
+    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
+    rows: list[tuple[float, ...]] = []
+    motor: list[tuple[float, float]] = []
+
+    def record(row: tuple[float, ...]) -> None:  # a sample, and the rotors' angles if any
+        rows.append(row)
+        if plant.flexible:
+            motor.append((float(qpos[2]), float(qpos[3])))
+
+    status, message = STATUS_OK, ""
+    for k in range(n + 1):
+        t = k * control_dt
+        q1, q2, w1, w2 = float(qpos[0]), float(qpos[1]), float(qvel[0]), float(qvel[1])
+        # NaN fails every comparison, so this also catches non-finite states.
+        if not (abs(q1) < qmax and abs(q2) < qmax and abs(w1) < wmax and abs(w2) < wmax):
+            status, message = STATUS_DIVERGED, state_message(t, q1, q2, w1, w2)
+            if not rows:  # keep the one state there is (no torque was asked for)
+                record((t, q1, q2, w1, w2, math.nan, math.nan))
+            break
+        tau1, tau2 = ask(k, t, q1, q2, w1, w2)
+        record((t, q1, q2, w1, w2, tau1, tau2))
+        if not (abs(tau1) < tmax and abs(tau2) < tmax):
+            # Kept: the state measured and the torque the controller asked for (not applied).
+            status, message = STATUS_DIVERGED, torque_message(t, tau1, tau2)
+            break
+        if k == n:
+            break
+        for _ in range(substeps):
+            step(tau1, tau2)
+    return rows, motor, status, message
+
+
+def _asking(
+    plant: Plant,
+    controller: Controller,
+    n: int,
+    control_dt: float,
+    noise: np.ndarray | None,
+    sensor: Sensor | None,
+) -> Callable[[int, float, float, float, float, float], tuple[float, float]]:
+    """Checks of :func:`simulate`'s inputs, and how its loop asks the controller for the
+    torques at control instant k: ``ask(k, t, q1, q2, w1, w2) -> (tau1, tau2)``, the state
+    seen through the sensor (or with the noise added), the rotors' read from the plant's
+    data where the controller reads them."""
     # A controller of flexible joints (controllers/flexible.py) also reads the rotors.
     needs_motor = bool(getattr(controller, "needs_motor", False))
     if needs_motor and not plant.flexible:
@@ -231,26 +295,9 @@ def simulate(
             motor_reader = sensor.reader(control_dt)
         noise = None
     noise_rows = None if noise is None else noise.tolist()
-    plant.reset(q0, qd0, motor_q=motor_q0)
-    controller.reset()
     qpos, qvel = plant.data.qpos, plant.data.qvel
-    step = plant.step
-    qmax, wmax, tmax = bounds.angle, bounds.rate, bounds.torque
-    rows: list[tuple[float, ...]] = []
-    motor: list[tuple[float, float]] = []
-    status, message = STATUS_OK, ""
-    for k in range(n + 1):
-        t = k * control_dt
-        q1, q2, w1, w2 = float(qpos[0]), float(qpos[1]), float(qvel[0]), float(qvel[1])
-        # NaN fails every comparison, so this also catches non-finite states.
-        if not (abs(q1) < qmax and abs(q2) < qmax and abs(w1) < wmax and abs(w2) < wmax):
-            status = STATUS_DIVERGED
-            message = state_message(t, q1, q2, w1, w2)
-            if not rows:  # keep the one state there is (no torque was asked for)
-                rows.append((t, q1, q2, w1, w2, math.nan, math.nan))
-                if plant.flexible:
-                    motor.append((float(qpos[2]), float(qpos[3])))
-            break
+
+    def ask(k: int, t: float, q1: float, q2: float, w1: float, w2: float):
         seen, rates = (q1, q2), (w1, w2)
         if reader is not None:
             seen, rates = reader(k, seen, rates)
@@ -262,21 +309,22 @@ def simulate(
             motor_qd = (float(qvel[2]), float(qvel[3]))
             if motor_reader is not None:
                 motor_q, motor_qd = motor_reader(k, motor_q, motor_qd)
-            tau1, tau2 = controller(t, seen, rates, motor_q, motor_qd)
-        else:
-            tau1, tau2 = controller(t, seen, rates)
-        rows.append((t, q1, q2, w1, w2, tau1, tau2))
-        if plant.flexible:
-            motor.append((float(qpos[2]), float(qpos[3])))
-        if not (abs(tau1) < tmax and abs(tau2) < tmax):
-            # Kept: the state measured and the torque the controller asked for (not applied).
-            status = STATUS_DIVERGED
-            message = torque_message(t, tau1, tau2)
-            break
-        if k == n:
-            break
-        for _ in range(substeps):
-            step(tau1, tau2)
+            return controller(t, seen, rates, motor_q, motor_qd)
+        return controller(t, seen, rates)
+
+    return ask
+
+
+def _trajectory(
+    rows: list[tuple[float, ...]],
+    motor: list[tuple[float, float]],
+    status: str,
+    message: str,
+    controller: Controller,
+    warnings: tuple[str, ...] = (),
+) -> Trajectory:
+    """The records of :func:`simulate`'s loop as a Trajectory, with the reference and
+    MuJoCo's warnings during the run (the plant's data is reset with it: this run's)."""
     rec = np.array(rows, dtype=float).reshape(-1, 7)
     t = rec[:, 0]
     q_ref, qd_ref, qdd_ref = controller.reference.sample(t)
@@ -291,5 +339,5 @@ def simulate(
         motor_q=np.array(motor, dtype=float).reshape(-1, 2),
         status=status,
         message=message,
-        warnings=tuple(warning_notes(plant.data)),  # reset with the plant: this run's
+        warnings=warnings,
     )
