@@ -8,19 +8,23 @@ sources and its choices):
   practical tolerance δ (:data:`TOLERANCES`), higher by more, or within ±δ (a difference
   of exactly δ is equal);
 - **the typical plant**: the Hodges-Lehmann estimate of the shift (the median of the
-  Walsh averages) with its distribution-free 95 % interval (``ci_low``, ``ci_high``), and
-  the signed-rank tests that interval inverts, against the margins ±δ: better or worse by
-  more than δ (``margin_p``, one-sided at 2.5 % each way, as a 95 % interval clear of the
-  margin) and equivalent within ±δ (``tost_p``, Schuirmann's two one-sided tests at 5 %),
-  each Holm-corrected across the table's family;
+  Walsh averages) with its distribution-free interval (``ci_low``, ``ci_high``) at
+  ``ci_level`` = 1 − 5 %/m (Bonferroni over the family's m judged rows): better, worse or
+  equivalent where that printed interval lies wholly below −δ, above +δ or within ±δ;
+  judged only where both have the metric on at least half the plants both ran (``runs``).
+  The signed-rank tests against the margins (``margin_p``, ``tost_p``, Holm-corrected)
+  stay as evidence;
 - **the shares**: the shares of plants practically better and practically worse (beyond
   ±δ, with the plants that only one controller reaches, below), each with its exact
   (Clopper-Pearson) 95 % interval, and exact binomial tests that a share exceeds
   :data:`MIN_SHARE` (Holm across the family) or stays below it;
-- **the verdict**: better / worse / equivalent from the typical plant; where the typical
-  plant decides nothing, better or worse from the shares (one share shown, the other
-  shown negligible, the estimate on the same side); else inconclusive. It never points
-  against its own estimate. ``reading`` says it in words, with every share shown
+- **the verdict** (one of :data:`VERDICTS`, claims_words.VERDICT_WORDS): better / worse /
+  equivalent from the typical plant, "split" where it is equivalent but more than 10 % of
+  the plants lie beyond ±δ on a side; where the typical plant decides nothing, better or
+  worse from the shares (one share shown, the other shown negligible, the estimate not on
+  the other side of 0); else inconclusive. It never points against its own estimate.
+  Td, Tr and Tp on a moving reference are judged by their distance to the reference's own
+  (``reference``; docs/metrics.md). ``reading`` says it in words, with every share shown
   ("equivalent on the typical plant; worse by more than 1 mrad on 29 of 200").
   ``set by the reference``: a metric both controllers take from the reference (Td and Tr
   of a smooth move); ``undefined``: no plant compares.
