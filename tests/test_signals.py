@@ -229,3 +229,19 @@ def test_a_transient_accelerating_away_in_a_stable_loop_is_undecided_not_growth(
     assert m.linear_growth[0] < 0
     assert math.isnan(m.tail_growth[0])
     assert classify_run(s, m) == "undecided"
+
+
+def test_measurement_noise_up_to_a_hundredth_of_the_cycle_does_not_hide_it():
+    # issue 48: a 10 mrad cycle with 0.01 mrad of white noise read 0 (the noise's own turns
+    # made the last "period" a few ms, so the cycle looked ended); with 0.1 mrad (1 % of
+    # it) it reads ~10 mrad, as without noise
+    from twolink.simulation.metrics import oscillation_amplitude
+    from twolink.simulation.swings import noise_level
+
+    t = np.arange(0.0, 10.0, 1e-3)
+    cycle = 10e-3 * np.sin(2 * np.pi * t)
+    rng = np.random.default_rng(0)
+    for sigma in (0.0, 1e-5, 1e-4):
+        noisy = cycle + rng.normal(0.0, sigma, t.size)
+        assert noise_level(noisy) == pytest.approx(sigma, rel=0.1, abs=1e-7)
+        assert oscillation_amplitude(t, noisy) == pytest.approx(10e-3, rel=0.05), sigma
