@@ -245,3 +245,26 @@ def test_measurement_noise_up_to_a_hundredth_of_the_cycle_does_not_hide_it():
         noisy = cycle + rng.normal(0.0, sigma, t.size)
         assert noise_level(noisy) == pytest.approx(sigma, rel=0.1, abs=1e-7)
         assert oscillation_amplitude(t, noisy) == pytest.approx(10e-3, rel=0.05), sigma
+
+
+def test_the_envelope_weighs_every_swing_alike():
+    # a decaying transient settling into a small cycle: 10 mrad swings decaying at 4/s on
+    # a 0.5 mrad cycle. The envelope minimises the relative residuals (sigma = the swing),
+    # so the small swings at the end count as much as the large ones before them; checked
+    # against scipy's minimiser of that sum (independent of curve_fit). Unweighted, the
+    # large swings decide and the end reads 0.06 mrad instead of 0.2
+    from scipy.optimize import minimize
+
+    from twolink.simulation.swings import envelope
+
+    tk = 8.5 + 0.25 * np.arange(6)
+    halves = 10e-3 * np.exp(-4.0 * (tk - 8.5)) + 0.5e-3
+    a, s = envelope(tk, halves, at=10.0)
+
+    def relative(p):
+        return float(np.sum(((halves - p[0] * 1e-3 * np.exp(p[1] * (tk - 10.0))) / halves) ** 2))
+
+    best = minimize(relative, x0=(1.0, -1.0), method="Nelder-Mead",
+                    options={"xatol": 1e-10, "fatol": 1e-14, "maxiter": 20000})  # fmt: skip
+    assert (a, s) == pytest.approx((best.x[0] * 1e-3, best.x[1]), rel=1e-4)
+    assert a > 0.15e-3
