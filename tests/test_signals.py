@@ -268,15 +268,3 @@ def test_the_envelope_weighs_every_swing_alike():
                     options={"xatol": 1e-10, "fatol": 1e-14, "maxiter": 20000})  # fmt: skip
     assert (a, s) == pytest.approx((best.x[0] * 1e-3, best.x[1]), rel=1e-4)
     assert a > 0.15e-3
-
-
-def test_two_tones_read_the_larger_persisting_swing():
-    # issue 48: a 5 mrad 1 Hz cycle carrying a 1 mrad 13 Hz tone read 1.05 mrad (the
-    # fast tone turns at each of its periods). It reads the larger persisting swing: half
-    # the peak-to-peak between the slow cycle's turns, the fast tone's crest riding on its
-    # crest: 5 + 1 = 6 mrad (docs/metrics.md); the fast tone alone still reads 1 mrad
-    t = np.arange(0.0, 10.0, 1e-3)
-    slow, fast = 5e-3 * np.sin(2 * np.pi * t), 1e-3 * np.sin(2 * np.pi * 13.0 * t)
-    assert oscillation_amplitude(t, slow + fast) == pytest.approx(6e-3, rel=0.02)
-    assert oscillation_amplitude(t, fast) == pytest.approx(1e-3, rel=0.02)
-    assert oscillation_amplitude(t, slow) == pytest.approx(5e-3, rel=0.02)

@@ -462,10 +462,8 @@ def oscillation_amplitude(
             x = columns[:, j]
             if not np.all(np.isfinite(x)):
                 continue  # NaN, as the other measures give
-            # the larger persisting swing: of every turn, or of the slower of two tones
-            # (a fast tone riding on a slow cycle turns at every one of its own periods)
-            ending = [end_envelope(t, x, span, since, residue) for residue in (False, True)]
-            out[j] = max((0.0 if e is None else e[0]) for e in ending)
+            ending = end_envelope(t, x, span, since)
+            out[j] = 0.0 if ending is None else ending[0]
     return _per_column(out if e.ndim > 1 else out[0])
 
 

@@ -60,13 +60,11 @@ FITTED_SWINGS = 6  # and to at most its last 6: three periods before the end
 # A full period, not a half: a relay's cycle rises fast and falls slowly.
 
 
-def turning_points(x: np.ndarray, floor: float = SWING_FLOOR, residue: bool = False) -> np.ndarray:
+def turning_points(x: np.ndarray, floor: float = SWING_FLOOR) -> np.ndarray:
     """Indices of the turning points of a 1-d signal, alternating maxima and minima:
     ``scipy.signal.find_peaks`` of ``x`` and of ``-x`` with a prominence of at least
     ``floor`` (a plateau's middle sample for a flat one, as a quantised signal has), and of
-    two maxima (minima) in a row the higher (lower). With ``residue``, every inner swing
-    goes, whatever its size, until none is left (the rainflow count's residue): the turns
-    of the slower, larger of two tones."""
+    two maxima (minima) in a row the higher (lower)."""
     from scipy.signal import find_peaks
 
     x = np.asarray(x, dtype=float)
@@ -82,12 +80,7 @@ def turning_points(x: np.ndarray, floor: float = SWING_FLOOR, residue: bool = Fa
                 kept[-1] = (i, k)
         else:
             kept.append((i, k))
-    idx = np.array([i for i, _ in kept], dtype=int)
-    if not residue:
-        return _without_wiggles(x, idx)
-    while (fewer := _without_wiggles(x, idx, share=math.inf)).size < idx.size:
-        idx = fewer
-    return idx
+    return _without_wiggles(x, np.array([i for i, _ in kept], dtype=int))
 
 
 # A wiggle: a swing that stays inside the swing around it (both its ends between the
@@ -98,7 +91,7 @@ def turning_points(x: np.ndarray, floor: float = SWING_FLOOR, residue: bool = Fa
 WIGGLE_SHARE = 0.25
 
 
-def _without_wiggles(x: np.ndarray, idx: np.ndarray, share: float = WIGGLE_SHARE) -> np.ndarray:
+def _without_wiggles(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
     """Alternating turning points ``idx`` of ``x`` with their wiggles removed (both ends
     of each, which leaves the points around it alternating), smallest first, in one pass
     over the swings as they are: a train of small swings on a drift (a cycle on a sag) is
@@ -113,7 +106,7 @@ def _without_wiggles(x: np.ndarray, idx: np.ndarray, share: float = WIGGLE_SHARE
     lo = np.minimum(v[k - 1], v[k + 2])
     hi = np.maximum(v[k - 1], v[k + 2])
     inner = (lo <= v[k]) & (v[k] <= hi) & (lo <= v[k + 1]) & (v[k + 1] <= hi)
-    small = h[k] < share * np.maximum(h[k - 1], h[k + 1])
+    small = h[k] < WIGGLE_SHARE * np.maximum(h[k - 1], h[k + 1])
     found = k[inner & small]
     taken: set[int] = set()
     for j in found[np.argsort(h[found], kind="stable")].tolist():
@@ -142,11 +135,7 @@ def noise_level(x: np.ndarray) -> float:
 
 
 def half_swings(
-    t: np.ndarray,
-    x: np.ndarray,
-    floor: float = SWING_FLOOR,
-    since: float = -math.inf,
-    residue: bool = False,
+    t: np.ndarray, x: np.ndarray, floor: float = SWING_FLOOR, since: float = -math.inf
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The half-swings of a 1-d signal: between consecutive turning points
     (:func:`turning_points`, their floor raised to :data:`NOISE_SWINGS` times the
@@ -154,7 +143,7 @@ def half_swings(
     midpoint in time. Returns ``(times, halves, turns)``, ``turns`` the turning points'
     times."""
     floor = max(floor, NOISE_SWINGS * noise_level(x[t >= since]))
-    idx = turning_points(x, floor, residue)
+    idx = turning_points(x, floor)
     idx = idx[t[idx] >= since]
     turns = t[idx]
     if idx.size < 2:
@@ -190,7 +179,7 @@ def envelope(times: np.ndarray, halves: np.ndarray, at: float) -> tuple[float, f
 
 
 def ending_swings(
-    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf, residue: bool = False
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
 ) -> tuple[np.ndarray, np.ndarray] | None:
     """The swings an oscillation at the end of the record is read from: the half-swings of
     the last ``window`` seconds, and at least the record's last :data:`ENDING_SWINGS` + 1,
@@ -199,7 +188,7 @@ def ending_swings(
     reference stopped, so the move's own tracking error is no swing of it). None where
     there is no swing, or the oscillation has ended (its last turn more than its last
     period before the end)."""
-    times, halves, turns = half_swings(t, x, since=since, residue=residue)
+    times, halves, turns = half_swings(t, x, since=since)
     if not halves.size:
         return None
     period = turns[-1] - turns[-3] if turns.size >= 3 else 2.0 * (turns[-1] - turns[-2])
@@ -218,7 +207,7 @@ def ending_swings(
 
 
 def end_envelope(
-    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf, residue: bool = False
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
 ) -> tuple[float, float] | None:
     """``(a, s)``: the envelope of :func:`ending_swings` at the record's end and its rate,
     or None (no oscillation at the end). ``a`` is at most half the error's peak-to-peak
@@ -226,11 +215,11 @@ def end_envelope(
     (a growing envelope's extrapolation too). With one half-swing only (two turns: a slow
     cycle, or the last swing of a heavily damped one, the record cannot tell) ``a`` is
     half the peak-to-peak over the last ``window`` seconds, what the end shows, and ``s``
-    is NaN. ``residue``: of the turns of the slower of two tones (:func:`turning_points`)."""
-    ending = ending_swings(t, x, window, since, residue)
+    is NaN."""
+    ending = ending_swings(t, x, window, since)
     if ending is None:
         return None
-    _, _, turns = half_swings(t, x, since=since, residue=residue)
+    _, _, turns = half_swings(t, x, since=since)
     if turns.size < 3:
         return 0.5 * float(np.ptp(x[last(t, window)])), math.nan
     a, s = envelope(*ending, at=float(t[-1]))
