@@ -431,9 +431,8 @@ def _counts(
 
 
 def interval_level(judged: np.ndarray, family: np.ndarray) -> np.ndarray:
-    """The confidence of each row's printed interval: Bonferroni's 1 − α/m over the m
-    rows its family judges, so the interval the table prints is the one the verdict reads
-    (docs/statistics.md: the typical plant's verdict)."""
+    """The confidence of each row's printed interval, the one its verdict reads:
+    Bonferroni's 1 − α/m over the m rows its family judges (docs/statistics.md)."""
     family = np.asarray(family)
     labels, where = np.unique(family, return_inverse=True)
     m = np.bincount(where.ravel(), weights=np.asarray(judged, float), minlength=len(labels))
@@ -582,11 +581,10 @@ def _dense(
 def _against_reference(
     a: np.ndarray, b: np.ndarray, own: np.ndarray, keys: Sequence[str]
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A time of :data:`TIMES_OF_THE_MOVE` on a reference with its own (``own``: finite)
-    judged by its distance to it, |T − T_ref| (docs/metrics.md: shorter than the move's
-    own is lag, not speed); ``a``, ``b`` (family, metric, plant). Returns them and the
-    reference value each metric is checked against ("set by the reference"): 0 for a
-    distance, the reference's own value for any other metric, NaN for none."""
+    """A time of :data:`TIMES_OF_THE_MOVE` on a move with its own (``own`` > 0) judged by
+    |T − T_ref| (docs/metrics.md: shorter than the move's is lag, not speed); ``a``, ``b``
+    (family, metric, plant), and each metric's "set by the reference" value (0 for a
+    distance)."""
     with np.errstate(invalid="ignore"):  # a step's own times are 0: |T − 0| is T itself
         moving = (own > 0) & np.isin(list(keys), TIMES_OF_THE_MOVE)
     a = np.where(moving[None, :, None], np.abs(a - own[None, :, None]), a)
