@@ -229,3 +229,42 @@ def test_a_transient_accelerating_away_in_a_stable_loop_is_undecided_not_growth(
     assert m.linear_growth[0] < 0
     assert math.isnan(m.tail_growth[0])
     assert classify_run(s, m) == "undecided"
+
+
+def test_measurement_noise_up_to_a_hundredth_of_the_cycle_does_not_hide_it():
+    # issue 48: a 10 mrad cycle with 0.01 mrad of white noise read 0 (the noise's own turns
+    # made the last "period" a few ms, so the cycle looked ended); with 0.1 mrad (1 % of
+    # it) it reads ~10 mrad, as without noise
+    from twolink.simulation.metrics import oscillation_amplitude
+    from twolink.simulation.swings import noise_level
+
+    t = np.arange(0.0, 10.0, 1e-3)
+    cycle = 10e-3 * np.sin(2 * np.pi * t)
+    rng = np.random.default_rng(0)
+    for sigma in (0.0, 1e-5, 1e-4):
+        noisy = cycle + rng.normal(0.0, sigma, t.size)
+        assert noise_level(noisy) == pytest.approx(sigma, rel=0.1, abs=1e-7)
+        assert oscillation_amplitude(t, noisy) == pytest.approx(10e-3, rel=0.05), sigma
+
+
+def test_the_envelope_weighs_every_swing_alike():
+    # a decaying transient settling into a small cycle: 10 mrad swings decaying at 4/s on
+    # a 0.5 mrad cycle. The envelope minimises the relative residuals (sigma = the swing),
+    # so the small swings at the end count as much as the large ones before them; checked
+    # against scipy's minimiser of that sum (independent of curve_fit). Unweighted, the
+    # large swings decide and the end reads 0.06 mrad instead of 0.2
+    from scipy.optimize import minimize
+
+    from twolink.simulation.swings import envelope
+
+    tk = 8.5 + 0.25 * np.arange(6)
+    halves = 10e-3 * np.exp(-4.0 * (tk - 8.5)) + 0.5e-3
+    a, s = envelope(tk, halves, at=10.0)
+
+    def relative(p):
+        return float(np.sum(((halves - p[0] * 1e-3 * np.exp(p[1] * (tk - 10.0))) / halves) ** 2))
+
+    best = minimize(relative, x0=(1.0, -1.0), method="Nelder-Mead",
+                    options={"xatol": 1e-10, "fatol": 1e-14, "maxiter": 20000})  # fmt: skip
+    assert (a, s) == pytest.approx((best.x[0] * 1e-3, best.x[1]), rel=1e-4)
+    assert a > 0.15e-3

@@ -116,12 +116,33 @@ def _without_wiggles(x: np.ndarray, idx: np.ndarray) -> np.ndarray:
     return idx[keep]
 
 
+# A turn of measurement noise is no swing: the floor rises to this many times the noise's
+# standard deviation (:func:`noise_level`). White noise's own turns on a cycle's flat top
+# reach the noise's range over the top's few tens of samples, about 4-5 σ; 8 σ leaves
+# them out with margin and keeps every swing of a cycle 12 times the noise's σ or more
+# (a 10 mrad cycle carrying 0.1 mrad of noise, 1 % of it: docs/metrics.md).
+NOISE_SWINGS = 8.0
+
+
+def noise_level(x: np.ndarray) -> float:
+    """The standard deviation of white measurement noise on a smooth signal, from its
+    fourth differences (Δ⁴x of white noise has σ√70, the sum of the squares of 1, 4, 6, 4,
+    1; a smooth signal sampled finely adds next to nothing: a 0.1 rad 5 Hz cycle at 1 kHz
+    1e-7 rad): their median absolute value / 0.6745 / √70, robust to the few large ones of
+    a kick. 0 for a quantised signal that mostly stands still (median 0)."""
+    fourth = np.abs(np.diff(np.asarray(x, dtype=float), 4))
+    return float(np.median(fourth)) / 0.6745 / math.sqrt(70.0) if fourth.size else 0.0
+
+
 def half_swings(
     t: np.ndarray, x: np.ndarray, floor: float = SWING_FLOOR, since: float = -math.inf
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The half-swings of a 1-d signal: between consecutive turning points
-    (:func:`turning_points`) at or after ``since``, half the change, at the midpoint in
-    time. Returns ``(times, halves, turns)``, ``turns`` the turning points' times."""
+    (:func:`turning_points`, their floor raised to :data:`NOISE_SWINGS` times the
+    :func:`noise_level` after ``since``) at or after ``since``, half the change, at the
+    midpoint in time. Returns ``(times, halves, turns)``, ``turns`` the turning points'
+    times."""
+    floor = max(floor, NOISE_SWINGS * noise_level(x[t >= since]))
     idx = turning_points(x, floor)
     idx = idx[t[idx] >= since]
     turns = t[idx]

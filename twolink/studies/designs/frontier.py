@@ -49,6 +49,7 @@ __all__ = [
     "run_frontier",
     "save_frontier",
     "summarise",
+    "within_budget",
 ]
 
 DEFAULT_SPEC = runs_dir() / "paper" / "frontier.toml"  # package data
@@ -226,7 +227,6 @@ def run_frontier(spec: FrontierSpec, pool: Any = None) -> pd.DataFrame:
     effort ratio to FCM-CTC's (the largest of the four), whether it is within the budget
     and on the Pareto frontier (no other loop has both a lower effort ratio and a lower
     index)."""
-    from twolink.studies.judgments.claims import TOLERANCES
     from twolink.studies.reproduction.manifest import load_manifest
 
     manifest = load_manifest(spec.manifest)
@@ -281,17 +281,23 @@ def run_frontier(spec: FrontierSpec, pool: Any = None) -> pd.DataFrame:
         budget = {f"{k}{j}": float(fuzzy[f"{k}{j}"]) for k in EFFORT for j in (1, 2)}
         ratios = np.stack([table[c] / v for c, v in budget.items()], axis=1)
         table["effort_ratio"] = ratios.max(axis=1)
-        tol = {
-            "torque_peak_Nm": TOLERANCES["torque_peak_Nm"],
-            "torque_variation_Nm": TOLERANCES["torque_variation_Nm"],
-        }
-        within = np.ones(len(table), dtype=bool)
-        for c, v in budget.items():
-            within &= (table[c] <= v + tol[c[:-1]]).to_numpy()
-        table["within"] = within & (table["failed"] == 0)
+        table["within"] = within_budget(table, budget) & (table["failed"] == 0)
         table["pareto"] = _pareto(table["effort_ratio"].to_numpy(), table["index"].to_numpy())
         tables.append(table)
     return pd.concat(tables, ignore_index=True)
+
+
+def within_budget(table: pd.DataFrame, budget: dict[str, float]) -> np.ndarray:
+    """Whether each loop's effort (``table``'s columns ``torque_peak_Nm1``, ...) stays
+    within the ``budget`` (the same columns' FCM-CTC values) plus the metric's practical
+    tolerance (:data:`twolink.studies.judgments.claims.TOLERANCES`): a loop over by less
+    than a difference anyone would act on is within."""
+    from twolink.studies.judgments.claims import TOLERANCES
+
+    within = np.ones(len(table), dtype=bool)
+    for c, v in budget.items():
+        within &= (table[c] <= v + TOLERANCES[c[:-1]]).to_numpy()
+    return within
 
 
 def _pareto(effort: np.ndarray, index: np.ndarray) -> np.ndarray:

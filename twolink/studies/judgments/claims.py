@@ -8,19 +8,23 @@ sources and its choices):
   practical tolerance δ (:data:`TOLERANCES`), higher by more, or within ±δ (a difference
   of exactly δ is equal);
 - **the typical plant**: the Hodges-Lehmann estimate of the shift (the median of the
-  Walsh averages) with its distribution-free 95 % interval (``ci_low``, ``ci_high``), and
-  the signed-rank tests that interval inverts, against the margins ±δ: better or worse by
-  more than δ (``margin_p``, one-sided at 2.5 % each way, as a 95 % interval clear of the
-  margin) and equivalent within ±δ (``tost_p``, Schuirmann's two one-sided tests at 5 %),
-  each Holm-corrected across the table's family;
+  Walsh averages) with its distribution-free interval (``ci_low``, ``ci_high``) at
+  ``ci_level`` = 1 − 5 %/m (Bonferroni over the family's m judged rows): better, worse or
+  equivalent where that printed interval lies wholly below −δ, above +δ or within ±δ;
+  judged only where both have the metric on at least half the plants both ran (``runs``).
+  The signed-rank tests against the margins (``margin_p``, ``tost_p``, Holm-corrected)
+  stay as evidence;
 - **the shares**: the shares of plants practically better and practically worse (beyond
   ±δ, with the plants that only one controller reaches, below), each with its exact
   (Clopper-Pearson) 95 % interval, and exact binomial tests that a share exceeds
   :data:`MIN_SHARE` (Holm across the family) or stays below it;
-- **the verdict**: better / worse / equivalent from the typical plant; where the typical
-  plant decides nothing, better or worse from the shares (one share shown, the other
-  shown negligible, the estimate on the same side); else inconclusive. It never points
-  against its own estimate. ``reading`` says it in words, with every share shown
+- **the verdict** (one of :data:`VERDICTS`, claims_words.VERDICT_WORDS): better / worse /
+  equivalent from the typical plant, "split" where it is equivalent but more than 10 % of
+  the plants lie beyond ±δ on a side; where the typical plant decides nothing, better or
+  worse from the shares (one share shown, the other shown negligible, the estimate not on
+  the other side of 0); else inconclusive. It never points against its own estimate.
+  Td, Tr and Tp on a moving reference are judged by their distance to the reference's own
+  (``reference``; docs/metrics.md). ``reading`` says it in words, with every share shown
   ("equivalent on the typical plant; worse by more than 1 mrad on 29 of 200").
   ``set by the reference``: a metric both controllers take from the reference (Td and Tr
   of a smooth move); ``undefined``: no plant compares.
@@ -46,6 +50,12 @@ import pandas as pd
 from scipy import stats
 
 from twolink.simulation.vocabulary import CLAIMED_BETTER
+from twolink.studies.judgments.claims_words import (
+    SET_BY_REFERENCE,
+    SPLIT,
+    SPLIT_SHARE,
+    VERDICT_WORDS,
+)
 
 __all__ = [
     "CLAIM_METRICS",
@@ -63,14 +73,16 @@ __all__ = [
 ]
 
 CLAIM_METRICS = CLAIMED_BETTER  # the paper's claims: FCM-CTC lowers Tp, Td, Ts, Tr, Mp, ess
-VERDICTS = ("better", "worse", "equivalent", "inconclusive", "set by the reference", "undefined")
+VERDICTS = tuple(VERDICT_WORDS)
 ALPHA = 0.05
-SET_BY_REFERENCE = "set by the reference"
 # The smallest share of plants worth a word: one plant in 20 (docs/statistics.md).
 MIN_SHARE = 0.05
 # Times a response may never reach (NaN): a plant where one controller reaches it and the
 # other does not counts against the second. Tp is not one: no peak is no failure.
 REACHED = ("delay_time_s", "rise_time_s", "settling_time_s", "settling_time_target_s")
+# Times a moving reference has itself (claims_plans.reference_values): on such a move a
+# loop is judged by how far its time lies from the move's own, either way.
+TIMES_OF_THE_MOVE = ("delay_time_s", "rise_time_s", "peak_time_s")
 
 # Practical tolerance per metric: a difference smaller than this is no difference a user
 # of the arm would act on. Times: 10 control periods; overshoot: 1 percentage point;
@@ -123,20 +135,24 @@ def hodges_lehmann(d: np.ndarray, confidence: float = 0.95) -> tuple[float, floa
 
 
 def _hodges_lehmann_rows(
-    d: np.ndarray, confidence: float = 0.95, budget: int = 4_000_000
+    d: np.ndarray, confidence: float | np.ndarray = 0.95, budget: int = 4_000_000
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """:func:`hodges_lehmann` of every row of ``d`` (R, N) at once, NaN marking a plant a
-    row does not have. Rows with the same count n share the ranks they need (the median's
-    and the interval's), so each such group is one ``np.partition`` of its Walsh
-    averages at those ranks (its NaNs go last), in chunks of ``budget`` averages."""
+    row does not have; ``confidence`` one for all rows or one per row. Rows with the same
+    count n and confidence share the ranks they need (the median's and the interval's),
+    so each such group is one ``np.partition`` of its Walsh averages at those ranks (its
+    NaNs go last), in chunks of ``budget`` averages."""
     rows = d.shape[0]
     estimate, low, high = (np.full(rows, np.nan) for _ in range(3))
     finite = np.isfinite(d)
     n_all = finite.sum(axis=1)
     ordered = np.sort(np.where(finite, d, np.nan), axis=1)  # each row's values first
-    z = stats.norm.ppf(0.5 + confidence / 2.0)
-    for n in np.unique(n_all):
-        members = np.flatnonzero(n_all == n)
+    level = np.broadcast_to(np.asarray(confidence, dtype=float), (rows,))
+    groups = np.unique(np.stack([n_all, level], axis=1), axis=0)
+    for n, conf in groups:
+        n = int(n)
+        members = np.flatnonzero((n_all == n) & (level == conf))
+        z = stats.norm.ppf(0.5 + conf / 2.0)
         if n == 1:
             estimate[members] = ordered[members, 0]
         if n < 2:
@@ -332,25 +348,135 @@ def judge_rows(
     reference: np.ndarray,
     family: np.ndarray,
     reached: np.ndarray,
+    runs: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """The statistics and verdicts of R metrics' pairs at once: ``a``, ``b`` (R, N) the
     proposed and the opponent's values (NaN: none, or a plant the row does not have),
     per row its ``tolerance``, ``reference`` value (NaN: none), ``family`` (Holm's
-    family label) and whether a NaN is a time never ``reached``. The columns of
+    family label), whether a NaN is a time never ``reached``, and the ``runs``: plants
+    both controllers ran (default: those where either has a value). The columns of
     :func:`paired_claims`, as arrays."""
+    tol = np.asarray(tolerance, dtype=float)
+    c = _counts(a, b, tol, np.asarray(reached, dtype=bool))
+    runs = c["plants"] if runs is None else np.asarray(runs)
+    medians_a = _row_medians(np.where(c["both"], a, np.nan))
+    medians_b = _row_medians(np.where(c["both"], b, np.nan))
+    reference = np.asarray(reference, dtype=float)
+    with np.errstate(invalid="ignore"):
+        by_reference = (
+            np.isfinite(reference)
+            & (c["n"] > 0)
+            & (np.abs(medians_a - reference) <= tol)
+            & (np.abs(medians_b - reference) <= tol)
+        )
+    judged = ~by_reference & (c["n"] > 0)
+    compared = ~by_reference & (c["plants"] > 0)
+    family = np.asarray(family)
+    level = interval_level(judged, family)
+    estimate, ci_low, ci_high = _hodges_lehmann_rows(c["d"], level)
+    tests = _tests(c, tol, judged, family)
+    shares = _shares(c, compared, family)
+    typical = np.where(judged, _typical(estimate, ci_low, ci_high, tol), "undecided")
+    typical[2 * c["n"] < runs] = "undecided"  # the typical plant of at least half the runs
+    verdict = _verdict(typical.astype(object), estimate, shares, c, compared)
+    typical = np.where(judged, typical, "none").astype(object)
+    verdict[by_reference] = SET_BY_REFERENCE
+    verdict[c["plants"] == 0] = "undefined"
+    return {
+        "n": c["n"],
+        "better": c["better"],
+        "worse": c["worse"],
+        "equal": c["n"] - c["better"] - c["worse"],
+        "tolerance": tol,
+        "proposed_median": medians_a,
+        "baseline_median": medians_b,
+        "estimate": estimate,
+        "ci_low": ci_low,
+        "ci_high": ci_high,
+        "ci_level": np.where(judged, level, np.nan),
+        "difference_min": _row_extreme(c["d"], np.fmin),
+        "difference_max": _row_extreme(c["d"], np.fmax),
+        **tests,
+        "unreached_better": c["unreached_better"],
+        "unreached_worse": c["unreached_worse"],
+        "plants": c["plants"],
+        "runs": runs,
+        **{k: v for k, v in shares.items() if not k.startswith("_")},
+        "typical": typical,
+        "verdict": verdict,
+    }
+
+
+def _counts(
+    a: np.ndarray, b: np.ndarray, tol: np.ndarray, reached: np.ndarray
+) -> dict[str, np.ndarray]:
+    """The paired differences ``d`` (NaN where a pair lacks a value) and the counts: ``n``
+    pairs, ``better``/``worse`` beyond ±δ, the plants only one controller reaches, and
+    ``plants``, the plants the shares are of."""
     fa, fb = np.isfinite(a), np.isfinite(b)
     both = fa & fb
     d = np.where(both, a - b, np.nan)
-    tol = np.asarray(tolerance, dtype=float)
-    n = both.sum(axis=1)
     with np.errstate(invalid="ignore"):
         better = (d < -tol[:, None]).sum(axis=1)
         worse = (d > tol[:, None]).sum(axis=1)
-    reached = np.asarray(reached, dtype=bool)
     unreached_worse = np.where(reached, (fb & ~fa).sum(axis=1), 0)
     unreached_better = np.where(reached, (fa & ~fb).sum(axis=1), 0)
-    plants = n + unreached_better + unreached_worse
-    k_better, k_worse = better + unreached_better, worse + unreached_worse
+    n = both.sum(axis=1)
+    return {
+        "d": d, "both": both, "n": n, "better": better, "worse": worse,
+        "unreached_better": unreached_better, "unreached_worse": unreached_worse,
+        "plants": n + unreached_better + unreached_worse,
+        "k_better": better + unreached_better, "k_worse": worse + unreached_worse,
+    }  # fmt: skip
+
+
+def interval_level(judged: np.ndarray, family: np.ndarray) -> np.ndarray:
+    """The confidence of each row's printed interval, the one its verdict reads:
+    Bonferroni's 1 − α/m over the m rows its family judges (docs/statistics.md)."""
+    family = np.asarray(family)
+    labels, where = np.unique(family, return_inverse=True)
+    m = np.bincount(where.ravel(), weights=np.asarray(judged, float), minlength=len(labels))
+    return 1.0 - ALPHA / np.maximum(m[where.ravel()], 1.0)
+
+
+def _typical(
+    estimate: np.ndarray, low: np.ndarray, high: np.ndarray, tol: np.ndarray
+) -> np.ndarray:
+    """The typical plant read off its printed interval: better where it lies wholly below
+    −δ, worse wholly above +δ, equivalent wholly within ±δ, else undecided."""
+    out = np.full(len(estimate), "undecided", dtype=object)
+    with np.errstate(invalid="ignore"):
+        out[high < -tol] = "better"
+        out[low > tol] = "worse"
+        out[(low > -tol) & (high < tol)] = "equivalent"  # a bound on the margin: not inside
+    return out
+
+
+def _tests(
+    c: dict[str, np.ndarray], tol: np.ndarray, judged: np.ndarray, family: np.ndarray
+) -> dict[str, np.ndarray]:
+    """The p-values kept beside the verdict as evidence (the sign test, TOST, the margin
+    tests), each with its Holm adjustment across the family."""
+    sign_p = _sign_ps(c["better"], c["worse"])
+    tost_p, below_p, above_p = _margin_tests(c["d"], tol)
+    margin_p = np.minimum(1.0, 2.0 * np.minimum(below_p, above_p))
+    return {
+        "p_value": np.where(c["n"] > 0, sign_p, 1.0),
+        "tost_p": tost_p,
+        "margin_p": margin_p,
+        "p_adjusted": _holm_families(np.where(judged, sign_p, np.nan), family),
+        "tost_p_adjusted": _holm_families(np.where(judged, tost_p, np.nan), family),
+        "margin_p_adjusted": _holm_families(np.where(judged, margin_p, np.nan), family),
+    }
+
+
+def _shares(
+    c: dict[str, np.ndarray], compared: np.ndarray, family: np.ndarray
+) -> dict[str, np.ndarray]:
+    """The shares of plants practically better and worse with their exact 95 % intervals,
+    whether each is shown above :data:`MIN_SHARE` (Holm across the family) and, as
+    ``_none_*``, shown below it."""
+    plants, k_better, k_worse = c["plants"], c["k_better"], c["k_worse"]
     with np.errstate(invalid="ignore", divide="ignore"):
         share_better = np.where(plants > 0, k_better / np.maximum(plants, 1), np.nan)
         share_worse = np.where(plants > 0, k_worse / np.maximum(plants, 1), np.nan)
@@ -360,83 +486,46 @@ def judge_rows(
     shown_p = np.concatenate([stats.binom.sf(k_better - 1, plants, MIN_SHARE),
                               stats.binom.sf(k_worse - 1, plants, MIN_SHARE)])  # fmt: skip
     shown_p[np.concatenate([plants, plants]) == 0] = np.nan
-    none_better = stats.binom.cdf(k_better, plants, MIN_SHARE) < ALPHA / 2
-    none_worse = stats.binom.cdf(k_worse, plants, MIN_SHARE) < ALPHA / 2
-    estimate, ci_low, ci_high = _hodges_lehmann_rows(d)
-    medians_a = _row_medians(np.where(both, a, np.nan))
-    medians_b = _row_medians(np.where(both, b, np.nan))
-    sign_p = _sign_ps(better, worse)
-    tost_p, below_p, above_p = _margin_tests(d, tol)
-    margin_p = np.minimum(1.0, 2.0 * np.minimum(below_p, above_p))
-    reference = np.asarray(reference, dtype=float)
-    with np.errstate(invalid="ignore"):
-        by_reference = (
-            np.isfinite(reference)
-            & (n > 0)
-            & (np.abs(medians_a - reference) <= tol)
-            & (np.abs(medians_b - reference) <= tol)
-        )
-    judged = ~by_reference & (n > 0)
-    family = np.asarray(family)
-
-    def adjusted(p: np.ndarray, rows: np.ndarray, labels: np.ndarray = family) -> np.ndarray:
-        return _holm_families(np.where(rows, p, np.nan), labels)
-
-    p_adjusted = adjusted(sign_p, judged)
-    tost_adjusted = adjusted(tost_p, judged)
-    margin_adjusted = adjusted(margin_p, judged)
-    compared = ~by_reference & (plants > 0)
-    shown = adjusted(shown_p, np.concatenate([compared, compared]), np.tile(family, 2))
-    shown_better = shown[: len(n)] < ALPHA / 2
-    shown_worse = shown[len(n) :] < ALPHA / 2
-    typical = np.full(len(n), "undecided", dtype=object)
-    differ = judged & (margin_adjusted < ALPHA)
-    typical[differ & (below_p < above_p) & (estimate < -tol)] = "better"
-    typical[differ & (above_p < below_p) & (estimate > tol)] = "worse"
-    typical[judged & (typical == "undecided") & (tost_adjusted < ALPHA)] = "equivalent"
-    verdict = np.where(typical == "undecided", "inconclusive", typical).astype(object)
-    open_ = compared & (typical == "undecided")
-    with np.errstate(invalid="ignore"):
-        not_below = ~(estimate <= 0)  # > 0, or no estimate (NaN): never against it
-        not_above = ~(estimate >= 0)
-    verdict[open_ & shown_worse & none_better & not_below] = "worse"
-    verdict[open_ & shown_better & none_worse & not_above] = "better"
-    typical[~judged] = "none"
-    verdict[by_reference] = SET_BY_REFERENCE
-    verdict[plants == 0] = "undefined"
+    rows = np.concatenate([compared, compared])
+    shown = _holm_families(np.where(rows, shown_p, np.nan), np.tile(family, 2)) < ALPHA / 2
     return {
-        "n": n,
-        "better": better,
-        "worse": worse,
-        "equal": n - better - worse,
-        "tolerance": tol,
-        "proposed_median": medians_a,
-        "baseline_median": medians_b,
-        "estimate": estimate,
-        "ci_low": ci_low,
-        "ci_high": ci_high,
-        "difference_min": _row_extreme(d, np.fmin),
-        "difference_max": _row_extreme(d, np.fmax),
-        "p_value": np.where(n > 0, sign_p, 1.0),
-        "tost_p": tost_p,
-        "margin_p": margin_p,
-        "p_adjusted": p_adjusted,
-        "tost_p_adjusted": tost_adjusted,
-        "margin_p_adjusted": margin_adjusted,
-        "unreached_better": unreached_better,
-        "unreached_worse": unreached_worse,
-        "plants": plants,
         "share_better": share_better,
         "share_better_low": better_low,
         "share_better_high": better_high,
         "share_worse": share_worse,
         "share_worse_low": worse_low,
         "share_worse_high": worse_high,
-        "share_better_shown": shown_better & compared,
-        "share_worse_shown": shown_worse & compared,
-        "typical": typical,
-        "verdict": verdict,
+        "share_better_shown": shown[: len(plants)] & compared,
+        "share_worse_shown": shown[len(plants) :] & compared,
+        "_none_better": stats.binom.cdf(k_better, plants, MIN_SHARE) < ALPHA / 2,
+        "_none_worse": stats.binom.cdf(k_worse, plants, MIN_SHARE) < ALPHA / 2,
     }
+
+
+def _verdict(
+    typical: np.ndarray,
+    estimate: np.ndarray,
+    shares: dict[str, np.ndarray],
+    c: dict[str, np.ndarray],
+    compared: np.ndarray,
+) -> np.ndarray:
+    """The one-word verdict (docs/statistics.md, "The verdict rule"): the typical plant's,
+    "split" where it is equivalent but more than :data:`SPLIT_SHARE` of the plants lie
+    beyond ±δ on a side, and where it is undecided the shares' (one shown, the other
+    shown negligible, the estimate not on the other side of 0)."""
+    verdict = np.where(typical == "undecided", "inconclusive", typical).astype(object)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        beyond = np.maximum(c["k_better"], c["k_worse"]) > SPLIT_SHARE * c["plants"]
+    verdict[(typical == "equivalent") & beyond] = SPLIT
+    open_ = compared & (typical == "undecided")
+    with np.errstate(invalid="ignore"):
+        not_below = ~(estimate < 0)  # 0 or above, or no estimate (NaN): never against it
+        not_above = ~(estimate > 0)
+    worse = shares["share_worse_shown"] & shares["_none_better"] & not_below
+    better = shares["share_better_shown"] & shares["_none_worse"] & not_above
+    verdict[open_ & worse] = "worse"
+    verdict[open_ & better] = "better"
+    return verdict
 
 
 def judge(
@@ -489,6 +578,20 @@ def _dense(
     return values, ran, keys
 
 
+def _against_reference(
+    a: np.ndarray, b: np.ndarray, own: np.ndarray, keys: Sequence[str]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A time of :data:`TIMES_OF_THE_MOVE` on a move with its own (``own`` > 0) judged by
+    |T − T_ref| (docs/metrics.md: shorter than the move's is lag, not speed); ``a``, ``b``
+    (family, metric, plant), and each metric's "set by the reference" value (0 for a
+    distance)."""
+    with np.errstate(invalid="ignore"):  # a step's own times are 0: |T − 0| is T itself
+        moving = (own > 0) & np.isin(list(keys), TIMES_OF_THE_MOVE)
+    a = np.where(moving[None, :, None], np.abs(a - own[None, :, None]), a)
+    b = np.where(moving[None, :, None], np.abs(b - own[None, :, None]), b)
+    return a, b, np.where(moving, 0.0, own)
+
+
 def paired_claims_many(
     results: pd.DataFrame,
     pairs: Sequence[tuple[str, str]],
@@ -523,15 +626,18 @@ def paired_claims_many(
     a = np.where(both[:, None, :], values[p_, g_].transpose(0, 2, 1), np.nan)
     b = np.where(both[:, None, :], values[o_, g_].transpose(0, 2, 1), np.nan)
     # plants neither ran stay NaN in both: no pair, no count
-    refs = reference_values or {}
+    own = np.array([(reference_values or {}).get(k, math.nan) for k in keys_])
+    a, b, ref = _against_reference(a, b, own, [key for _, key in keys_])
     out = judge_rows(
         a.reshape(count * width, -1),
         b.reshape(count * width, -1),
         np.tile([tol[key] for _, key in keys_], count),
-        np.tile([refs.get(k, math.nan) for k in keys_], count),
+        np.tile(ref, count),
         np.repeat(np.arange(count), width),
         np.tile([key in REACHED for _, key in keys_], count),
+        np.repeat(both.sum(axis=1), width),
     )
+    out["reference"] = np.tile(np.where(np.isfinite(ref), own, np.nan), count)
     table = pd.DataFrame({
         **{c: groups[c].to_numpy()[np.repeat(g_, width)] for c in by},
         "proposed": np.repeat(np.array(names, dtype=object)[p_], width),

@@ -11,11 +11,50 @@ by its exact test) and the plants only one controller reaches (``unreached_*``).
 from __future__ import annotations
 
 import functools
+import math
 from typing import Any
 
 import pandas as pd
 
-__all__ = ["amount", "reading", "row_reading"]
+__all__ = [
+    "CELL_EFFECTS",
+    "SET_BY_REFERENCE",
+    "SPLIT",
+    "SPLIT_SHARE",
+    "VERDICT_WORDS",
+    "amount",
+    "reading",
+    "row_reading",
+]
+
+SET_BY_REFERENCE = "set by the reference"
+SPLIT = "split"
+# "equivalent" says that at most one plant in ten lies practically beyond ±δ on either
+# side (the count, not its interval: docs/statistics.md); more is a split.
+SPLIT_SHARE = 0.10
+
+# The one vocabulary of verdicts: tables, readings and conclusions say these words and
+# no others (docs/statistics.md, "The verdict words", has the same list).
+VERDICT_WORDS = {
+    "better": "the typical plant's shift lies below −δ (its printed interval wholly "
+    "below), or, the typical plant undecided, a share of plants practically better is "
+    "shown above 5 %, the share worse shown below it, and the estimate not above 0",
+    "worse": "the mirror of better",
+    "equivalent": "the typical plant's interval lies within ±δ and at most 10 % of the "
+    "plants lie beyond ±δ on either side",
+    SPLIT: "the typical plant's interval lies within ±δ but more than 10 % of the plants "
+    "lie beyond ±δ on a side: the reading names them",
+    "inconclusive": "none of the above",
+    SET_BY_REFERENCE: "both controllers take the reference's own value on the typical plant",
+    "undefined": "no plant compares",
+}
+# A regime map cell's effect, from its rows' verdicts (regimes.summary).
+CELL_EFFECTS = {
+    "helps": "better on some metric, worse on none",
+    "hurts": "worse on some metric, better on none",
+    "mixed": "better on some metric and worse on another",
+    "no difference shown": "better and worse on none",
+}
 
 # Display units for small amounts: (unit, below, factor, shown unit)
 _SMALL = {"rad": (0.1, 1e3, "mrad"), "s": (1.0, 1e3, "ms"), "rad·s": (0.1, 1e3, "mrad·s")}
@@ -62,10 +101,15 @@ def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
     parts = []
     if r.typical in ("better", "worse", "equivalent"):
         parts.append(f"{r.typical} on the typical plant")
+    elif r.n > 0 and 2 * r.n < getattr(r, "runs", r.n):
+        parts.append(f"the typical plant not judged: both have it on only {r.n} of {r.runs}")
     elif r.n > 0:
         parts.append("the typical plant undecided")
     for side in ("better", "worse"):
-        if getattr(r, f"share_{side}_shown"):
+        named = r.verdict == SPLIT and getattr(r, side) + getattr(r, f"unreached_{side}") > (
+            SPLIT_SHARE * r.plants
+        )
+        if getattr(r, f"share_{side}_shown") or named:
             k = getattr(r, side) + getattr(r, f"unreached_{side}")
             low, high = getattr(r, f"share_{side}_low"), getattr(r, f"share_{side}_high")
             alone = getattr(r, f"unreached_{side}")
@@ -76,6 +120,9 @@ def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
         parts.append(f"{who} never reaches it on {r.unreached_worse} where {other} does")
     if r.unreached_better:
         parts.append(f"{other} never reaches it on {r.unreached_better} where {who} does")
+    reference = getattr(r, "reference", math.nan)
+    if reference == reference:  # a time on a moving reference: judged by its distance
+        parts.append(f"judged by the distance to the reference's own {amount(r.metric, reference)}")
     return "; ".join(parts)
 
 

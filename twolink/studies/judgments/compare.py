@@ -42,8 +42,8 @@ SHOWN = {  # the paired table's columns as printed, in this order (others are in
     "proposed_median": "median A",
     "baseline_median": "median B",
     "estimate": "A − B",
-    "ci_low": "95 % low",
-    "ci_high": "95 % high",
+    "ci_low": "CI low",  # at ci_level (Bonferroni over the table): the verdict's
+    "ci_high": "CI high",
     "margin_p_adjusted": "p margin (Holm)",
     "verdict": "verdict",
 }  # each row's reading (the verdict in words) is printed under the table

@@ -94,44 +94,46 @@ def _count(r: Any, side: str) -> int:
     return getattr(r, side) + getattr(r, f"unreached_{side}")
 
 
-def _one_share(r: Any) -> str | None:
-    """'worse by more than 10 ms on 35 of 200 in θ2 Tr' where one share is shown."""
-    from twolink.studies.judgments.claims_words import amount
+def _shares_said(r: Any) -> list[str]:
+    """'worse by more than 10 ms on 35 of 200 in θ2 Tr' for each share the reading names
+    (shown, or the side that makes a split)."""
+    from twolink.studies.judgments.claims_words import SPLIT, SPLIT_SHARE, amount
 
-    sides = [side for side in ("better", "worse") if getattr(r, f"share_{side}_shown")]
-    if len(sides) != 1:
-        return None
     tol = amount(r.metric, r.tolerance)
-    alone = " or alone in reaching it" if getattr(r, f"unreached_{sides[0]}") else ""
-    return (
-        f"{sides[0]} by more than {tol}{alone} on {_count(r, sides[0])} of {r.plants} in {_name(r)}"
-    )
-
-
-def _mixed(r: Any) -> bool:
-    return bool(r.share_better_shown and r.share_worse_shown)
+    said = []
+    for side in ("better", "worse"):
+        split = r.verdict == SPLIT and _count(r, side) > SPLIT_SHARE * r.plants
+        if getattr(r, f"share_{side}_shown") or split:
+            alone = " or alone in reaching it" if getattr(r, f"unreached_{side}") else ""
+            said.append(
+                f"{side} by more than {tol}{alone} on {_count(r, side)} of {r.plants} in {_name(r)}"
+            )
+    return said
 
 
 def describe(table: pd.DataFrame) -> str:
-    """A claims table in one clause: the verdicts with their estimates; the typical plant
-    equivalent or undecided, with the one share shown beside it; mixtures (a share shown
-    each way) with their counts; the rest counted."""
+    """A claims table in one clause, in the verdict words of the table
+    (:data:`~twolink.studies.judgments.claims_words.VERDICT_WORDS`): better and worse with
+    their estimates; split with the plants beyond ±δ; equivalent and inconclusive counted,
+    with the shares shown beside them; the rest counted."""
+    from twolink.studies.judgments.claims_words import SPLIT
+
     parts = []
     for verdict in ("better", "worse"):
         rows = _rows(table, verdict)
         if rows:
             named = ", ".join(f"{_name(r)} ({_signed(r.metric, r.estimate)})" for r in rows)
             parts.append(f"{verdict} on {named}")
-    open_ = _rows(table, "equivalent") + _rows(table, "inconclusive")
+    split = _rows(table, SPLIT)
+    if split:  # equivalent on the typical plant, more than a tenth beyond ±δ
+        shares = "; ".join(x for r in split for x in _shares_said(r))
+        parts.append(f"{SPLIT} on {len(split)} (equivalent on the typical plant, but {shares})")
     for verdict in ("equivalent", "inconclusive"):
-        rows = [r for r in _rows(table, verdict) if not _mixed(r)]
+        rows = _rows(table, verdict)
         if rows:
-            shares = [x for x in map(_one_share, rows) if x]
+            shares = [x for r in rows for x in _shares_said(r)]
             more = f", but {'; '.join(shares)}" if shares else ""
             parts.append(f"{verdict} on {len(rows)}{more}")
-    mixed = [r for r in open_ if _mixed(r)]
-    if mixed:  # a share shown each way: the reading in the table says both
-        parts.append(f"mixed on {len(mixed)} ({', '.join(_name(r) for r in mixed)})")
     by_reference = len(_rows(table, "set by the reference"))
     if by_reference:
         parts.append(f"{by_reference} set by the reference")

@@ -103,12 +103,10 @@ def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
 
 
 def _effect(verdicts: pd.Series) -> str:
+    """The cell's effect, one of :data:`~twolink.studies.judgments.claims_words.CELL_EFFECTS`."""
     better, worse = (verdicts == "better").sum(), (verdicts == "worse").sum()
-    if better and not worse:
-        return "helps"
-    if worse and not better:
-        return "hurts"
-    return "mixed" if better else "no difference shown"
+    effect = {(True, False): "helps", (False, True): "hurts", (True, True): "mixed"}
+    return effect.get((bool(better), bool(worse)), "no difference shown")
 
 
 def summary(table: pd.DataFrame) -> pd.DataFrame:

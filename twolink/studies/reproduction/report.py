@@ -447,7 +447,7 @@ def claims_section(
         "that both miss their targets compares two failures.",
         "",
         "| joint | metric | tolerance | n | better | worse | equal | never reached "
-        f"({p} / {b}) | estimate [95 % CI] | better / worse share [95 % CI] | verdict "
+        f"({p} / {b}) | estimate [CI, 1 − 5 %/m] | better / worse share [95 % CI] | verdict "
         "| reading |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
