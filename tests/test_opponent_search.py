@@ -91,3 +91,57 @@ def test_a_per_joint_loop_at_the_regimes_gains_is_the_empty_fuzzy_table():
     mine = ops.evaluate_loops(stp, [loop])
     empty = search.evaluate_tables(stp, np.full((1, 7, 7), -1), "mamdani")
     np.testing.assert_allclose(mine, empty, rtol=1e-9)
+
+
+def _held(rows):
+    import pandas as pd
+
+    return pd.DataFrame(
+        [
+            {"regime": r, "controller": c, "metric": m, "joint": j, "proposed_median": v}
+            for r, c, values in rows
+            for (m, j), v in zip(ops.EFFORT_METRICS, values, strict=True)
+        ]
+    )
+
+
+def test_a_searched_table_over_budget_on_the_judged_plants_is_flagged():
+    held = _held(
+        [
+            ("quintic", "FCM-CTC", [28.1, 8.3, 234.5, 76.9]),
+            ("quintic", "FCM-CTC-searched", [27.2, 7.8, 262.9, 83.0]),  # the shipped one's
+            ("quintic", "FCM-CTC-searched-continuous", [27.1, 7.8, 235.4, 77.8]),  # in tol
+        ]
+    )
+    flags = ops.effort_flags(held)
+    assert flags["controller"].tolist() == ["FCM-CTC-searched", "FCM-CTC-searched-continuous"]
+    assert flags["within"].tolist() == [False, True]
+    assert flags["FCM-CTC torque_variation_Nm1"].tolist() == [234.5, 234.5]
+
+
+def test_the_shipped_quintic_tables_are_over_budget_where_judged():
+    """The re-check's finding, on the shipped heldout.csv: the quintic searched tables
+    spend 259-263 / 80-83 N·m of Σ|Δτ| against FCM-CTC's 234.5 / 76.9; the raw ones stay
+    within FCM-CTC's effort."""
+    import pandas as pd
+
+    spec = search.load_spec()
+    held = pd.read_csv(search.folder_of(spec) / "heldout.csv")
+    flags = ops.effort_flags(held).set_index(["regime", "controller"])["within"]
+    assert not flags["quintic"].any()
+    assert flags["raw"].all()
+
+
+def test_the_search_section_says_over_budget_where_it_is_and_only_there():
+    held = _held(
+        [
+            ("quintic", "FCM-CTC", [28.1, 8.3, 234.5, 76.9]),
+            ("quintic", "FCM-CTC-searched", [27.2, 7.8, 262.9, 83.0]),
+            ("raw", "FCM-CTC", [54.1, 15.0, 83.3, 24.9]),
+            ("raw", "FCM-CTC-searched", [43.0, 13.1, 75.0, 25.2]),
+        ]
+    )
+    lines = [s for s in search.effort_lines(held) if s.startswith("- ")]
+    assert lines[0].startswith("- quintic FCM-CTC-searched: 262.9 / 83.0 against 234.5 / 76.9")
+    assert "OVER" in lines[0] and "not crowned" in lines[0]
+    assert "OVER" not in lines[1] and lines[1].endswith("within FCM-CTC's effort")

@@ -282,3 +282,51 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     raise SystemExit(main())
+
+
+EFFORT_METRICS = (
+    ("torque_peak_Nm", 1),
+    ("torque_peak_Nm", 2),
+    ("torque_variation_Nm", 1),
+    ("torque_variation_Nm", 2),
+)  # fmt: skip; within_budget's column order
+
+
+def effort_flags(held: Any, proposed: str = "FCM-CTC") -> Any:
+    """The effort rule on a held-out table (``search/heldout.csv``: paired_claims rows per
+    regime and controller): per regime and searched controller, its four effort medians on
+    the judged plants beside FCM-CTC's there, and ``within`` (each at most FCM-CTC's plus
+    the tolerance). One row per (regime, controller)."""
+    import pandas as pd
+
+    from twolink.studies.judgments.claims import TOLERANCES
+
+    tol = np.array([TOLERANCES[m] for m, _ in EFFORT_METRICS])
+    rows = []
+    for (regime, name), g in held.groupby(["regime", "controller"], sort=False):
+        if name == proposed:
+            continue
+        base = held[(held["regime"] == regime) & (held["controller"] == proposed)]
+
+        def medians(t: Any) -> np.ndarray:
+            return np.array(
+                [
+                    float(t[(t["metric"] == m) & (t["joint"] == j)]["proposed_median"].iloc[0])
+                    for m, j in EFFORT_METRICS
+                ]
+            )
+
+        mine, budget = medians(g), medians(base)
+        rows.append(
+            {
+                "regime": regime,
+                "controller": name,
+                **{f"{m}{j}": v for (m, j), v in zip(EFFORT_METRICS, mine, strict=True)},
+                **{
+                    f"{proposed} {m}{j}": v
+                    for (m, j), v in zip(EFFORT_METRICS, budget, strict=True)
+                },
+                "within": bool(within_budget(mine, budget, tol)[0]),
+            }
+        )
+    return pd.DataFrame(rows)

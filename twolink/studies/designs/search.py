@@ -573,9 +573,27 @@ def report_section(manifest: Any, out: Path) -> list[str]:
             f"{f['designed'][4]:.4g} | {f['empty'][4]:.4g} | {rules} rules, {where} |"
         )
     lines.append("")
+    lines += effort_lines(held)
     for regime in spec.regimes:
         lines.append(f"- {regime}: {conclusion_sentence(meta, held, regime)}")
     return lines
+
+
+def effort_lines(held: pd.DataFrame) -> list[str]:
+    """The effort rule on the judged plants (docs/reproduction.md, "The linear opponent by
+    search"): each best table's Σ|Δτ| per joint beside FCM-CTC's, and whether it is within
+    FCM-CTC's effort there; one over it is not an answer at equal effort."""
+    from twolink.studies.designs.opponent_search import effort_flags
+
+    lines = ["Effort on the claims' plants (medians; Σ|Δτ| [N·m] per joint, FCM-CTC's beside):", ""]
+    for r in effort_flags(held).to_dict("records"):
+        word = "within FCM-CTC's effort" if r["within"] else "OVER FCM-CTC's effort: not crowned"
+        lines.append(
+            f"- {r['regime']} {r['controller']}: {r['torque_variation_Nm1']:.1f} / "
+            f"{r['torque_variation_Nm2']:.1f} against {r['FCM-CTC torque_variation_Nm1']:.1f} / "
+            f"{r['FCM-CTC torque_variation_Nm2']:.1f}: {word}"
+        )
+    return [*lines, ""]
 
 
 def load_output(out: Path) -> tuple[dict[str, Any], pd.DataFrame] | None:
