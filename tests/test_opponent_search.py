@@ -145,3 +145,30 @@ def test_the_search_section_says_over_budget_where_it_is_and_only_there():
     assert lines[0].startswith("- quintic FCM-CTC-searched: 262.9 / 83.0 against 234.5 / 76.9")
     assert "OVER" in lines[0] and "not crowned" in lines[0]
     assert "OVER" not in lines[1] and lines[1].endswith("within FCM-CTC's effort")
+
+
+def test_the_shipped_opponents_give_their_numbers_and_keep_the_rule():
+    """Each regime's shipped per-joint CTC-best, run again on the training plants, gives its
+    shipped numbers (no number that is not the search's), and its shipped effort on both
+    plant sets is within FCM-CTC's by the rule."""
+    import json
+
+    from twolink.studies.judgments.claims import TOLERANCES
+
+    spec = search.load_spec()
+    meta = json.loads(ops.shipped_path(spec).read_text())
+    assert meta["settings"] == json.loads(json.dumps(spec.settings()))
+    tol = np.array([TOLERANCES[m] for m, _ in ops.EFFORT_METRICS])
+    for regime, o in meta["opponents"].items():
+        x = [o["wn"][0], o["zeta"][0], o["wn"][1], o["zeta"][1]]
+        values = ops.evaluate_loops(
+            search.setup(spec, regime), [ops.controller(x, o["torque_limit"])]
+        )
+        np.testing.assert_allclose(values[0], o["train"], rtol=1e-9)
+        ok = ops.admissible(
+            np.array([o["train"][:4]]), np.array([o["judged"][:4]]), o["train_fcm"][:4],
+            o["judged_fcm"][:4], tol,
+        )  # fmt: skip
+        assert ok[0], regime
+        assert all(not ops.within_budget(r["judged"][:4], o["judged_fcm"][:4], tol)[0]
+                   for r in o["refused"])  # fmt: skip

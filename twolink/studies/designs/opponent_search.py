@@ -245,6 +245,14 @@ def search_opponent(spec: Any, regime: str, batch: int = 4) -> dict[str, Any]:
             "judged_plants": len(judged.scenarios),
             "refused": refused,
             "evaluations": sum(f["evaluations"] for f in found),
+            "searched": [  # every loop tried on the training plants: the frontier's figure
+                {
+                    "family": f["family"],
+                    "x": [p["x"] for p in f["loops"]],
+                    "values": [p["values"] for p in f["loops"]],
+                }
+                for f in found
+            ],  # fmt: skip
         }
     raise ValueError(f"{regime}: no searched loop is within FCM-CTC's effort on both plant sets")
 
@@ -276,6 +284,8 @@ def main(argv: list[str] | None = None) -> int:
     path = shipped_path(spec) if args.install else args.out / "frontier_per_joint.json"
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_json(path, meta)
+    if args.out is not None:  # the figure (docs/figures/ holds the shipped result's)
+        figure(found, args.out / "figures" / "frontier_per_joint.png")
     print(path)
     return 0
 
@@ -330,3 +340,48 @@ def effort_flags(held: Any, proposed: str = "FCM-CTC") -> Any:
             }
         )
     return pd.DataFrame(rows)
+
+
+def _ratio_and_index(budget: np.ndarray) -> Callable[[Any], tuple[Any, Any]]:
+    """Rows of (peak τ1, peak τ2, Σ|Δτ|1, Σ|Δτ|2, index) -> (largest effort ratio, index)."""
+
+    def point(values: Any) -> tuple[Any, Any]:
+        v = np.atleast_2d(values)
+        return (v[:, :4] / budget).max(axis=1), v[:, 4]
+
+    return point
+
+
+def figure(opponents: dict[str, Any], path: Path) -> Path:
+    """Per regime: every loop the per-joint search tried (effort, the largest of the four
+    ratios to FCM-CTC's on the training plants, against the training index), by family;
+    FCM-CTC; the loops the judged plants refused; the opponent chosen."""
+    from twolink.figures.plots import plt, save_figure
+
+    fig, axes = plt.subplots(1, len(opponents), figsize=(6.2 * len(opponents), 5.0), squeeze=False)
+    for ax, (regime, o) in zip(axes[0], opponents.items(), strict=True):
+        point = _ratio_and_index(np.asarray(o["train_fcm"][:4]))
+
+        for f, colour in zip(o["searched"], ("tab:green", "tab:orange"), strict=True):
+            ax.scatter(*point(f["values"]), s=10, alpha=0.5, color=colour, label=f["family"])
+        if o["refused"]:
+            ax.scatter(*point([r["values"] for r in o["refused"]]), marker="x", color="k", s=40,
+                       label="within on training, over where judged")  # fmt: skip
+        ax.scatter(*point(o["train_fcm"]), marker="*", s=160, color="tab:red", label="FCM-CTC")
+        wn, z = o["wn"], o["zeta"]
+        label = f"CTC-best: ωn {wn[0]:.3g} / {wn[1]:.3g}, ζ {z[0]:.2g} / {z[1]:.2g} ({o['family']})"
+        ax.scatter(*point(o["train"]), s=220, facecolors="none", edgecolors="k", lw=1.5,
+                   label=label)  # fmt: skip
+        ax.axvline(1.0, color="k", lw=0.8, ls=":")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set(
+            xlabel="effort / FCM-CTC's (largest of peak |τ| and Σ|Δτ| per joint)",
+            ylabel="IAE₁ + IAE₂, median over training plants [rad·s]",
+            title=f"per-joint linear search: {regime}",
+        )
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(fontsize=7, loc="best")
+    fig.tight_layout()
+    save_figure(fig, path)
+    return path
