@@ -182,17 +182,24 @@ class Setup:
 
 
 def setup(spec: SearchSpec, regime: str) -> Setup:
-    from twolink.simulation.config import scenario_from_dict
+    """The first ``spec.plants`` training plants of ``regime`` and FCM-CTC's arguments."""
     from twolink.studies.designs import frontier
     from twolink.studies.reproduction.manifest import load_manifest
 
     fspec = frontier.load_spec(spec.frontier)
     plan = frontier.training_plan(fspec, regime)
+    return setup_of(plan, load_manifest(fspec.manifest).proposed, spec.plants)
+
+
+def setup_of(plan: Any, proposed: str, plants: int) -> Setup:
+    """The first ``plants`` plants of a sweep ``plan`` and its ``proposed`` FCM-CTC's
+    arguments."""
+    from twolink.simulation.config import scenario_from_dict
+
     scenarios = []
-    for i in range(spec.plants):
+    for i in range(plants):
         values, noise_seed = plan.draw(i)
         scenarios.append(scenario_from_dict(plan.sample_data(values, noise_seed), plan.file))
-    proposed = load_manifest(fspec.manifest).proposed
     s = scenario_from_dict(plan.controller_data(proposed), plan.file)
     c = s.controller
     if c.kind != "fcm_ctc" or c.fuzzy.mode != "add" or c.fuzzy.authority != 1.0:
@@ -211,14 +218,21 @@ def evaluate_tables(stp: Setup, tables: np.ndarray, inference: str) -> np.ndarra
     """Per table (n, 7, 7): the medians over the training plants of peak |τ|₁, peak |τ|₂,
     Σ|Δτ|₁, Σ|Δτ|₂ and IAE₁ + IAE₂, (n, 5); NaN where a run failed."""
     from twolink.controllers.rule_table import RuleTableCTC
+
+    ctrls = [RuleTableCTC.from_table(t, inference, **stp.fcm) for t in tables]
+    return evaluate_controllers(stp.scenarios, ctrls)
+
+
+def evaluate_controllers(scenarios: Any, ctrls: list[Any]) -> np.ndarray:
+    """Per controller, on every scenario (the batch engine): the medians of peak |τ|₁,
+    peak |τ|₂, Σ|Δτ|₁, Σ|Δτ|₂ and IAE₁ + IAE₂, (n, 5); NaN where a run failed."""
     from twolink.simulation.experiment import iter_scenarios
     from twolink.simulation.metrics import error_measures, torque_measures
 
-    ctrls = [RuleTableCTC.from_table(t, inference, **stp.fcm) for t in tables]
-    n, p = len(tables), len(stp.scenarios)
+    n, p = len(ctrls), len(scenarios)
     values = np.full((n, p, 5), np.nan)
     arms = [(k, i) for k in range(n) for i in range(p)]
-    runs = iter_scenarios([stp.scenarios[i] for _, i in arms], [ctrls[k] for k, _ in arms])
+    runs = iter_scenarios([scenarios[i] for _, i in arms], [ctrls[k] for k, _ in arms])
     for m, traj in runs:
         k, i = arms[m]
         if isinstance(traj, Exception) or traj.status != "ok":
@@ -559,9 +573,27 @@ def report_section(manifest: Any, out: Path) -> list[str]:
             f"{f['designed'][4]:.4g} | {f['empty'][4]:.4g} | {rules} rules, {where} |"
         )
     lines.append("")
+    lines += effort_lines(held)
     for regime in spec.regimes:
         lines.append(f"- {regime}: {conclusion_sentence(meta, held, regime)}")
     return lines
+
+
+def effort_lines(held: pd.DataFrame) -> list[str]:
+    """The effort rule on the judged plants (docs/reproduction.md, "The linear opponent by
+    search"): each best table's Σ|Δτ| per joint beside FCM-CTC's, and whether it is within
+    FCM-CTC's effort there; one over it is not an answer at equal effort."""
+    from twolink.studies.designs.opponent_search import effort_flags
+
+    lines = ["Effort on the claims' plants (medians; Σ|Δτ| [N·m] per joint, FCM-CTC's beside):", ""]
+    for r in effort_flags(held).to_dict("records"):
+        word = "within FCM-CTC's effort" if r["within"] else "OVER FCM-CTC's effort: not crowned"
+        lines.append(
+            f"- {r['regime']} {r['controller']}: {r['torque_variation_Nm1']:.1f} / "
+            f"{r['torque_variation_Nm2']:.1f} against {r['FCM-CTC torque_variation_Nm1']:.1f} / "
+            f"{r['FCM-CTC torque_variation_Nm2']:.1f}: {word}"
+        )
+    return [*lines, ""]
 
 
 def load_output(out: Path) -> tuple[dict[str, Any], pd.DataFrame] | None:
