@@ -21,6 +21,8 @@ from twolink.studies.judgments.claims_plans import (
 from twolink.studies.judgments.conclusions import ClaimsStudy
 from twolink.studies.reproduction.manifest import Manifest
 
+EFFORT_METRICS = ("torque_peak_Nm", "torque_variation_Nm")  # judged against the fair opponent
+
 __all__ = [
     "SMOOTH_KINDS",
     "fair_opponent",
@@ -88,7 +90,11 @@ def _claims_study(
     against the baseline (``claims_all[_VARIANT].csv``); the report's sections on them."""
 
     from twolink.foundation.io import atomic_write_text
-    from twolink.studies.judgments.claims import paired_claims, paired_claims_many
+    from twolink.studies.judgments.claims import (
+        CLAIM_METRICS,
+        paired_claims,
+        paired_claims_many,
+    )
     from twolink.studies.reproduction import report
 
     study = manifest.claims_study
@@ -99,9 +105,12 @@ def _claims_study(
         reference_values=refs,
     )  # fmt: skip
     atomic_write_text(out / f"claims{suffix}.csv", table.to_csv(index=False))
+    # against the fair opponent, effort is judged too: both sides' peak |τ| and Σ|Δτ| on
+    # these plants, where the opponent's budget must hold (docs/reproduction.md)
     fair = paired_claims(
-        outcome.results, manifest.proposed, OPPONENT, joints=plan.joints, reference_values=refs
-    )
+        outcome.results, manifest.proposed, OPPONENT, joints=plan.joints, reference_values=refs,
+        metrics=(*CLAIM_METRICS, *EFFORT_METRICS),
+    )  # fmt: skip
     atomic_write_text(out / f"claims_matched{suffix}.csv", fair.to_csv(index=False))
     source = f"{study.parent.name}/{study.name}" + (f", {regime}" if regime else "")
     sensor = plan.nominal_scenario().sensor.describe()
@@ -145,18 +154,43 @@ def _claims_study(
 
 
 def fair_opponent(manifest: Manifest, variant: Any = None, pool: Any = None) -> Any:
-    """The regime's fair opponent (:mod:`twolink.studies.designs.frontier`): from the frontier file
-    beside the manifest, its shipped table where current, else the frontier run here."""
-    from twolink.studies.designs import frontier
+    """The regime's fair opponent: the searched per-joint loop shipped beside the manifest
+    (:mod:`twolink.studies.designs.opponent_search`: within FCM-CTC's effort on the training
+    and on the judged plants), else the best loop of the linear frontier's grid
+    (:mod:`twolink.studies.designs.frontier`: its shipped table where current, else run
+    here)."""
+    from twolink.studies.designs import frontier, opponent_search
 
+    regime = frontier.QUINTIC if variant is None else variant.name
+    searched = opponent_search.shipped_opponents(manifest.path.parent)
+    if regime in searched:
+        return searched[regime]
     spec = frontier.load_spec(manifest.path.parent / frontier.DEFAULT_SPEC.name)
     _, chosen, _ = frontier.opponents(spec, pool)
-    return chosen[frontier.QUINTIC if variant is None else variant.name]
+    return chosen[regime]
 
 
 def opponent_section(opponent: Any, manifest: Manifest) -> list[str]:
     """What the fair linear opponent is, before its claims table."""
+    from twolink.studies.designs.opponent_search import SearchedOpponent
+
     p = manifest.proposed
+    if isinstance(opponent, SearchedOpponent):
+        mine, theirs = opponent.judged, opponent.judged_fcm
+        return [
+            "",
+            f"### Against the best linear loop at {p}'s effort ({OPPONENT})",
+            "",
+            f"{OPPONENT} is {opponent.describe()}: the best of a search per joint (the",
+            "table search's optimiser, budget and training plants;",
+            '`runs/paper/frontier_per_joint.json`, docs/reproduction.md, "The linear opponent',
+            'by search, per joint") among the loops whose median peak |τ| and Σ|Δτ| per joint',
+            f"stay within {p}'s on the training plants and on these judged plants. Its",
+            f"median Σ|Δτ| was {mine[2]:.4g} / {mine[3]:.4g} N·m against {p}'s {theirs[2]:.4g} /",
+            f"{theirs[3]:.4g} when it was searched; the table's torque rows (peak |τ|, Σ|Δτ|)",
+            f"judge both sides' effort on these plants, plant by plant. Does {p} beat the best",
+            "linear loop given the same effort?",
+        ]
     ratio = f"{opponent.effort_ratio:.3g}"
     return [
         "",
