@@ -316,6 +316,7 @@ def _write(folder, table, figure, runs, plan, a, b, trace) -> None:
     atomic_write_text(folder / "claims.csv", table.to_csv(index=False))
     atomic_write_text(folder / "claims.md", format_claims(table) + "\n")
     save_figure(figure, folder / "compare.png")
+    save_figure(forest_figure(table, plan, a, b), folder / "forest.png")
     if trace and len(runs["nominal"]) == 2:
         from twolink.tracing.comparison import ExperimentRuns, write_comparison
 
@@ -325,6 +326,19 @@ def _write(folder, table, figure, runs, plan, a, b, trace) -> None:
             for j in plan.joints
         ]
         write_comparison(folder / "compare.rrd", experiments, pair=(a, b))
+
+
+def forest_figure(table: pd.DataFrame, plan: Any, a: str, b: str) -> Any:
+    """The paired table as the reproduction's answer figure draws it
+    (:func:`twolink.figures.answer.answer_figure`): per joint and metric the typical shift
+    in tolerances with its interval, the shares of plants better and worse, the verdict."""
+    from twolink.figures.answer import answer_figure
+
+    name = plan.nominal_scenario().name
+    question = f"Does {a} lower each metric against {b}? {plan.samples} plants"
+    short = too_few(plan.samples, judged_rows(table))
+    question += f"\n{short.split(':')[0]}" if short else ""  # the figure says it too
+    return answer_figure([(name, {b: table})], a, question)
 
 
 def format_claims(table: pd.DataFrame) -> str:
