@@ -110,19 +110,15 @@ def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: st
         "",
         f"![Performance profiles of every controller]({PROFILES_FIGURE})",
         "",
-        "**Where the numbers come from.** Verdicts: column `verdict`; typical shift: "
-        "`estimate` / `tolerance` with its interval `ci_low`, `ci_high`; the shares of "
-        "plants practically better and worse: `share_better`, `share_worse` (with `_low`, "
-        "`_high`); in "
-        + "; ".join(
-            f"`{file}` ({s.label}, against {opp})"
+        "**Where the numbers come from.** Per row, the columns `verdict`, `estimate`, "
+        "`tolerance`, `ci_low`, `ci_high`, `share_better`, `share_worse` of "
+        + ", ".join(
+            f"`{file}` ({opp}{', ' + s.sweep if s.sweep else ''})"
             for s in studies
             for opp, (file, _) in s.tables.items()
         )
-        + ". The profiles: `results.parquet` of "
-        + ", ".join(f"`{s.sweep}/`" for s in studies)
-        + ", `joint1_<metric>` + "
-        "`joint2_<metric>` per plant and controller (Dolan & Moré 2002: the share of plants "
-        "on which a controller's cost is within τ times the best controller's).",
+        + "; the profiles: `joint1_<metric>` + `joint2_<metric>` of each sweep folder's "
+        "`results.parquet` (Dolan & Moré 2002: the share of plants on which a controller's "
+        "cost is within τ times the best's).",
     ]
     return "\n".join(lines) + "\n"
