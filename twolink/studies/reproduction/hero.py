@@ -36,7 +36,7 @@ def shortfall(traj: Any, joint: int) -> float:
     along the move (positive: short, negative: past it); 0 where it ends within
     :data:`SETTLED` of the move."""
     j = joint - 1
-    move = traj.q_ref[-1, j] - traj.q_ref[0, j]
+    move = traj.q_ref[-1, j] - traj.q[0, j]  # from its start: a raw step's q_ref starts there
     error = float((traj.q_ref[-1, j] - traj.q[-1, j]) * np.sign(move))
     return error if abs(error) > SETTLED * abs(move) else 0.0
 
@@ -47,13 +47,10 @@ def shortfall_line(runs: Mapping[str, Any], joint: int, uncertain: bool) -> str:
     short = {name: shortfall(t, joint) for name, t in runs.items()}
     if not all(v > 0 for v in short.values()):
         return ""
-    move = abs(
-        next(iter(runs.values())).q_ref[-1, joint - 1]
-        - next(iter(runs.values())).q_ref[0, joint - 1]
-    )
-    said = ", ".join(f"{n} by {v:.2g}" for n, v in short.items())
-    why = ": the plant is not the model, and neither law integrates the error" if uncertain else ""
-    return f"\nboth end short of the {move:.2g} rad target ({said} rad){why}"
+    target = next(iter(runs.values())).q_ref[-1, joint - 1]
+    said = " and ".join(f"{n} {v:.2g}" for n, v in short.items())
+    why = " (model error, no integral action)" if uncertain else ""
+    return f"\nboth end short of {target:.2g} rad: {said} rad{why}"
 
 
 def hero(
