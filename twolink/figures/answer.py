@@ -15,6 +15,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter
 
 from twolink.simulation.vocabulary import controller_styles, metric
 
@@ -99,6 +100,12 @@ def _study_row(label, tables, styles, shift, shares, words, proposed) -> None:
         ax.grid(axis="x", alpha=0.3)
 
 
+def _two_and_five(v: float, _: Any) -> str:
+    """Minor log ticks labelled at 2 and 5 of each decade: a profile may span less than one."""
+    lead = v / 10 ** np.floor(np.log10(v)) if v > 0 else 0
+    return f"{v:g}" if np.isclose(lead, 2) or np.isclose(lead, 5) else ""
+
+
 def profiles_figure(profiles: Sequence[tuple[str, pd.DataFrame]], styles: Any = None) -> Figure:
     """One panel per (title, ρ table of :func:`twolink.studies.reproduction.profiles.
     performance_profile`): each controller's share of plants within τ of the best."""
@@ -112,6 +119,8 @@ def profiles_figure(profiles: Sequence[tuple[str, pd.DataFrame]], styles: Any = 
             colour, dash = styles[name]
             ax.step(rho.index, rho[name], where="post", color=colour, ls=dash, lw=1.5, label=name)
         ax.set_xscale("log")
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))  # 2, not 2 × 10⁰
+        ax.xaxis.set_minor_formatter(FuncFormatter(_two_and_five))
         ax.set_ylim(-0.02, 1.02)
         ax.set_title(title, fontsize=9, loc="left")
         ax.set_xlabel("τ: within τ × the best controller's cost on that plant", fontsize=8)

@@ -76,6 +76,6 @@ def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:
         results = load_results(out / s.sweep)
         for key in PROFILE_COSTS:
             m = metric(key)
-            label = f"{s.label}: {m.label} (θ1 + θ2)"
+            label = f"{s.label}:\n{m.label} (θ1 + θ2)"
             profiles.append((label, performance_profile(costs(results, key))))
     plots.save_figure(answer.profiles_figure(profiles), out / PROFILES_FIGURE)
