@@ -49,14 +49,15 @@ def test_reproduction_doc_gives_the_shipped_gains_and_fuzzy_scaling():
 
 
 def test_the_readme_counts_the_reproductions_runs_from_its_manifest():
-    """The README's "210 runs (10 × 7 × 3)" is the shipped manifest's plan (it said 180
-    after a controller was added), and names every controller the runs have."""
+    """The reproduction's description's "210 runs (10 × 7 × 3)" (docs/reproduction.md,
+    moved there from the README) is the shipped manifest's plan (it said 180 after a
+    controller was added), and names every controller the runs have."""
     from twolink.studies.reproduction.manifest import load_manifest
     from twolink.studies.reproduction.reproduce import plan
 
     m = load_manifest()
     n = (len(m.experiments), len(m.controllers), len(m.variants))
-    readme = " ".join((REPO / "README.md").read_text().split())
+    readme = " ".join((REPO / "docs" / "reproduction.md").read_text().split())
     assert f"{len(plan(m, None))} runs ({n[0]} × {n[1]} × {n[2]})" in readme
     assert f"({n[0]} experiments)" in readme
     assert "FCM-CTC-continuous" in readme and "four baselines" in readme

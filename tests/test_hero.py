@@ -4,6 +4,7 @@ most."""
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from twolink.simulation.sim import Trajectory
 from twolink.studies.reproduction.hero import hero, pair_gap
@@ -59,3 +60,36 @@ def test_the_gap_is_over_the_samples_both_runs_have():
     assert pair_gap(a, b, 1) == 0.01
     assert pair_gap(a, trajectory(np.ones(100), 1), 1) == 1.0
     assert pair_gap(a, trajectory(np.full(10, np.nan)), 1) == 0.0
+
+
+def moved(final: float, target: float = 1.0, n: int = 100) -> Trajectory:
+    """A joint-1 move from 0 to ``target`` whose response ends at ``final``."""
+    t = np.arange(n) * 1e-3
+    q, ref = np.zeros((n, 2)), np.zeros((n, 2))
+    q[:, 0] = np.linspace(0, final, n)
+    ref[:, 0] = np.linspace(0, target, n)
+    z = np.zeros((n, 2))
+    return Trajectory(t, q, z, ref, z, z, z, np.empty((0, 2)))
+
+
+def test_the_title_says_when_both_end_short_of_the_target_and_only_then():
+    """Issue 46: the README's figure showed both 0.42 rad short of 1 rad without a word.
+    "short" would be wrong where one reaches the target (within 2 % of the move) or
+    overshoots it, and the reason where the plant is the model."""
+    from twolink.studies.reproduction.hero import shortfall, shortfall_line
+
+    assert shortfall(moved(0.58), 1) == pytest.approx(0.42)
+    assert shortfall(moved(0.99), 1) == 0.0  # within 2 % of the move: on target
+    assert shortfall(moved(1.1), 1) < 0  # past it
+    assert shortfall(moved(-0.58, -1.0), 1) == pytest.approx(0.42)  # a move down, short
+    step = moved(0.58)
+    step.q_ref[:, 0] = 1.0  # a raw step: the reference is at its target from t = 0
+    assert shortfall(step, 1) == pytest.approx(0.42)
+    both = {"FCM-CTC": moved(0.58), "CTC": moved(0.6)}
+    line = shortfall_line(both, 1, uncertain=True)
+    assert line == (
+        "\nboth end short of 1 rad: FCM-CTC 0.42 and CTC 0.4 rad (model error, no integral action)"
+    )
+    assert "model error" not in shortfall_line(both, 1, uncertain=False)
+    assert shortfall_line({"FCM-CTC": moved(0.58), "CTC": moved(1.0)}, 1, True) == ""
+    assert shortfall_line({"FCM-CTC": moved(1.2), "CTC": moved(1.3)}, 1, True) == ""

@@ -70,7 +70,8 @@ def test_the_rigid_tables_calibrated_column_is_the_saved_calibration_rerun(repro
         values = again[f"table{r.table} {r.controller}"]
         for key, cell in zip(CLAIMED_BETTER, cells, strict=True):
             assert cell.split(" / ")[1] == fmt(calibrated_value(values, key)), (r, key, cell)
-    flexible = report[report.index("## Flexible joints") :]
+    start = report.index("## Flexible joints")
+    flexible = report[start : report.index("\n## ", start)]  # its section, not how to read
     assert "ours / calibrated / paper" not in flexible
 
 
@@ -84,10 +85,11 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
 
     report = (reproduction.out / "report.md").read_text()
     head = "## The paper's claims on 200 plants"
-    assert head in report and report.index(head) < report.index("### Table 2:")
-    # the conclusions come first, at most 8 sentences, from the same table
-    conclusions = report[report.index("## Conclusions") : report.index("## Who wins")]
-    assert report.index("## Conclusions") < report.index(head)
+    # the answer first, then the paper's tables, the claims in full as an appendix (issue 46)
+    order = ["## The answer at a glance", "### Table 2:", "## Conclusions", "## Appendix", head]
+    assert [report.index(h) for h in order] == sorted(report.index(h) for h in order)
+    # the conclusions: at most 8 sentences, from the same table
+    conclusions = report[report.index("## Conclusions") : report.index("## Appendix")]
     assert len(conclusions.strip().splitlines()) <= 1 + 1 + 8
     results = load_results(reproduction.out / "claims_study")
     names = {"CTC", "PD-G", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "CTC-best"}
@@ -259,6 +261,13 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     assert metric_columns == [f"joint{j}_{k}" for j in (1, 2) for k in keys]
     report = (reproduction.out / "report.md").read_text()
     assert "| CTC |" in report and "| FCM-CTC |" in report and "| FCM |" not in report
+    # no NaN value printed; the warnings section quotes MuJoCo's own words ("Nan, Inf or
+    # huge value in QACC"), verbatim, in its quoted lines
+    quoted = "## Warnings the runs raised"
+    if quoted in report:
+        start = report.index(quoted)
+        end = report.index("\n## ", start + 1)
+        report = report[:start] + report[end:]
     assert " nan" not in report.lower()
 
 
@@ -399,19 +408,40 @@ def test_the_design_section_shows_the_design_held_out_and_the_downward_step(repr
                 assert line in section, line
 
 
+def _answer(summary: str) -> str:
+    """summary.md's answer: its sentences, between "**The answer.**" and the figure."""
+    part = summary[summary.index("**The answer.**") + len("**The answer.**") :]
+    return part[: part.index("![")].strip()
+
+
 def test_the_readme_says_what_the_current_reproduction_concludes(reproduction):
-    """The README's summary is the report's conclusions, word for word: when the runs
-    change what they show, this fails until the README says so too."""
-    report = (reproduction.out / "report.md").read_text()
-    conclusions = report[report.index("## Conclusions") + len("## Conclusions") :]
-    conclusions = conclusions[: conclusions.index("## Who wins")].strip()
+    """The README's answer is summary.md's, word for word: when the runs change what they
+    show, this fails until the README says so too; and summary.md opens the report."""
+    summary = (reproduction.out / "summary.md").read_text()
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
-    block = readme[
-        readme.index("<!-- conclusions: start -->") : readme.index("<!-- conclusions: end -->")
-    ]
-    assert block.removeprefix("<!-- conclusions: start -->").strip() == conclusions
+    block = readme[readme.index("<!-- answer: start -->") : readme.index("<!-- answer: end -->")]
+    assert block.removeprefix("<!-- answer: start -->").strip() == _answer(summary)
+    report = (reproduction.out / "report.md").read_text()
+    assert summary.strip() in report and report.index(summary.strip()) < report.index("\n|")
     # and the README claims nothing the report contradicts (the claims of old)
     assert "removes most of CTC's overshoot" not in readme
+
+
+def test_the_answer_is_read_in_a_minute_and_the_first_table_comes_early(reproduction):
+    """Issue 46: at most 150 words of answer, the report's first table within 400 words,
+    the answer figure drawn from the claims tables (two regimes x 12 rows)."""
+    from twolink.studies.reproduction.summary import MAX_WORDS
+
+    summary = (reproduction.out / "summary.md").read_text()
+    assert len(_answer(summary).split()) <= MAX_WORDS
+    report = (reproduction.out / "report.md").read_text()
+    before_table = report[: report.index("\n|")]
+    assert len(before_table.split()) <= 400, len(before_table.split())
+    for name in ("answer.png", "profiles.png"):
+        assert (reproduction.out / "figures" / name).stat().st_size > 20_000
+    # every number of the answer comes from a file the summary names, which exists
+    for file in ("claims.csv", "claims_matched.csv", "claims_raw.csv", "claims_matched_raw.csv"):
+        assert f"`{file}`" in summary and (reproduction.out / file).is_file()
 
 
 def test_on_the_papers_raw_steps_fcm_ctc_rises_more_than_10_percent_sooner(reproduction):

@@ -127,12 +127,13 @@ def response_figure(
     angles = {n: tr.q[:, j] for n, tr in trajs.items()}
     close, _, far, (lo, hi) = split_by_scale(angles, ref, pair)
     fig = plt.figure(figsize=(10.5 if far else 8.0, 6.5))
+    top = 0.89 - 0.035 * max(0, title.count("\n") - 2)  # room for a title of more lines
     grid = fig.add_gridspec(3, 2 if far else 1, height_ratios=(2, 1, 1),
                             width_ratios=(2, 1) if far else None)  # fmt: skip
     ax = fig.add_subplot(grid[0, 0])
     ax_e = fig.add_subplot(grid[1, 0], sharex=ax)
     ax_d = fig.add_subplot(grid[2, 0], sharex=ax)
-    fixed_layout(fig, left=0.09, right=0.97 if far else 0.8, top=0.89, bottom=0.08,
+    fixed_layout(fig, left=0.09, right=0.97 if far else 0.8, top=top, bottom=0.08,
                  hspace=0.22, wspace=0.28)  # fmt: skip
     for upper in (ax, ax_e):
         upper.tick_params(labelbottom=False)

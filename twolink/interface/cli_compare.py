@@ -75,6 +75,7 @@ def compare_command(
     )  # fmt: skip
     click.echo(str(result))
     click.echo(f"figure:     {out / 'compare.png'} (every plant; below, {a} − {b})")
+    click.echo(f"forest:     {out / 'forest.png'} (per metric: the typical shift, the shares)")
     if not no_trace:
         click.echo(f"recording:  {out / 'compare.rrd'} (the nominal plant; rerun FILE)")
     click.echo(f"table:      {out / 'claims.csv'}; the sweep: {out / 'compare.toml'}")

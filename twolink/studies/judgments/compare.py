@@ -28,7 +28,14 @@ from twolink.foundation.io import atomic_write_text, toml_table, toml_value
 from twolink.foundation.shipped import locate, runs_dir
 from twolink.simulation.config import CONTROLLER_KINDS, ConfigError, read_toml, scenario_from_dict
 
-__all__ = ["Comparison", "compare", "controller_table", "format_claims"]
+__all__ = [
+    "Comparison",
+    "compare",
+    "controller_table",
+    "format_claims",
+    "minimum_plants",
+    "too_few",
+]
 
 PLANTS = runs_dir() / "sweeps" / "robustness.toml"  # whose [parameters] draw the plants
 FIGURE_EVERY = 10  # the figure's time grid: every 10th sample (100 Hz of the 1 kHz loop)
@@ -72,7 +79,10 @@ class Comparison:
             f"(better: {self.a} lower beyond the tolerance; docs/statistics.md)"
         )
         met = ", ".join(f"{n} {self.met_spec[n]}" for n in (self.a, self.b))
-        return f"{head}\n{format_claims(self.claims)}\nmet the spec: {met} of {self.plants}"
+        short = too_few(self.plants, judged_rows(self.claims))
+        return f"{head}\n{format_claims(self.claims)}\nmet the spec: {met} of {self.plants}" + (
+            f"\n{short}" if short else ""
+        )
 
     def _repr_html_(self) -> str:
         return self.claims.to_html(index=False)
@@ -116,6 +126,53 @@ def sweep_text(
         lines.append("")
         toml_table(lines, f'controllers."{name}"', controller_table(name))
     return "\n".join(lines) + "\n"
+
+
+def judged_rows(claims: pd.DataFrame) -> int:
+    """The rows of a paired table that a test judges (Holm's family): neither undefined
+    nor set by the reference."""
+    from twolink.studies.judgments.claims import SET_BY_REFERENCE
+
+    return int((~claims["verdict"].isin(["undefined", SET_BY_REFERENCE])).sum())
+
+
+def minimum_plants(rows: int, limit: int = 1000) -> tuple[int, int]:
+    """The fewest plants on which any verdict is possible in a table of ``rows`` judged
+    rows, derived from the tests the verdicts use (docs/statistics.md), each on its most
+    favourable sample and Holm-adjusted as the smallest of ``rows`` equal p-values (×
+    rows): ("equivalent": TOST on identical plants, d = 0 everywhere, p × rows < α;
+    "better"/"worse": the margin test on plants all beyond the margin, 2 p × rows < α).
+    With fewer plants every verdict of the typical plant is "inconclusive" whatever the
+    controllers do (the share verdicts need more still)."""
+    from twolink.studies.judgments.claims import ALPHA, _margin_tests
+
+    rows = max(rows, 1)
+    equivalent = differ = 0
+    for n in range(2, limit + 1):
+        tost, _, _ = _margin_tests([np.zeros(n)], [1.0])
+        _, below, _ = _margin_tests([-2.0 - np.arange(n) / n], [1.0])
+        if not equivalent and tost[0] * rows < ALPHA:
+            equivalent = n
+        if not differ and 2 * below[0] * rows < ALPHA:
+            differ = n
+        if equivalent and differ:
+            return equivalent, differ
+    raise ValueError(f"no verdict possible on up to {limit} plants")
+
+
+def too_few(plants: int, rows: int) -> str:
+    """The line that says a table has too few plants for a verdict, and how many would do;
+    "" where there are enough for every verdict of the typical plant."""
+    equivalent, differ = minimum_plants(rows)
+    tests = (
+        f"with the signed-rank tests Holm-corrected over {rows} rows, "
+        f'"equivalent" needs at least {equivalent} plants and "better" or "worse" {differ}'
+    )
+    if plants < equivalent:
+        return f"too few plants for any verdict ({plants}): {tests} (--plants N)"
+    if plants < differ:
+        return f'too few plants for "better" or "worse" ({plants}): {tests} (--plants N)'
+    return ""
 
 
 def compare(
@@ -259,6 +316,7 @@ def _write(folder, table, figure, runs, plan, a, b, trace) -> None:
     atomic_write_text(folder / "claims.csv", table.to_csv(index=False))
     atomic_write_text(folder / "claims.md", format_claims(table) + "\n")
     save_figure(figure, folder / "compare.png")
+    save_figure(forest_figure(table, plan, a, b), folder / "forest.png")
     if trace and len(runs["nominal"]) == 2:
         from twolink.tracing.comparison import ExperimentRuns, write_comparison
 
@@ -268,6 +326,19 @@ def _write(folder, table, figure, runs, plan, a, b, trace) -> None:
             for j in plan.joints
         ]
         write_comparison(folder / "compare.rrd", experiments, pair=(a, b))
+
+
+def forest_figure(table: pd.DataFrame, plan: Any, a: str, b: str) -> Any:
+    """The paired table as the reproduction's answer figure draws it
+    (:func:`twolink.figures.answer.answer_figure`): per joint and metric the typical shift
+    in tolerances with its interval, the shares of plants better and worse, the verdict."""
+    from twolink.figures.answer import answer_figure
+
+    name = plan.nominal_scenario().name
+    question = f"Does {a} lower each metric against {b}? {plan.samples} plants"
+    short = too_few(plan.samples, judged_rows(table))
+    question += f"\n{short.split(':')[0]}" if short else ""  # the figure says it too
+    return answer_figure([(name, {b: table})], a, question)
 
 
 def format_claims(table: pd.DataFrame) -> str:

@@ -16,7 +16,9 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["HERO_FIGURE", "hero", "pair_gap"]
+__all__ = ["HERO_FIGURE", "hero", "pair_gap", "shortfall"]
+
+SETTLED = 0.02  # a final error within 2 % of the move is on target (the outcome's band)
 
 HERO_FIGURE = "figures/where_the_pair_differ.png"
 
@@ -27,6 +29,28 @@ def pair_gap(a: Any, b: Any, joint: int) -> float:
     n = min(len(a.t), len(b.t))
     d = np.abs(a.q[:n, joint - 1] - b.q[:n, joint - 1])
     return float(np.nanmax(d)) if np.isfinite(d).any() else 0.0
+
+
+def shortfall(traj: Any, joint: int) -> float:
+    """How far ``joint`` ends short of its target, in rad: target − θ at the end, signed
+    along the move (positive: short, negative: past it); 0 where it ends within
+    :data:`SETTLED` of the move."""
+    j = joint - 1
+    move = traj.q_ref[-1, j] - traj.q[0, j]  # from its start: a raw step's q_ref starts there
+    error = float((traj.q_ref[-1, j] - traj.q[-1, j]) * np.sign(move))
+    return error if abs(error) > SETTLED * abs(move) else 0.0
+
+
+def shortfall_line(runs: Mapping[str, Any], joint: int, uncertain: bool) -> str:
+    """The title's line where both controllers end short of the target, with why where the
+    plant differs from the controllers' model; "" where either reaches it."""
+    short = {name: shortfall(t, joint) for name, t in runs.items()}
+    if not all(v > 0 for v in short.values()):
+        return ""
+    target = next(iter(runs.values())).q_ref[-1, joint - 1]
+    said = " and ".join(f"{n} {v:.2g}" for n, v in short.items())
+    why = " (model error, no integral action)" if uncertain else ""
+    return f"\nboth end short of {target:.2g} rad: {said} rad{why}"
 
 
 def hero(
@@ -52,8 +76,11 @@ def hero(
         return None
     gap, members = best
     exp, variant = members[0].experiment, members[0].variant
+    by_name = {sp.controller: trajectories[sp.folder] for sp in members}
+    uncertain = "uncertain" in str(getattr(exp, "scenario", ""))
     title = (
         f"Where {pair[0]} and {pair[1]} differ most: largest |Δθ{exp.joint}| {gap:.2g} rad\n"
         f"{exp.label}: {exp.title.split(' (')[0]}\n({variant.title})"
+        + shortfall_line({n: by_name[n] for n in pair}, exp.joint, uncertain)
     )
     return {sp.controller: sp.folder for sp in members}, exp.joint, title

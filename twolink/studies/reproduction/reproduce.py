@@ -40,6 +40,7 @@ from twolink.studies.reproduction.manifest import (
     RunSpec,
     load_manifest,
 )
+from twolink.studies.reproduction.quiet import quietly, warnings_section
 from twolink.studies.reproduction.reproduce_figures import design_figures, response_figure
 from twolink.studies.reproduction.run_folder import portable_config, write_run
 
@@ -200,7 +201,8 @@ def run_all(
     With ``scenarios`` (by spec folder), a run already whole in ``out`` for the same
     scenario is reused, not computed again (:func:`finished_row`): an interrupted
     reproduction resumes per run. Returns the rows known now (``{}`` where pending) and
-    the pending futures with the spec indices each computes.
+    the pending futures with the spec indices each computes; each future's result is
+    (rows, the warnings its runs raised: :func:`twolink.studies.reproduction.quiet.quietly`).
     """
     from twolink.simulation.batch import model_gravity
 
@@ -230,7 +232,8 @@ def run_all(
     for b in range(batches):
         share = todo[b::batches]
         if share:
-            task = pool.submit(_execute, [specs[i] for i in share], out, trace, model_g)
+            # its warnings recorded, not printed (quiet.py): (rows, warning lines)
+            task = pool.submit(quietly, _execute, [specs[i] for i in share], out, trace, model_g)
             pending[task] = share
     return rows, pending
 
@@ -419,6 +422,28 @@ def flexible_study(
     ]
 
 
+def _stopped(folder: Path) -> list[str]:
+    """The runs of a sweep folder that diverged or stopped early: "CTC, sample 12"."""
+    from twolink import sweep
+
+    results = sweep.load_results(folder)
+    bad = results[results["status"] != "ok"]
+    return [f"{r.controller}, sample {r.sample}" for r in bad.itertuples()]
+
+
+def _say_warnings(warned: list[tuple[str, list[str], list[str]]], progress: bool) -> None:
+    """One terminal line for what the tasks warned, where the report names it."""
+    count = sum(len(lines) for _, lines, _ in warned)
+    if count and progress:
+        runs = sum(len(r) for _, lines, r in warned if lines)
+        print(
+            f"{count} warnings from the runs (expected where a run is driven past its "
+            f"stability limit; {runs} runs stopped as diverged): recorded in report.md, "
+            '"Warnings the runs raised"',
+            file=sys.stderr,
+        )
+
+
 def _advance(bar: Any, n: int, _future: Any) -> None:
     bar.update(n)  # from the pool's thread, as a batch of runs finishes
 
@@ -507,7 +532,7 @@ def _reproduce(
     from twolink.studies.designs.design import design_or_load
     from twolink.studies.designs.gains import report_section
     from twolink.studies.designs.search import search_closing
-    from twolink.studies.reproduction import report
+    from twolink.studies.reproduction import answer, report
     from twolink.studies.reproduction.report_sections import design_section, oscillation_section
 
     phase = _Phases(progress, 4)
@@ -519,15 +544,18 @@ def _reproduce(
         # The flexible-joint studies first: they need nothing of the design (their FCM-CTC
         # is the shipped designed rule base), so the workers start while it runs here.
         study = (
-            pool.submit(flexible_study, manifest.flexible_study, out)
+            pool.submit(quietly, flexible_study, manifest.flexible_study, out)
             if manifest.flexible_study is not None
             else None
         )
         mismatched = (
-            pool.submit(flexible_study, manifest.flexible_study, out, manifest.flexible_model_error)
+            pool.submit(
+                quietly, flexible_study, manifest.flexible_study, out, manifest.flexible_model_error
+            )
             if manifest.flexible_model_error
             else None
         )
+        warned: list[tuple[str, list[str], list[str]]] = []  # per task: its warnings, runs
         phase("design: the FCM rule base (reused when its inputs are unchanged)")
         result, designed = design_or_load(config, out / "design")
         rule_base = out / "design" / "rule_base.toml"
@@ -572,8 +600,20 @@ def _reproduce(
             if manifest.claims_study is not None:
                 claims, claim_tables = run_claims(manifest, out, pool, progress)
             for fut in as_completed(pending):
-                for i, row in zip(pending[fut], fut.result(), strict=True):
+                batch, lines = fut.result()
+                for i, row in zip(pending[fut], batch, strict=True):
                     rows[i] = row
+                stopped = [
+                    specs[i].folder
+                    for i, r in zip(pending[fut], batch, strict=True)
+                    if r["status"] != "ok"
+                ]
+                warned.append((f"runs batch of {len(batch)}", lines, stopped))
+        summary: list[str] = []
+        if claim_tables:  # the answer at a glance: summary.md and its figures
+            judged = answer.judged(manifest, claim_tables)
+            draw(answer.answer_figures, out, judged, manifest.proposed)
+            summary = answer.write_summary(out, manifest, judged)
         # The combined recording first (the longest task left), beside the figures.
         phase(
             "figures: responses, phase plane, membership functions, control surfaces"
@@ -617,10 +657,13 @@ def _reproduce(
             calibrated = calibration_report.table_values(shipped)
         validity = design_evidence.result()
         sections += design_section(result, specs, scenarios, rows, validity)
-        if study is not None:
-            sections += study.result()
-        if mismatched is not None:
-            sections += mismatched.result()
+        for name, fut in (("flexible_study", study), ("flexible_study_error", mismatched)):
+            if fut is not None:
+                more, lines = fut.result()
+                sections += more
+                warned.append((f"{name}/", lines, _stopped(out / name)))
+        sections += warnings_section(warned)
+        _say_warnings(warned, progress)
         for fut in drawing:
             fut.result()
     phase("report: report.md, metrics.csv, metrics.json")
@@ -636,6 +679,7 @@ def _reproduce(
             calibrated=calibrated,
             claims_tables=claim_tables,
             closing=search_closing(out),
+            summary=summary,
         ),
     )
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))

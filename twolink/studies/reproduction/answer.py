@@ -1,0 +1,81 @@
+"""The reproduction's answer at a glance: its claims studies as :class:`Judged` regimes,
+summary.md, and the answer and profile figures (a task of the pool: the main process never
+draws). The text is :mod:`twolink.studies.reproduction.summary`'s, the drawing
+:mod:`twolink.figures.answer`'s, the profiles :mod:`twolink.studies.reproduction.profiles`'."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from twolink.simulation.vocabulary import CLAIMED_BETTER, metric
+from twolink.studies.reproduction.manifest import Manifest
+from twolink.studies.reproduction.summary import (
+    ANSWER_FIGURE,
+    PROFILES_FIGURE,
+    Judged,
+    summary,
+)
+
+__all__ = ["answer_figures", "judged", "question", "write_summary"]
+
+
+def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
+    """Each claims study (:class:`twolink.studies.judgments.conclusions.ClaimsStudy`, in
+    :func:`twolink.studies.judgments.claims_studies.run_claims`' order: the claims sweep,
+    then each raw-steps variant) with its files: ``claims[_V].csv`` against the baseline,
+    ``claims_matched[_V].csv`` against the other opponent, ``claims_study[_V]/``."""
+    suffixes = ["", *(f"_{v.name}" for v in manifest.variants if v.raw_steps)]
+    out = []
+    for study, suffix in zip(studies, suffixes, strict=True):
+        files = {
+            name: (f"claims{'' if name == study.baseline else '_matched'}{suffix}.csv", t)
+            for name, t in study.claims.items()
+        }
+        out.append(
+            Judged(study.label, study.plants, study.proposed, files, f"claims_study{suffix}")
+        )
+    return out
+
+
+def question(manifest: Manifest) -> str:
+    symbols = ", ".join(metric(k).symbol for k in CLAIMED_BETTER)
+    return f"the paper's step metrics ({symbols}, on each joint)"
+
+
+def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> list[str]:
+    """summary.md in ``out``; returns its lines (the report's first section)."""
+    from twolink.foundation.io import atomic_write_text
+    from twolink.studies.designs.frontier import OPPONENT
+
+    what = {
+        manifest.baseline: "the paper's baseline",
+        OPPONENT: f"the best linear loop at {manifest.proposed}'s effort (docs/reproduction.md)",
+    }
+    names = dict.fromkeys(n for s in studies for n in s.tables)
+    opponents = {n: what.get(n, "an opponent of the manifest") for n in names}
+    text = summary(studies, opponents, question(manifest))
+    atomic_write_text(out / "summary.md", text)
+    return text.splitlines()
+
+
+def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:
+    """figures/answer.png (the claims tables as a forest plot) and figures/profiles.png
+    (each sweep's performance profiles on IAE and Σ|Δτ|), a worker task."""
+    from twolink.figures import answer, plots
+    from twolink.studies.reproduction.profiles import PROFILE_COSTS, costs, performance_profile
+    from twolink.sweep import load_results
+
+    plants = ", ".join(sorted({str(s.plants) for s in studies}))
+    title = f"Does {proposed} lower the paper's step metrics? {plants} plants per panel"
+    tables = [(s.label, {n: t for n, (_, t) in s.tables.items()}) for s in studies]
+    plots.save_figure(answer.answer_figure(tables, proposed, title), out / ANSWER_FIGURE)
+    profiles = []
+    for s in studies:
+        results = load_results(out / s.sweep)
+        for key in PROFILE_COSTS:
+            m = metric(key)
+            label = f"{s.label}:\n{m.label} (θ1 + θ2)"
+            profiles.append((label, performance_profile(costs(results, key))))
+    plots.save_figure(answer.profiles_figure(profiles), out / PROFILES_FIGURE)

@@ -1,0 +1,124 @@
+"""``summary.md``: the question, the answer in plain sentences, the answer figure, and where
+each number comes from. Written from the claims tables by code (the report's first section
+and the README's conclusions block), every term defined before it is used.
+
+Verdicts are the tables' own words (``verdict`` column), counted as they come: a new word
+in the tables is a new group here, not an error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["ANSWER_FIGURE", "PROFILES_FIGURE", "MAX_WORDS", "Judged", "answer", "summary"]
+
+ANSWER_FIGURE = "figures/answer.png"
+PROFILES_FIGURE = "figures/profiles.png"
+MAX_WORDS = 150  # the answer's words: read in a minute
+
+
+@dataclass(frozen=True)
+class Judged:
+    """One regime's claims: its label, plants, the proposed controller, per opponent the
+    claims table's file name and the table (docs/statistics.md's columns), and the sweep's
+    folder (its per-plant ``results.parquet``)."""
+
+    label: str
+    plants: int
+    proposed: str
+    tables: Mapping[str, tuple[str, pd.DataFrame]]
+    sweep: str = ""
+
+
+def _number(x: float) -> str:
+    return f"{x:+.2g}" if abs(x) < 10 else f"{x:+.0f}"
+
+
+def _size(rows: pd.DataFrame) -> str:
+    """A verdict's size, in tolerances: "typical shift +1.6 to +7.7 tolerances"; rows inside
+    the band say how equal instead, their 95 % intervals' largest bound; "" where no row
+    has an estimate."""
+    shift = (rows["estimate"] / rows["tolerance"]).to_numpy(float)
+    bound = (rows[["ci_low", "ci_high"]].abs().max(axis=1) / rows["tolerance"]).to_numpy(float)
+    if not np.isfinite(shift).any():
+        return ""
+    lo, hi = np.nanmin(shift), np.nanmax(shift)
+    if np.nanmax(bound) == 0:
+        return "typical shift exactly 0"
+    if np.nanmax(np.abs(shift)) <= 1:  # inside the band: how far inside
+        return f"intervals within {np.nanmax(bound):.2g} tolerance"
+    return (
+        f"typical shift {_number(lo) if lo == hi else f'{_number(lo)} to {_number(hi)}'} tolerances"
+    )
+
+
+SIZED = 2  # verdicts per sentence given with their size (the rest: their count; the figure)
+
+
+def sentence(study: Judged, opponent: str, table: pd.DataFrame) -> str:
+    """One plain sentence per regime and opponent: every verdict word of the table with its
+    count, the most frequent first; the :data:`SIZED` most frequent that have an estimate
+    also with their size (:func:`_size`), which keeps four tables within :data:`MAX_WORDS`."""
+    words = table["verdict"].map(lambda v: v if isinstance(v, str) else "undefined")
+    groups = sorted(table.groupby(words, sort=False), key=lambda g: -len(g[1]))
+    parts, sized = [], 0
+    for verdict, rows in groups:
+        size = _size(rows) if sized < SIZED else ""
+        sized += bool(size)
+        parts.append(f"{len(rows)} {verdict}" + (f" ({size})" if size else ""))
+    listed = ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1]
+    return (
+        f"Against {opponent} on {study.label} ({study.plants} plants, {len(table)} rows): {listed}."
+    )
+
+
+def answer(studies: Sequence[Judged]) -> list[str]:
+    """The answer's sentences: per regime and opponent, in the tables' order."""
+    return [sentence(s, opp, table) for s in studies for opp, (_, table) in s.tables.items()]
+
+
+def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: str) -> str:
+    """summary.md: the question, its terms, the answer (at most :data:`MAX_WORDS` words,
+    checked by the tests), the figures, and each number's source (file and column).
+    ``opponents``: opponent -> what it is; ``metrics``: the claim's metrics in words."""
+    proposed = studies[0].proposed
+    rows = len(next(iter(studies[0].tables.values()))[1])
+    lines = [
+        "## The answer at a glance",
+        "",
+        f"**The question.** The paper claims {proposed} lowers {metrics} against its "
+        f"opponents. Does it, on plants that differ from the controllers' model?",
+        "",
+        "**Terms.** A *row* is one joint and metric "
+        f"({rows} per table). A metric's *tolerance* is the smallest difference that matters "
+        "(docs/statistics.md). The *typical shift* is the typical plant's difference "
+        f"{proposed} − opponent (Hodges-Lehmann), in tolerances; negative is better. "
+        "*better* / *worse*: its 95 % interval lies beyond one tolerance; *equivalent*: "
+        "within it; *inconclusive*: neither. The opponents: "
+        + "; ".join(f"*{name}*, {what}" for name, what in opponents.items())
+        + ".",
+        "",
+        "**The answer.**",
+        "",
+        *(f"- {s}" for s in answer(studies)),
+        "",
+        f"![The answer: typical shift and shares per row]({ANSWER_FIGURE})",
+        "",
+        f"![Performance profiles of every controller]({PROFILES_FIGURE})",
+        "",
+        "**Where the numbers come from.** Per row, the columns `verdict`, `estimate`, "
+        "`tolerance`, `ci_low`, `ci_high`, `share_better`, `share_worse` of "
+        + ", ".join(
+            f"`{file}` ({opp}{', ' + s.sweep if s.sweep else ''})"
+            for s in studies
+            for opp, (file, _) in s.tables.items()
+        )
+        + "; the profiles: `joint1_<metric>` + `joint2_<metric>` of each sweep folder's "
+        "`results.parquet` (Dolan & Moré 2002: the share of plants on which a controller's "
+        "cost is within τ times the best's).",
+    ]
+    return "\n".join(lines) + "\n"
