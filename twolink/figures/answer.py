@@ -34,8 +34,8 @@ def answer_figure(
 ) -> Figure:
     """Per study (its label, and opponent -> claims table) one row of panels: left, each
     joint and metric's typical shift (Hodges-Lehmann estimate, ``proposed`` − opponent)
-    with its 95 % interval, in tolerances, against the ±1 tolerance band; middle, the
-    shares of plants practically better (left) and worse (right) with their intervals;
+    with its printed interval (at 1 − 5 %/m over a table's m rows), in tolerances, against
+    the ±1 tolerance band; middle, the shares of plants practically better (left) and worse (right) with their intervals;
     right, each opponent's verdict."""
     rows = max(len(next(iter(t.values()))) for _, t in studies)
     fig, axes = plt.subplots(

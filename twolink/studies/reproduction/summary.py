@@ -40,7 +40,7 @@ def _number(x: float) -> str:
 
 def _size(rows: pd.DataFrame) -> str:
     """A verdict's size, in tolerances: "typical shift +1.6 to +7.7 tolerances"; rows inside
-    the band say how equal instead, their 95 % intervals' largest bound; "" where no row
+    the band say how equal instead, their intervals' largest bound; "" where no row
     has an estimate."""
     shift = (rows["estimate"] / rows["tolerance"]).to_numpy(float)
     bound = (rows[["ci_low", "ci_high"]].abs().max(axis=1) / rows["tolerance"]).to_numpy(float)
@@ -97,8 +97,10 @@ def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: st
         f"({rows} per table). A metric's *tolerance* is the smallest difference that matters "
         "(docs/statistics.md). The *typical shift* is the typical plant's difference "
         f"{proposed} − opponent (Hodges-Lehmann), in tolerances; negative is better. "
-        "*better* / *worse*: its 95 % interval lies beyond one tolerance; *equivalent*: "
-        "within it; *inconclusive*: neither. The opponents: "
+        "*better* / *worse*: its interval (at 1 − 5 %/m over a table's m rows) lies beyond "
+        "one tolerance; *equivalent*: within it, with at most 10 % of plants beyond it on "
+        "either side; *split*: within it, with more beyond on a side; *inconclusive*: "
+        "neither. The opponents: "
         + "; ".join(f"*{name}*, {what}" for name, what in opponents.items())
         + ".",
         "",
