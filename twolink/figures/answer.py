@@ -35,8 +35,8 @@ def answer_figure(
     """Per study (its label, and opponent -> claims table) one row of panels: left, each
     joint and metric's typical shift (Hodges-Lehmann estimate, ``proposed`` − opponent)
     with its printed interval (at 1 − 5 %/m over a table's m rows), in tolerances, against
-    the ±1 tolerance band; middle, the shares of plants practically better (left) and worse (right) with their intervals;
-    right, each opponent's verdict."""
+    the ±1 tolerance band; middle, the shares of plants practically better (left) and
+    worse (right) with their intervals; right, each opponent's verdict."""
     rows = max(len(next(iter(t.values()))) for _, t in studies)
     fig, axes = plt.subplots(
         len(studies), 3, figsize=(8.2, 1.15 + len(studies) * (0.62 + 0.27 * rows)),
