@@ -37,7 +37,7 @@ def answer_figure(
     with its printed interval (at 1 − 5 %/m over a table's m rows), in tolerances, against
     the ±1 tolerance band; middle, the shares of plants practically better (left) and
     worse (right) with their intervals; right, each opponent's verdict."""
-    rows = max(len(next(iter(t.values()))) for _, t in studies)
+    rows = max(len(_rows(tables)) for _, tables in studies)
     fig, axes = plt.subplots(
         len(studies), 3, figsize=(8.2, 1.15 + len(studies) * (0.62 + 0.27 * rows)),
         gridspec_kw={"width_ratios": (3.2, 2.2, 1.6)}, squeeze=False,
@@ -58,9 +58,17 @@ def answer_figure(
     return fig
 
 
+def _rows(tables: Mapping[str, pd.DataFrame]) -> list[tuple[int, str]]:
+    """Every (joint, metric) of the tables, in the order they first appear (an opponent
+    may be judged on more rows: CTC-best on the effort too)."""
+    keys: dict[tuple[int, str], None] = {}
+    for table in tables.values():
+        keys.update(dict.fromkeys(zip(table["joint"], table["metric"], strict=True)))
+    return list(keys)
+
+
 def _study_row(label, tables, styles, shift, shares, words, proposed) -> None:
-    first = next(iter(tables.values()))
-    keys = list(zip(first["joint"], first["metric"], strict=True))
+    keys = _rows(tables)
     y0 = np.arange(len(keys))[::-1].astype(float)
     shift.axvspan(-1, 1, color=BAND_COLOUR, zorder=0)
     shift.axvline(0, color="0.5", lw=0.8)

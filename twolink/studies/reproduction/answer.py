@@ -51,7 +51,9 @@ def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> l
 
     what = {
         manifest.baseline: "the paper's baseline",
-        OPPONENT: f"the best linear loop at {manifest.proposed}'s effort (docs/reproduction.md)",
+        OPPONENT: f"CTC tuned per joint by search, the best within {manifest.proposed}'s "
+        "effort on its training plants and on these (docs/reproduction.md); its rows "
+        "include the effort, peak |τ| and Σ|Δτ|",
     }
     names = dict.fromkeys(n for s in studies for n in s.tables)
     opponents = {n: what.get(n, "an opponent of the manifest") for n in names}

@@ -86,17 +86,16 @@ def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: st
     checked by the tests), the figures, and each number's source (file and column).
     ``opponents``: opponent -> what it is; ``metrics``: the claim's metrics in words."""
     proposed = studies[0].proposed
-    rows = len(next(iter(studies[0].tables.values()))[1])
     lines = [
         "## The answer at a glance",
         "",
         f"**The question.** The paper claims {proposed} lowers {metrics} against its "
         f"opponents. Does it, on plants that differ from the controllers' model?",
         "",
-        "**Terms.** A *row* is one joint and metric "
-        f"({rows} per table). A metric's *tolerance* is the smallest difference that matters "
-        "(docs/statistics.md). The *typical shift* is the typical plant's difference "
-        f"{proposed} − opponent (Hodges-Lehmann), in tolerances; negative is better. "
+        "**Terms.** A *row* is one joint and metric. A metric's *tolerance* is the smallest "
+        "difference that matters (docs/statistics.md). The *typical shift* is the typical "
+        f"plant's difference {proposed} − opponent (Hodges-Lehmann), in tolerances; "
+        "negative is better. "
         "*better* / *worse*: its interval (at 1 − 5 %/m over a table's m rows) lies beyond "
         "one tolerance; *equivalent*: within it, with at most 10 % of plants beyond it on "
         "either side; *split*: within it, with more beyond on a side; *inconclusive*: "
