@@ -7,7 +7,8 @@ through :mod:`importlib.resources`, never through the source tree: twolink reads
 files installed from a wheel as from its clone.
 
 A shipped file is named by its path under the shipped runs without the extension
-(``paper/theta1_step``, ``sweeps/robustness``); a real path always wins (:func:`locate`).
+(``paper/theta1_step``, ``sweeps/robustness``); a local file always wins, with or without
+its extension, and a name with ``..`` never reaches outside them (:func:`locate`).
 The ``--install`` options rewrite shipped files: that needs the clone they live in
 (:func:`install_target`); a wheel's copy in site-packages is not twolink's to edit.
 """
@@ -67,12 +68,20 @@ def shipped_names() -> list[str]:
 
 
 def locate(path: str | Path, suffix: str = SUFFIX) -> Path:
-    """The file ``path`` names: itself where it exists (a real path wins), else the
-    shipped file of that name (``paper/theta1_step`` is ``<runs>/paper/theta1_step.toml``;
-    the extension and a leading ``runs/`` may be given too, as the clone's paths read),
-    else ``path`` unchanged, for the caller's own "no such file" error."""
+    """The file ``path`` names: itself where it exists, or itself with the extension (a
+    local file always wins: ``paper/theta1_step`` in a folder holding your own
+    ``paper/theta1_step.toml`` is yours), else the shipped file of that name
+    (``paper/theta1_step`` is ``<runs>/paper/theta1_step.toml``; the extension and a
+    leading ``runs/`` may be given too, as the clone's paths read; a name with ``..`` is
+    never a shipped one), else ``path`` unchanged, for the caller's own "no such file"
+    error."""
     path = Path(path)
     if path.exists() or path.is_absolute():
+        return path
+    local = path.with_name(path.name + suffix) if path.name else path
+    if local.exists():  # your paper/theta1_step.toml, named as the shipped one would be
+        return local
+    if ".." in path.parts:  # a shipped name never leaves the shipped files
         return path
     name = path.as_posix()
     names = [name, name.removeprefix("runs/")]

@@ -1,0 +1,84 @@
+"""Input faults of issue 49 (the independent audit), each a case that failed on main:
+an ``extends`` through a pure loop of links, a parquet table nested past the recursion
+limit, ``engine = "table"`` with ``inference = "continuous"``, a shipped name with ``..``,
+a local file shadowed by the shipped one of its name. Each: one line naming the file
+(and key), exit 2, no traceback."""
+
+from __future__ import annotations
+
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+from cli_inputs import QUICK, STEP, invoke, one_error_line
+
+from twolink.foundation.shipped import locate, runs_dir
+from twolink.simulation.config import ConfigError, load_scenario
+from twolink.sweep.results import load_results
+
+
+def test_extends_through_a_pure_loop_of_links_is_one_line_naming_the_loop(tmp_path):
+    # l1 -> l2 -> l1: neither resolves (the existing test's link ends at a real file)
+    (tmp_path / "l1.toml").symlink_to("l2.toml")
+    (tmp_path / "l2.toml").symlink_to("l1.toml")
+    (tmp_path / "s.toml").write_text('extends = "l1.toml"\n')
+    for scenario, words in (
+        ("s.toml", "s.toml: extends: "),
+        ("l1.toml", ""),
+    ):
+        result = invoke("run", tmp_path / scenario, "--out", tmp_path / "o", *QUICK)
+        assert result.exit_code == 2, result.output
+        one_error_line(result)
+        assert f"{words}{tmp_path / 'l1.toml'}: a loop of symbolic links" in result.output
+        assert not (tmp_path / "o").exists()
+
+
+def test_a_table_nested_past_the_recursion_limit_is_a_value_error_naming_it(tmp_path):
+    # pandas reads a parquet file's attrs with json.loads: 100,000 brackets deep
+    table = pa.table({"a": [1]}).replace_schema_metadata(
+        {b"PANDAS_ATTRS": b"[" * 100_000 + b"]" * 100_000}
+    )
+    pq.write_table(table, tmp_path / "results.parquet")
+    with pytest.raises(ValueError, match=r"results.parquet: not a table twolink wrote \(nested"):
+        load_results(tmp_path)
+
+
+def test_a_table_of_the_continuous_inference_is_refused_naming_both_keys(tmp_path):
+    f = tmp_path / "x.toml"
+    base = f'extends = "{STEP.as_posix()}"\n[controller]\nkind = "fcm_ctc"\n'
+    f.write_text(base + 'fuzzy = { engine = "table", inference = "continuous" }\n')
+    with pytest.raises(ConfigError) as err:
+        load_scenario(f)
+    message = str(err.value)
+    assert message.startswith(f"{f}: controller.fuzzy.engine: ")
+    assert 'inference = "continuous"' in message and "\n" not in message
+    for fuzzy in ('engine = "table"', 'inference = "continuous"'):  # each alone is fine
+        f.write_text(base + f"fuzzy = {{ {fuzzy} }}\n")
+        load_scenario(f)
+    f.write_text(base + 'fuzzy = { engine = "table", inference = "continuous" }\n')
+    result = invoke("run", f, "--out", tmp_path / "o", *QUICK)
+    assert result.exit_code == 2
+    one_error_line(result)
+
+
+def test_a_shipped_name_never_reaches_outside_the_shipped_files(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    # on main, runs/../pyproject was the clone's pyproject.toml
+    assert not locate("../pyproject").is_absolute()
+    assert not locate("paper/../../pyproject").is_absolute()
+    assert locate("paper/theta1_step") == runs_dir() / "paper" / "theta1_step.toml"
+    result = invoke("run", "../pyproject", "--out", tmp_path / "o", *QUICK)
+    assert result.exit_code == 2 and "no such file" in result.output, result.output
+    one_error_line(result)
+
+
+def test_a_local_file_wins_over_the_shipped_one_of_its_name(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    mine = tmp_path / "paper" / "theta1_step.toml"
+    mine.parent.mkdir()
+    mine.write_text(f'extends = "{STEP.as_posix()}"\nduration = 0.05\n')
+    for name in ("paper/theta1_step", "paper/theta1_step.toml"):
+        assert locate(name).resolve() == mine
+    assert load_scenario("paper/theta1_step").duration == 0.05
+    assert load_scenario(STEP).duration != 0.05
+    mine.unlink()
+    assert locate("paper/theta1_step") == runs_dir() / "paper" / "theta1_step.toml"
