@@ -205,3 +205,65 @@ def test_the_dsigmf_cases_put_f2_above_f1():
             f2 = np.array([_sig(p[2], p[3], v) for v in x])
             above += (f2 - f1).max() > 0.3
     assert above == 3
+
+
+# ----------------------------------------------------------------------------- bounds
+
+
+def _many_rules(count: int) -> str:
+    text = (DATA / "tipper.fis").read_text()
+    head = text[: text.index("[Rules]")]
+    return head + "[Rules]\n" + "1 1, 1 (1) : 1\n" * count
+
+
+def test_more_rules_than_the_bound_are_refused_with_the_limit(tmp_path):
+    from twolink.controllers.fuzzy.fis.matlab import MAX_RULES
+
+    path = tmp_path / "many.fis"
+    path.write_text(_many_rules(MAX_RULES + 1))
+    message = _refusal(read_fis, path)
+    assert message == (
+        f"{path}: [Rules]: 10,001 rules > 10,000, the most whose exact evaluation of one "
+        "input fits in 100 MiB (about 10 KiB a rule)"
+    )
+    path.write_text(_many_rules(MAX_RULES))
+    assert len(read_fis(path).rules) == MAX_RULES
+
+
+def test_the_exact_blocks_shrink_with_the_rules_to_stay_in_their_memory():
+    from twolink.controllers.fuzzy.fis import exact
+
+    assert exact.block_inputs(3) == 32
+    assert exact.block_inputs(60_000) == 1  # on main: 32 inputs x 60,000 rules, ~19 GiB
+    for rules in (3, 100, 400, 800, 5_000, 10_000):
+        k = exact.block_inputs(rules)
+        assert k == 32 or k * rules * exact.RULE_INPUT_BYTES <= exact.EXACT_BLOCK_BYTES
+
+
+def test_evaluate_works_in_blocks_with_the_same_result_and_bounded_memory(monkeypatch):
+    import tracemalloc
+
+    from twolink.controllers.fuzzy.fis import matlab
+
+    fis = read_fis(DATA / "tipper.fis")
+    x = np.random.default_rng(0).uniform(0, 10, (200_000, 2))
+    tracemalloc.start()
+    whole = fis.evaluate(x, sampled=True)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    # the inputs (3.2 MB) and outputs are the caller's; one block's firing and aggregate
+    # are under 64 MiB (on main: 200,000 x 101 samples x 8 bytes, several copies: ~0.6 GB)
+    assert peak < 100 * 2**20, peak / 2**20
+    exact = fis.evaluate(x[:40])  # in one block
+    monkeypatch.setattr(matlab, "EVALUATE_BLOCK_BYTES", 32 * 200)  # blocks of ~1 input
+    np.testing.assert_array_equal(fis.evaluate(x[:500], sampled=True), whole[:500])
+    np.testing.assert_array_equal(fis.evaluate(x[:40]), exact)
+
+
+def test_points_and_inputs_past_their_bounds_are_refused_with_the_limit():
+    fis = read_fis(DATA / "tipper.fis")
+    with pytest.raises(ValueError, match=r"tipper.fis: points: 1,000,001 > 1,000,000, the most"):
+        fis.evaluate(np.zeros((1, 2)), sampled=True, points=1_000_001)
+    huge = np.broadcast_to(np.zeros((1, 2)), (100_000_001, 2))  # a view: no memory
+    with pytest.raises(ValueError, match=r"tipper.fis: 100,000,001 inputs > 100,000,000, the"):
+        fis.evaluate(huge)

@@ -82,3 +82,21 @@ def test_a_local_file_wins_over_the_shipped_one_of_its_name(tmp_path, monkeypatc
     assert load_scenario(STEP).duration != 0.05
     mine.unlink()
     assert locate("paper/theta1_step") == runs_dir() / "paper" / "theta1_step.toml"
+
+
+@pytest.mark.parametrize(
+    "args, key",
+    [
+        (["compare", "paper/theta1_step", "FCM-CTC", "CTC", "-n", "1000000000"], "-n/--plants"),
+        (["gains", "--set", "plants=1000000000"], "plants"),
+    ],
+    ids=["compare", "gains"],
+)
+def test_more_plants_than_a_sweep_holds_are_one_line_before_any_work(tmp_path, args, key):
+    out = tmp_path / "o"
+    result = invoke(*args, "--out", out)
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert f"{key}: at most 1,000,000, the most a sweep holds" in result.output
+    assert "got 1,000,000,000" in result.output
+    assert not out.exists()  # on main compare wrote compare.toml there first

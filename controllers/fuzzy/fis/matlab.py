@@ -56,6 +56,16 @@ AGG_METHODS = ("max", "sum", "probor")
 MAMDANI_DEFUZZ = ("centroid", "bisector", "mom", "som", "lom")
 SUGENO_DEFUZZ = ("wtaver", "wtsum")
 DEFAULT_POINTS = 101  # evalfis's NumSamplePoints
+# Bounds by memory (docs/fuzzy.md, "Any MATLAB FIS"): rules so that the exact mode's one
+# input fits in 100 MiB (about 10 KiB a rule: exact.RULE_INPUT_BYTES); the Toolbox's
+# sample points so that one sampled input's aggregate (points x rules) fits in 80 MiB;
+# inputs per call: 10^8, ~10 min sampled at the measured ~6 us an input (tipper.fis; the
+# exact mode 0.7-4 ms an input: far longer), 1.6 GB of two inputs;
+# evaluate works through them in blocks of EVALUATE_BLOCK_BYTES of firing and aggregate
+MAX_RULES = 10_000
+MAX_POINTS = 1_000_000
+MAX_INPUTS_PER_CALL = 100_000_000
+EVALUATE_BLOCK_BYTES = 64 << 20
 
 
 def _sig(x: np.ndarray, a: float, c: float) -> np.ndarray:
@@ -228,6 +238,11 @@ class Fis:
             raise ValueError(
                 f"{self.source}: evaluate takes (n, {len(self.inputs)}) inputs, got {x.shape}"
             )
+        if x.shape[0] > MAX_INPUTS_PER_CALL:
+            raise ValueError(
+                f"{self.source}: {x.shape[0]:,} inputs > {MAX_INPUTS_PER_CALL:,}, the most "
+                "one call evaluates (~10 min sampled at ~6 us an input, far longer exact)"
+            )
         if np.isnan(x).any():
             raise ValueError(f"{self.source}: inputs contain NaN")
         return x
@@ -273,9 +288,26 @@ class Fis:
         either way. Where the total firing strength is 0 every output is the middle of
         its range, as in the Toolbox; so is a Mamdani output whose aggregate has no area.
         """
+        x = self._inputs(x)
+        if sampled and (isinstance(points, bool) or not isinstance(points, int) or points < 2):
+            raise ValueError(f"points must be an integer >= 2, got {points!r}")
+        if sampled and points > MAX_POINTS:
+            raise ValueError(
+                f"{self.source}: points: {points:,} > {MAX_POINTS:,}, the most whose "
+                f"aggregate of one input fits in 80 MiB with few rules"
+            )
+        # blocks of inputs: the firing strengths (n, rules) and a sampled aggregate
+        # (n, points) of a block stay under EVALUATE_BLOCK_BYTES (8 bytes, ~4 copies)
+        width = len(self.rules) + (points if sampled else 0) + 1
+        block = max(1, EVALUATE_BLOCK_BYTES // (32 * width))
+        out = np.empty((x.shape[0], len(self.outputs)))
+        for s in range(0, x.shape[0], block):
+            out[s : s + block] = self._evaluate_block(x[s : s + block], sampled, points)
+        return out
+
+    def _evaluate_block(self, x: np.ndarray, sampled: bool, points: int) -> np.ndarray:
         from twolink.controllers.fuzzy.fis import exact as matlab_exact
 
-        x = self._inputs(x)
         w = self.firing(x)
         out = np.empty((x.shape[0], len(self.outputs)))
         fired = w.sum(axis=1) > 0  # the Toolbox's test: the sum of the firing strengths
@@ -291,8 +323,6 @@ class Fis:
                 else:
                     val = num
             elif sampled:
-                if isinstance(points, bool) or not isinstance(points, int) or points < 2:
-                    raise ValueError(f"points must be an integer >= 2, got {points!r}")
                 val = matlab_exact.sampled_defuzz(self, m, w, cons, points)
             else:
                 val = matlab_exact.exact_defuzz(self, m, w, cons)
@@ -410,6 +440,11 @@ def _parse(text: str, source: str) -> Fis:
     )
     if not inputs or not outputs:
         raise ValueError(f"{source}: needs at least one input and one output")
+    if len(rules) > MAX_RULES:
+        raise ValueError(
+            f"{source}: [Rules]: {len(rules):,} rules > {MAX_RULES:,}, the most whose exact "
+            "evaluation of one input fits in 100 MiB (about 10 KiB a rule)"
+        )
     connections = {r.connection for r in rules}
 
     def method(key: str, allowed: tuple[str, ...], default: str, used: bool = True) -> str:
