@@ -100,3 +100,33 @@ def test_more_plants_than_a_sweep_holds_are_one_line_before_any_work(tmp_path, a
     assert f"{key}: at most 1,000,000, the most a sweep holds" in result.output
     assert "got 1,000,000,000" in result.output
     assert not out.exists()  # on main compare wrote compare.toml there first
+
+
+@pytest.mark.parametrize(
+    "command, setting, words",
+    [
+        ("search", "popsize=1000000000", "search.toml: popsize: 13,000,000,000,000 runs"),
+        ("search", "maxiter=1000000000", "> 10,000,000, about 4 days at the fastest"),
+        ("calibrate", "popsize=1000000000", "calibrate.toml: popsize: 12,792,000,092,064,000"),
+        ("calibrate", "timestep=1e-6", "arm steps (the arms popsize"),
+    ],
+)
+def test_search_and_calibration_budgets_are_bounded_by_their_time(
+    tmp_path, command, setting, words
+):
+    # on main: 4.55 TiB asked of numpy (search popsize), or days of runs started
+    out = tmp_path / "o"
+    result = invoke(command, "--set", setting, "--out", out)
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert words in result.output and not out.exists()
+
+
+def test_the_shipped_budgets_are_far_inside_the_bounds():
+    from twolink.studies.designs import calibrate, search
+
+    study = calibrate.load_calibration(calibrate.DEFAULT_STUDY)
+    steps = calibrate.n_runs(study) * round(study.duration / study.timestep)
+    assert steps == 156_024_000 < calibrate.MAX_CALIBRATION_STEPS / 100
+    spec = search.load_spec(search.DEFAULT_SPEC)
+    assert search.search_runs(spec) < search.MAX_SEARCH_RUNS / 100
