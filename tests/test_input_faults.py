@@ -6,6 +6,7 @@ a local file shadowed by the shipped one of its name. Each: one line naming the 
 
 from __future__ import annotations
 
+import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
@@ -130,3 +131,26 @@ def test_the_shipped_budgets_are_far_inside_the_bounds():
     assert steps == 156_024_000 < calibrate.MAX_CALIBRATION_STEPS / 100
     spec = search.load_spec(search.DEFAULT_SPEC)
     assert search.search_runs(spec) < search.MAX_SEARCH_RUNS / 100
+
+
+def test_coverage_of_a_1001_grid_holds_its_firing_a_block_at_a_time():
+    import tracemalloc
+
+    from twolink.controllers.fuzzy import paper_fuzzy_pd
+    from twolink.controllers.fuzzy.coverage import coverage, uncovered_fraction
+
+    engine = paper_fuzzy_pd()
+    tracemalloc.start()
+    result = coverage(engine, grid=1001)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    # on main the whole grid's firing at once: 334 MiB here, 954 MB for the command;
+    # now ~37 MiB (the grid itself is 16 MB)
+    assert peak < 64 * 2**20, peak / 2**20
+    # the same share as the firing of the whole grid at once (a 201 grid: cheap)
+    e = np.linspace(engine.e.universe[0], engine.e.universe[-1], 201)
+    d = np.linspace(engine.de.universe[0], engine.de.universe[-1], 201)
+    grid_e, grid_d = np.meshgrid(e, d)
+    whole = float(np.mean(engine.firing(grid_e, grid_d).sum(axis=-1) <= 0))
+    assert uncovered_fraction(engine, 201) == whole
+    assert 0.69 < result.grid_fraction < 0.70
