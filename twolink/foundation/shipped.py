@@ -16,16 +16,19 @@ The ``--install`` options rewrite shipped files: that needs the clone they live 
 from __future__ import annotations
 
 import difflib
+import errno
 from importlib.resources import files
 from pathlib import Path
 
 __all__ = [
+    "LinkLoop",
     "NotAClone",
     "clone_root",
     "install_target",
     "locate",
     "locate_beside",
     "models_dir",
+    "refuse_link_loop",
     "rulebases_dir",
     "runs_dir",
     "shipped_hint",
@@ -99,10 +102,27 @@ def locate_beside(folder: Path, name: str, suffix: str = SUFFIX) -> Path:
     that name (a user's own file in any folder can ``extends = "paper/theta1_step"``),
     else ``folder / name`` for the caller's error."""
     beside = Path(folder) / name
+    refuse_link_loop(beside)
     if beside.exists() or Path(name).is_absolute():
         return beside
     found = locate(name, suffix)
     return found if found.is_absolute() and found.is_file() else beside
+
+
+class LinkLoop(OSError):
+    """A path that is a loop of symbolic links (l1 -> l2 -> l1)."""
+
+
+def refuse_link_loop(path: Path) -> None:
+    """:class:`LinkLoop` (an OSError, one line naming ``path``) where ``path`` is a loop
+    of symbolic links: pathlib's ``resolve()`` raises RuntimeError there and ``exists()``
+    says False, so a reader would print a traceback or "no such file". A missing or
+    unreadable path is left to the reader's own error."""
+    try:
+        Path(path).resolve(strict=True)
+    except (RuntimeError, OSError) as exc:  # OSError ELOOP from Python 3.13 on
+        if isinstance(exc, RuntimeError) or exc.errno == errno.ELOOP:
+            raise LinkLoop(f"{path}: a loop of symbolic links") from None
 
 
 def shipped_hint(path: str | Path) -> str:
