@@ -46,8 +46,8 @@ def test_a_real_path_wins_over_a_shipped_name(tmp_path, monkeypatch):
     )
     assert shipped.locate("paper/theta1_step.toml") == Path("paper/theta1_step.toml")
     assert load_scenario("paper/theta1_step.toml").name == "mine"
-    # without the extension the real path does not exist: the shipped one it names
-    assert load_scenario("paper/theta1_step").name == "θ1 step"
+    # without the extension too (issue 49: the shipped one silently shadowed it)
+    assert load_scenario("paper/theta1_step").name == "mine"
 
 
 def test_a_mistyped_name_says_what_was_meant(tmp_path, monkeypatch):

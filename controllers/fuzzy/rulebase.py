@@ -120,6 +120,26 @@ def _freeze(value: Any) -> Any:
 MAX_RULE_BASE_BYTES = 1 << 20  # 1 MiB: thousands of rules and their metadata
 
 
+def _read_toml(path: Path) -> dict:
+    """The TOML of a rule-base file: a regular file (not a pipe or a device, where a read
+    would block or never end) of a sane size; errors name the file."""
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{path}: is not a regular file")
+    if path.stat().st_size > MAX_RULE_BASE_BYTES:
+        raise ValueError(
+            f"{path}: {path.stat().st_size} bytes; a rule-base file is at most "
+            f"{MAX_RULE_BASE_BYTES} bytes"
+        )
+    with path.open("rb") as fh:
+        try:
+            data = tomllib.load(fh)
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{path}: not valid TOML: {exc}") from exc
+        except RecursionError:
+            raise ValueError(f"{path}: not valid TOML: nested too deep") from None
+    return data
+
+
 def load_rule_base(path: str | os.PathLike[str]) -> RuleBase:
     """Read a rule base from a TOML file.
 
@@ -145,21 +165,7 @@ def load_rule_base(path: str | os.PathLike[str]) -> RuleBase:
         On malformed content; the message names the file and the key.
     """
     path = Path(path)
-    # Not a pipe or a device (a read would block, or never end), and of a sane size.
-    if path.exists() and not path.is_file():
-        raise ValueError(f"{path}: is not a regular file")
-    if path.stat().st_size > MAX_RULE_BASE_BYTES:
-        raise ValueError(
-            f"{path}: {path.stat().st_size} bytes; a rule-base file is at most "
-            f"{MAX_RULE_BASE_BYTES} bytes"
-        )
-    with path.open("rb") as fh:
-        try:
-            data = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise ValueError(f"{path}: not valid TOML: {exc}") from exc
-        except RecursionError:
-            raise ValueError(f"{path}: not valid TOML: nested too deep") from None
+    data = _read_toml(path)
     mirror = data.pop("mirror_inputs", False)
     if not isinstance(mirror, bool):
         raise ValueError(f"{path}: 'mirror_inputs' must be true or false, got {mirror!r}")

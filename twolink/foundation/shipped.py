@@ -7,7 +7,8 @@ through :mod:`importlib.resources`, never through the source tree: twolink reads
 files installed from a wheel as from its clone.
 
 A shipped file is named by its path under the shipped runs without the extension
-(``paper/theta1_step``, ``sweeps/robustness``); a real path always wins (:func:`locate`).
+(``paper/theta1_step``, ``sweeps/robustness``); a local file always wins, with or without
+its extension, and a name with ``..`` never reaches outside them (:func:`locate`).
 The ``--install`` options rewrite shipped files: that needs the clone they live in
 (:func:`install_target`); a wheel's copy in site-packages is not twolink's to edit.
 """
@@ -15,16 +16,19 @@ The ``--install`` options rewrite shipped files: that needs the clone they live 
 from __future__ import annotations
 
 import difflib
+import errno
 from importlib.resources import files
 from pathlib import Path
 
 __all__ = [
+    "LinkLoop",
     "NotAClone",
     "clone_root",
     "install_target",
     "locate",
     "locate_beside",
     "models_dir",
+    "refuse_link_loop",
     "rulebases_dir",
     "runs_dir",
     "shipped_hint",
@@ -67,12 +71,20 @@ def shipped_names() -> list[str]:
 
 
 def locate(path: str | Path, suffix: str = SUFFIX) -> Path:
-    """The file ``path`` names: itself where it exists (a real path wins), else the
-    shipped file of that name (``paper/theta1_step`` is ``<runs>/paper/theta1_step.toml``;
-    the extension and a leading ``runs/`` may be given too, as the clone's paths read),
-    else ``path`` unchanged, for the caller's own "no such file" error."""
+    """The file ``path`` names: itself where it exists, or itself with the extension (a
+    local file always wins: ``paper/theta1_step`` in a folder holding your own
+    ``paper/theta1_step.toml`` is yours), else the shipped file of that name
+    (``paper/theta1_step`` is ``<runs>/paper/theta1_step.toml``; the extension and a
+    leading ``runs/`` may be given too, as the clone's paths read; a name with ``..`` is
+    never a shipped one), else ``path`` unchanged, for the caller's own "no such file"
+    error."""
     path = Path(path)
     if path.exists() or path.is_absolute():
+        return path
+    local = path.with_name(path.name + suffix) if path.name else path
+    if local.exists():  # your paper/theta1_step.toml, named as the shipped one would be
+        return local
+    if ".." in path.parts:  # a shipped name never leaves the shipped files
         return path
     name = path.as_posix()
     names = [name, name.removeprefix("runs/")]
@@ -90,10 +102,27 @@ def locate_beside(folder: Path, name: str, suffix: str = SUFFIX) -> Path:
     that name (a user's own file in any folder can ``extends = "paper/theta1_step"``),
     else ``folder / name`` for the caller's error."""
     beside = Path(folder) / name
+    refuse_link_loop(beside)
     if beside.exists() or Path(name).is_absolute():
         return beside
     found = locate(name, suffix)
     return found if found.is_absolute() and found.is_file() else beside
+
+
+class LinkLoop(OSError):
+    """A path that is a loop of symbolic links (l1 -> l2 -> l1)."""
+
+
+def refuse_link_loop(path: Path) -> None:
+    """:class:`LinkLoop` (an OSError, one line naming ``path``) where ``path`` is a loop
+    of symbolic links: pathlib's ``resolve()`` raises RuntimeError there and ``exists()``
+    says False, so a reader would print a traceback or "no such file". A missing or
+    unreadable path is left to the reader's own error."""
+    try:
+        Path(path).resolve(strict=True)
+    except (RuntimeError, OSError) as exc:  # OSError ELOOP from Python 3.13 on
+        if isinstance(exc, RuntimeError) or exc.errno == errno.ELOOP:
+            raise LinkLoop(f"{path}: a loop of symbolic links") from None
 
 
 def shipped_hint(path: str | Path) -> str:

@@ -52,9 +52,10 @@ def compare_command(
     from twolink.foundation.io import unsafe_name_problem
     from twolink.foundation.shipped import locate
     from twolink.simulation.config import ConfigError, load_scenario, parse_set, read_toml
-    from twolink.studies.judgments.compare import compare, controller_table
+    from twolink.studies.judgments.compare import check_plants, compare, controller_table
 
     try:
+        check_plants(plants)
         overrides = parse_set(settings)
         read_toml(locate(scenario))
         load_scenario(scenario, overrides)  # a bad --set is named now, not after the runs

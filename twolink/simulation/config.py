@@ -546,6 +546,8 @@ def _fuzzy(
         f.fail("table_points", f"must be 2 to {MAX_TABLE_POINTS}, got {fuzzy.table_points}")
     if kind not in FUZZY_KINDS and fuzzy.inference != fd.inference:  # it would be ignored
         f.fail("inference", f"{fuzzy.inference!r}: a {kind!r} controller has no fuzzy term")
+    if fuzzy.engine == "table" and fuzzy.inference == "continuous":  # docs/scenarios.md
+        f.fail("engine", '"table" (a lookup of the Mamdani engine) with inference = "continuous"')
     f.done()
     return fuzzy
 

@@ -118,6 +118,17 @@ MAX_SAMPLES = 1_000_000
 NORMAL_REACH = 10.0
 
 
+def too_many_samples(n: int) -> str | None:
+    """Why ``n`` plants are more than a sweep holds (None where they are not): what a
+    sweep's ``samples``, ``compare -n`` and the gain study's ``plants`` say."""
+    if n <= MAX_SAMPLES:
+        return None
+    return (
+        f"at most {MAX_SAMPLES:,}, the most a sweep holds (a table of that many rows per "
+        f"controller is about 1 GB; split a larger study into several sweeps), got {n:,}"
+    )
+
+
 # ----------------------------------------------------------------------------- the plan
 
 
@@ -419,12 +430,8 @@ def _sizes(top: TomlTable, path: Path) -> tuple[str, int, int, int]:
         top.fail("samples", "missing: the number of samples N >= 1")
     if isinstance(samples, bool) or not isinstance(samples, int) or samples < 1:
         top.fail("samples", f"must be an integer >= 1, got {samples!r}")
-    if samples > MAX_SAMPLES:
-        top.fail(
-            "samples",
-            f"at most {MAX_SAMPLES:,} (a table of that many rows per controller is about "
-            f"1 GB; split a larger study into several sweeps), got {samples:,}",
-        )
+    if problem := too_many_samples(samples):
+        top.fail("samples", problem)
     seed = top.integer("seed", 0)
     chunk_size = top.raw("chunk_size", DEFAULT_CHUNK_SIZE)
     if isinstance(chunk_size, bool) or not isinstance(chunk_size, int) or chunk_size < 1:

@@ -117,8 +117,12 @@ def write_table(path: Path, df: pd.DataFrame) -> Path:
 
 
 def read_table(path: str | Path) -> pd.DataFrame:
-    """Read a table written by :func:`write_table` (its ``attrs`` included)."""
-    return pd.read_parquet(path)
+    """Read a table written by :func:`write_table` (its ``attrs`` included); a ValueError
+    naming the file where its metadata is nested past Python's recursion limit."""
+    try:
+        return pd.read_parquet(path)
+    except RecursionError:  # pandas reads the attrs with json.loads
+        raise ValueError(f"{path}: not a table twolink wrote (nested too deep)") from None
 
 
 def load_results(out: str | Path) -> pd.DataFrame:

@@ -26,10 +26,12 @@ import numpy as np
 
 from twolink.controllers.fuzzy.engine import MamdaniEngine
 from twolink.controllers.fuzzy.fis.sections import (
+    naming,
     numbers,
     read_sections,
     variable_range,
     variable_section,
+    whole_number,
 )
 from twolink.controllers.fuzzy.membership import FuzzyVariable, MembershipFunction
 from twolink.controllers.fuzzy.rulebase import Rule
@@ -135,20 +137,24 @@ _RULE = re.compile(r"^([-\d\s.]+),([-\d\s.]+)\(([-\d.eE+]+)\)\s*:\s*(\d+)$")
 def parse_fis(text: str, source: str = "<fis>") -> FisSystem:
     """Read ``.fis`` text (the format, not what twolink can run: see
     :func:`engine_from_fis`). Errors name the source, the section and the line."""
+    with naming(source):
+        return _parse(text, source)
+
+
+def _parse(text: str, source: str) -> FisSystem:
     sections = read_sections(text, source, _MF, trailing_comments=False)
     system = sections["System"]
 
     def count(key: str) -> int:
-        try:
-            return int(system[key])
-        except (KeyError, ValueError):
-            raise ValueError(f"{source}: [System] {key}: missing or not an integer") from None
+        if key not in system:
+            raise ValueError(f"{source}: [System] {key}: missing")
+        return whole_number(system[key], f"{source}: [System] {key}")
 
     def variable(section: str) -> FisVariable:
         body, where = variable_section(sections, section, source)
         rng = variable_range(body, where)
         mfs = []
-        for n in range(1, int(body.get("NumMFs", "0")) + 1):
+        for n in range(1, whole_number(body.get("NumMFs", "0"), f"{where} NumMFs") + 1):
             line = body.get(f"MF{n}")
             m = _MF.match(line or "")
             if not m:
@@ -163,19 +169,16 @@ def parse_fis(text: str, source: str = "<fis>") -> FisSystem:
         m = _RULE.match(line)
         if not m:
             raise ValueError(f"{source}: line {number}: not a rule 'i j, k (w) : c': {line!r}")
-        try:
-            ante = tuple(int(float(x)) for x in m.group(1).split())
-            cons = tuple(int(float(x)) for x in m.group(2).split())
-        except OverflowError:  # a 400-digit index is inf as a float
-            raise ValueError(
-                f"{source}: line {number}: an index too large: {line[:60]!r}"
-            ) from None
+        index = f"{source}: line {number}: membership index"
+        ante = tuple(whole_number(x, index) for x in m.group(1).split())
+        cons = tuple(whole_number(x, index) for x in m.group(2).split())
         if len(ante) != len(inputs) or len(cons) != len(outputs):
             raise ValueError(
                 f"{source}: line {number}: {len(ante)} antecedents and {len(cons)} "
                 f"consequents for {len(inputs)} inputs and {len(outputs)} outputs"
             )
-        rules.append((ante, cons, float(m.group(3)), int(m.group(4))))
+        connection = whole_number(m.group(4), f"{source}: line {number}: connection")
+        rules.append((ante, cons, float(m.group(3)), connection))
     return FisSystem(dict(system), inputs, outputs, tuple(rules))
 
 
@@ -264,7 +267,8 @@ def read_engine(path: str | Path) -> tuple[MamdaniEngine, tuple[float, float, fl
         if not path.exists():
             raise
         raise ValueError(str(exc.strerror or exc)) from None
-    return engine_from_fis(parse_fis(text, str(path)), str(path))
+    with naming(str(path)):  # the engine's own checks (a membership function's) too
+        return engine_from_fis(parse_fis(text, str(path)), str(path))
 
 
 def read_rule_base(path: str | Path):

@@ -33,10 +33,12 @@ from pathlib import Path
 import numpy as np
 
 from twolink.controllers.fuzzy.fis.sections import (
+    naming,
     numbers,
     read_sections,
     variable_range,
     variable_section,
+    whole_number,
 )
 
 __all__ = ["Fis", "FisMF", "FisRule", "FisTerm", "FisVar", "parse_matlab_fis", "read_fis"]
@@ -54,6 +56,16 @@ AGG_METHODS = ("max", "sum", "probor")
 MAMDANI_DEFUZZ = ("centroid", "bisector", "mom", "som", "lom")
 SUGENO_DEFUZZ = ("wtaver", "wtsum")
 DEFAULT_POINTS = 101  # evalfis's NumSamplePoints
+# Bounds by memory (docs/fuzzy.md, "Any MATLAB FIS"): rules so that the exact mode's one
+# input fits in 100 MiB (about 10 KiB a rule: exact.RULE_INPUT_BYTES); the Toolbox's
+# sample points so that one sampled input's aggregate (points x rules) fits in 80 MiB;
+# inputs per call: 10^8, ~10 min sampled at the measured ~6 us an input (tipper.fis; the
+# exact mode 0.7-4 ms an input: far longer), 1.6 GB of two inputs;
+# evaluate works through them in blocks of EVALUATE_BLOCK_BYTES of firing and aggregate
+MAX_RULES = 10_000
+MAX_POINTS = 1_000_000
+MAX_INPUTS_PER_CALL = 100_000_000
+EVALUATE_BLOCK_BYTES = 64 << 20
 
 
 def _sig(x: np.ndarray, a: float, c: float) -> np.ndarray:
@@ -226,6 +238,11 @@ class Fis:
             raise ValueError(
                 f"{self.source}: evaluate takes (n, {len(self.inputs)}) inputs, got {x.shape}"
             )
+        if x.shape[0] > MAX_INPUTS_PER_CALL:
+            raise ValueError(
+                f"{self.source}: {x.shape[0]:,} inputs > {MAX_INPUTS_PER_CALL:,}, the most "
+                "one call evaluates (~10 min sampled at ~6 us an input, far longer exact)"
+            )
         if np.isnan(x).any():
             raise ValueError(f"{self.source}: inputs contain NaN")
         return x
@@ -271,9 +288,26 @@ class Fis:
         either way. Where the total firing strength is 0 every output is the middle of
         its range, as in the Toolbox; so is a Mamdani output whose aggregate has no area.
         """
+        x = self._inputs(x)
+        if sampled and (isinstance(points, bool) or not isinstance(points, int) or points < 2):
+            raise ValueError(f"points must be an integer >= 2, got {points!r}")
+        if sampled and points > MAX_POINTS:
+            raise ValueError(
+                f"{self.source}: points: {points:,} > {MAX_POINTS:,}, the most whose "
+                f"aggregate of one input fits in 80 MiB with few rules"
+            )
+        # blocks of inputs: the firing strengths (n, rules) and a sampled aggregate
+        # (n, points) of a block stay under EVALUATE_BLOCK_BYTES (8 bytes, ~4 copies)
+        width = len(self.rules) + (points if sampled else 0) + 1
+        block = max(1, EVALUATE_BLOCK_BYTES // (32 * width))
+        out = np.empty((x.shape[0], len(self.outputs)))
+        for s in range(0, x.shape[0], block):
+            out[s : s + block] = self._evaluate_block(x[s : s + block], sampled, points)
+        return out
+
+    def _evaluate_block(self, x: np.ndarray, sampled: bool, points: int) -> np.ndarray:
         from twolink.controllers.fuzzy.fis import exact as matlab_exact
 
-        x = self._inputs(x)
         w = self.firing(x)
         out = np.empty((x.shape[0], len(self.outputs)))
         fired = w.sum(axis=1) > 0  # the Toolbox's test: the sum of the firing strengths
@@ -289,8 +323,6 @@ class Fis:
                 else:
                     val = num
             elif sampled:
-                if isinstance(points, bool) or not isinstance(points, int) or points < 2:
-                    raise ValueError(f"points must be an integer >= 2, got {points!r}")
                 val = matlab_exact.sampled_defuzz(self, m, w, cons, points)
             else:
                 val = matlab_exact.exact_defuzz(self, m, w, cons)
@@ -318,109 +350,125 @@ _MF = re.compile(r"^MF(\d+)\s*=\s*'([^']*)'\s*:\s*'([^']+)'\s*,\s*\[([^\]]*)\]$"
 _RULE = re.compile(r"^([-+\d\s.eE]+),([-+\d\s.eE]+)\(([-+\d.eE]+)\)\s*:\s*([\d.]+)$")
 
 
-def _index(text: str, where: str) -> int:
-    v = float(text)
-    if v != int(v):
-        raise ValueError(f"{where}: membership index {text} is not an integer")
-    return int(v)
+def _variable(sections: dict, section: str, source: str, sugeno_out: bool, n_inputs: int) -> FisVar:
+    """An ``[InputN]`` / ``[OutputN]`` section: its range and membership functions."""
+    body, where = variable_section(sections, section, source)
+    rng = variable_range(body, where, closed=sugeno_out)
+    mfs = []
+    for n in range(1, whole_number(body.get("NumMFs", "0"), f"{where} NumMFs") + 1):
+        m = _MF.match(body.get(f"MF{n}", ""))
+        if not m:
+            raise ValueError(f"{where}: MF{n} missing or not 'label':'type',[params]")
+        label, mf_kind, params = m.group(2), m.group(3), numbers(m.group(4), f"{where} MF{n}")
+        if sugeno_out:
+            need = {"constant": 1, "linear": n_inputs + 1}.get(mf_kind)
+            if need is None:
+                raise ValueError(
+                    f"{where} MF{n}: {mf_kind!r}: Sugeno outputs are constant or linear"
+                )
+        else:
+            need = MF_PARAMS.get(mf_kind)
+            if need is None:
+                raise ValueError(
+                    f"{where} MF{n}: {mf_kind!r} is not a Toolbox membership function "
+                    f"(read: {sorted(MF_PARAMS)})"
+                )
+        if len(params) < need:
+            raise ValueError(f"{where} MF{n}: {mf_kind} takes {need} parameters, got {len(params)}")
+        params = params[:need]  # old files pad every MF's parameters with zeros
+        _check_params(mf_kind, params, f"{where} MF{n}")
+        mfs.append(FisMF(label, mf_kind, params))
+    return FisVar(body.get("Name", section), rng, tuple(mfs))
+
+
+def _rule(line: str, where: str, inputs, outputs, sugeno: bool) -> FisRule:
+    """One ``[Rules]`` line, ``i j, k (w) : c``, checked against the variables."""
+    m = _RULE.match(line)
+    if not m:
+        raise ValueError(f"{where}: not a rule 'i j, k (w) : c': {line!r}")
+    index = f"{where}: membership index"
+    ante = tuple(whole_number(v, index) for v in m.group(1).split())
+    cons = tuple(whole_number(v, index) for v in m.group(2).split())
+    if len(ante) != len(inputs) or len(cons) != len(outputs):
+        raise ValueError(
+            f"{where}: {len(ante)} antecedents and {len(cons)} consequents for "
+            f"{len(inputs)} inputs and {len(outputs)} outputs"
+        )
+    for idx, var in zip((*ante, *cons), (*inputs, *outputs), strict=True):
+        if abs(idx) > len(var.mfs):
+            raise ValueError(f"{where}: index {idx}: {var.name} has {len(var.mfs)} MFs")
+    if sugeno and min(cons, default=0) < 0:
+        raise ValueError(f"{where}: NOT on a Sugeno output (the Toolbox has no such thing)")
+    weight = float(m.group(3))
+    connection = whole_number(m.group(4), f"{where}: connection")
+    if connection not in (1, 2):
+        raise ValueError(f"{where}: connection {connection}: 1 (AND) or 2 (OR)")
+    if not (math.isfinite(weight) and 0 <= weight <= 1):
+        raise ValueError(f"{where}: weight {weight}: a number in [0, 1]")
+    return FisRule(ante, cons, weight, connection)
 
 
 def parse_matlab_fis(text: str, source: str = "<fis>") -> Fis:
     """A :class:`Fis` from ``.fis`` text; every error is one line naming ``source``."""
+    with naming(source):
+        return _parse(text, source)
+
+
+def _parse(text: str, source: str) -> Fis:
     sections = read_sections(text, source, _MF, trailing_comments=True)
     system = sections["System"]
     kind = system.get("Type", "mamdani").lower()
     if kind not in ("mamdani", "sugeno"):
         raise ValueError(f"{source}: [System] Type {kind!r}: the Toolbox's are mamdani, sugeno")
 
-    def method(key: str, allowed: tuple[str, ...], default: str) -> str:
+    def count(key: str) -> int:
+        if key not in system:
+            raise ValueError(f"{source}: [System] {key}: missing")
+        return whole_number(system[key], f"{source}: [System] {key}")
+
+    n_in, n_out = count("NumInputs"), count("NumOutputs")
+    inputs = tuple(
+        _variable(sections, f"Input{i}", source, False, n_in) for i in range(1, n_in + 1)
+    )
+    sugeno = kind == "sugeno"
+    outputs = tuple(
+        _variable(sections, f"Output{i}", source, sugeno, n_in) for i in range(1, n_out + 1)
+    )
+    rules = tuple(
+        _rule(line, f"{source}: line {number} (rule {n})", inputs, outputs, sugeno)
+        for n, (number, line) in enumerate(sections.get("Rules", []), start=1)
+    )
+    if not inputs or not outputs:
+        raise ValueError(f"{source}: needs at least one input and one output")
+    if len(rules) > MAX_RULES:
+        raise ValueError(
+            f"{source}: [Rules]: {len(rules):,} rules > {MAX_RULES:,}, the most whose exact "
+            "evaluation of one input fits in 100 MiB (about 10 KiB a rule)"
+        )
+    connections = {r.connection for r in rules}
+
+    def method(key: str, allowed: tuple[str, ...], default: str, used: bool = True) -> str:
+        # as the Toolbox: a method no rule calls (OrMethod of an all-AND file) is never run
         value = system.get(key, default)
-        if value not in allowed:
+        if used and value not in allowed:
             raise ValueError(
                 f"{source}: [System] {key}={value!r}: a custom function (read: {list(allowed)})"
             )
         return value
 
-    def count(key: str) -> int:
-        try:
-            return int(float(system[key]))
-        except (KeyError, ValueError):
-            raise ValueError(f"{source}: [System] {key}: missing or not a number") from None
-
-    def variable(section: str, output: bool) -> FisVar:
-        body, where = variable_section(sections, section, source)
-        sugeno_out = output and kind == "sugeno"
-        rng = variable_range(body, where, closed=sugeno_out)
-        mfs = []
-        for n in range(1, int(float(body.get("NumMFs", "0"))) + 1):
-            m = _MF.match(body.get(f"MF{n}", ""))
-            if not m:
-                raise ValueError(f"{where}: MF{n} missing or not 'label':'type',[params]")
-            label, mf_kind, params = m.group(2), m.group(3), numbers(m.group(4), f"{where} MF{n}")
-            if sugeno_out:
-                need = {"constant": 1, "linear": len(sections_inputs) + 1}.get(mf_kind)
-                if need is None:
-                    raise ValueError(
-                        f"{where} MF{n}: {mf_kind!r}: Sugeno outputs are constant or linear"
-                    )
-            else:
-                need = MF_PARAMS.get(mf_kind)
-                if need is None:
-                    raise ValueError(
-                        f"{where} MF{n}: {mf_kind!r} is not a Toolbox membership function "
-                        f"(read: {sorted(MF_PARAMS)})"
-                    )
-            if len(params) < need:
-                raise ValueError(
-                    f"{where} MF{n}: {mf_kind} takes {need} parameters, got {len(params)}"
-                )
-            params = params[:need]  # old files pad every MF's parameters with zeros
-            _check_params(mf_kind, params, f"{where} MF{n}")
-            mfs.append(FisMF(label, mf_kind, params))
-        return FisVar(body.get("Name", section), rng, tuple(mfs))
-
-    sections_inputs = range(count("NumInputs"))
-    inputs = tuple(variable(f"Input{i}", False) for i in range(1, count("NumInputs") + 1))
-    outputs = tuple(variable(f"Output{i}", True) for i in range(1, count("NumOutputs") + 1))
-    rules = []
-    for n, (number, line) in enumerate(sections.get("Rules", []), start=1):
-        where = f"{source}: line {number} (rule {n})"
-        m = _RULE.match(line)
-        if not m:
-            raise ValueError(f"{where}: not a rule 'i j, k (w) : c': {line!r}")
-        ante = tuple(_index(v, where) for v in m.group(1).split())
-        cons = tuple(_index(v, where) for v in m.group(2).split())
-        if len(ante) != len(inputs) or len(cons) != len(outputs):
-            raise ValueError(
-                f"{where}: {len(ante)} antecedents and {len(cons)} consequents for "
-                f"{len(inputs)} inputs and {len(outputs)} outputs"
-            )
-        for idx, var in zip((*ante, *cons), (*inputs, *outputs), strict=True):
-            if abs(idx) > len(var.mfs):
-                raise ValueError(f"{where}: index {idx}: {var.name} has {len(var.mfs)} MFs")
-        if kind == "sugeno" and min(cons, default=0) < 0:
-            raise ValueError(f"{where}: NOT on a Sugeno output (the Toolbox has no such thing)")
-        weight, connection = float(m.group(3)), int(float(m.group(4)))
-        if connection not in (1, 2):
-            raise ValueError(f"{where}: connection {connection}: 1 (AND) or 2 (OR)")
-        if not (math.isfinite(weight) and 0 <= weight <= 1):
-            raise ValueError(f"{where}: weight {weight}: a number in [0, 1]")
-        rules.append(FisRule(ante, cons, weight, connection))
-    if not inputs or not outputs:
-        raise ValueError(f"{source}: needs at least one input and one output")
-    defuzz = SUGENO_DEFUZZ if kind == "sugeno" else MAMDANI_DEFUZZ
+    defuzz = SUGENO_DEFUZZ if sugeno else MAMDANI_DEFUZZ
     return Fis(
         name=system.get("Name", Path(source).stem),
         type=kind,
-        and_method=method("AndMethod", AND_METHODS, "min" if kind == "mamdani" else "prod"),
-        or_method=method("OrMethod", OR_METHODS, "max" if kind == "mamdani" else "probor"),
+        and_method=method("AndMethod", AND_METHODS, "prod" if sugeno else "min", 1 in connections),
+        or_method=method("OrMethod", OR_METHODS, "probor" if sugeno else "max", 2 in connections),
         # Sugeno files name an implication and aggregation the Toolbox does not use
-        imp_method=method("ImpMethod", IMP_METHODS, "min") if kind == "mamdani" else "prod",
-        agg_method=method("AggMethod", AGG_METHODS, "max") if kind == "mamdani" else "sum",
+        imp_method="prod" if sugeno else method("ImpMethod", IMP_METHODS, "min"),
+        agg_method="sum" if sugeno else method("AggMethod", AGG_METHODS, "max"),
         defuzz_method=method("DefuzzMethod", defuzz, defuzz[0]),
         inputs=inputs,
         outputs=outputs,
-        rules=tuple(rules),
+        rules=rules,
         source=source,
     )
 
@@ -452,10 +500,7 @@ def read_fis(path: str | Path) -> Fis:
         text = path.read_text()
     except UnicodeDecodeError:
         raise ValueError(f"{path}: not a text file") from None
-    try:
-        return parse_matlab_fis(text, str(path))
-    except OverflowError:  # a 400-digit index or count is inf as a float (issue 38)
-        raise ValueError(f"{path}: a number too large for an index or a count") from None
+    return parse_matlab_fis(text, str(path))
 
 
 # ----------------------------------------------------------------------------- the fuzzy term

@@ -12,7 +12,10 @@ source and the line.
 
 from __future__ import annotations
 
+import math
 import re
+from collections.abc import Iterator
+from contextlib import contextmanager
 
 Sections = dict[str, dict[str, str] | list[tuple[int, str]]]
 
@@ -25,6 +28,31 @@ def numbers(text: str, where: str) -> tuple[float, ...]:
         return tuple(float(v) for v in text.replace(",", " ").split())
     except ValueError:
         raise ValueError(f"{where}: not a list of numbers: [{text}]") from None
+
+
+def whole_number(text: str, where: str) -> int:
+    """An index or a count written as a number (``3`` or ``3.0``, as the Toolbox writes
+    them); a fraction, ``inf``, ``nan`` or no number is refused, never rounded."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise ValueError(f"{where}: {text!r} is not a number") from None
+    if not (math.isfinite(value) and value == int(value)):
+        raise ValueError(f"{where}: {text!r} is not a whole number")
+    return int(value)
+
+
+@contextmanager
+def naming(source: str) -> Iterator[None]:
+    """Every error of reading ``source`` one line naming it: a check deeper down (a
+    membership function's own) may not know the file."""
+    try:
+        yield
+    except (ValueError, OverflowError) as exc:
+        text = " ".join(str(exc).split())
+        if source in text:
+            raise ValueError(text) from None
+        raise ValueError(f"{source}: {text}") from None
 
 
 def read_sections(
@@ -74,8 +102,11 @@ def variable_section(sections: Sections, section: str, source: str) -> tuple[dic
 
 
 def variable_range(body: dict, where: str, *, closed: bool = False) -> tuple[float, float]:
-    """A variable's ``Range=[low high]``: low < high (low <= high where ``closed``)."""
+    """A variable's ``Range=[low high]``: finite, low < high (low <= high where
+    ``closed``)."""
     rng = numbers(body.get("Range", "").strip("[]"), f"{where} Range")
     if len(rng) != 2 or not (rng[0] <= rng[1] if closed else rng[0] < rng[1]):
         raise ValueError(f"{where} Range: need [low high] with low < high")
+    if not all(math.isfinite(v) for v in rng):
+        raise ValueError(f"{where} Range: {list(rng)}: the ends must be finite numbers")
     return rng[0], rng[1]

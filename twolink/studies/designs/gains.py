@@ -131,6 +131,10 @@ def load_gain_study(path: str | Path = DEFAULT_STUDY, overrides: dict | None = N
     plants = t.integer("plants", 20)
     if plants < 1:
         t.fail("plants", f"must be >= 1, got {plants!r}")
+    from twolink.sweep.plan import too_many_samples  # (lazily, as load_sweep here)
+
+    if problem := too_many_samples(plants):  # drawn from one sweep
+        t.fail("plants", problem)
     study = GainStudy(
         source=str(path),
         sweep=sweep,

@@ -136,8 +136,29 @@ def load_spec(path: str | Path = DEFAULT_SPEC, overrides: dict | None = None) ->
     )
     if spec.popsize < 1 or spec.maxiter < 0:
         top.fail("popsize", f"popsize >= 1 and maxiter >= 0, got {spec.popsize}, {spec.maxiter}")
+    runs = search_runs(spec)
+    if runs > MAX_SEARCH_RUNS:
+        top.fail(
+            "popsize",
+            f"{runs:,} runs (popsize x 25 tables x (maxiter + 1) x plants x regimes x "
+            f"inferences) > {MAX_SEARCH_RUNS:,}, about 4 days at the fastest measured "
+            "0.035 s a run: lower popsize or maxiter",
+        )
     top.done()
     return spec
+
+
+# The budget's bound by time: the shipped search's four runs took 228-742 s for 650
+# tables on 10 plants (runs/paper/search/search.json, wall_s): 0.035-0.11 s a table and
+# plant on a 2-core VM
+MAX_SEARCH_RUNS = 10_000_000
+
+
+def search_runs(spec: SearchSpec) -> int:
+    """Table-and-plant runs of a search at most: per regime and inference, (maxiter + 1)
+    generations of popsize x 25 tables, each on the plants."""
+    tables = spec.popsize * len(BOUNDS) * (spec.maxiter + 1)
+    return tables * spec.plants * len(spec.regimes) * len(spec.inferences)
 
 
 # ----------------------------------------------------------------------------- the tables

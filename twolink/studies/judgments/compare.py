@@ -175,6 +175,16 @@ def too_few(plants: int, rows: int) -> str:
     return ""
 
 
+def check_plants(plants: int) -> None:
+    """ConfigError, one line, where ``plants`` is not 1 to the most a sweep holds."""
+    from twolink.sweep.plan import too_many_samples
+
+    if plants < 1:
+        raise ConfigError(f"compare: plants must be >= 1, got {plants}")
+    if problem := too_many_samples(plants):
+        raise ConfigError(f"compare: -n/--plants: {problem}")
+
+
 def compare(
     scenario: str | Path,
     a: str,
@@ -205,8 +215,7 @@ def compare(
 
     if a == b:
         raise ConfigError(f"compare: give two different controllers, got {a!r} twice")
-    if plants < 1:
-        raise ConfigError(f"compare: plants must be >= 1, got {plants}")
+    check_plants(plants)
     path = locate(scenario)
     read_toml(path)  # a missing or broken scenario is named here, before anything runs
     text = sweep_text(path, a, b, plants, seed, overrides)
