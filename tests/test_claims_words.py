@@ -187,3 +187,14 @@ def test_every_verdict_of_random_tables_is_a_word_of_the_vocabulary():
     t = paired_claims_many(sweep(cols), [("FCM-CTC", "CTC")],
                            ["rise_time_s", "overshoot_pct", "iae_rad_s"], [1])  # fmt: skip
     assert set(t["verdict"]) <= set(VERDICT_WORDS)
+
+
+def test_too_few_plants_give_an_unbounded_interval_not_a_short_one():
+    """[min, max] of the Walsh averages covers the shift with 1 - 2^(1-n) only: with 2
+    plants (50 %) no 95 % interval exists, and none may be printed (or decide a verdict);
+    with 6 (97 %) it does."""
+    from twolink.studies.judgments.claims import hodges_lehmann
+
+    assert hodges_lehmann([-3.0, -2.0])[1:] == (-np.inf, np.inf)
+    low, high = hodges_lehmann([-3, -2, -2.5, -4, -3.1, -2.2])[1:]
+    assert np.isfinite(low) and np.isfinite(high) and high < -2.0

@@ -22,7 +22,7 @@ def _verdicts(d: np.ndarray, rows: int) -> set:
 def test_the_minimum_is_where_the_judge_first_says_equivalent_and_better(rows):
     """Identical plants (every difference 0): one plant fewer than the minimum is
     "inconclusive", the minimum "equivalent"; plants all far better: one fewer is
-    "inconclusive", the minimum "better". Holm over ``rows`` rows raises both."""
+    "inconclusive", the minimum "better". Bonferroni over ``rows`` rows raises both."""
     equivalent, differ = minimum_plants(rows)
     assert _verdicts(np.zeros(equivalent - 1), rows) == {"inconclusive"}
     assert _verdicts(np.zeros(equivalent), rows) == {"equivalent"}
@@ -38,6 +38,7 @@ def test_too_few_is_said_only_where_true_and_says_how_many_would_do():
     equivalent, differ = minimum_plants(12)
     assert too_few(equivalent - 1, 12).startswith("too few plants for any verdict")
     assert f'"equivalent" needs at least {equivalent} plants' in too_few(equivalent - 1, 12)
-    assert too_few(equivalent, 12).startswith('too few plants for "better" or "worse"')
+    # the printed interval decides both: the n that bounds it decides "better" too
+    assert equivalent == differ
     assert too_few(differ, 12) == ""
     assert too_few(200, 12) == ""

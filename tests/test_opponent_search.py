@@ -7,8 +7,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from twolink.studies.designs import effort, search
 from twolink.studies.designs import opponent_search as ops
-from twolink.studies.designs import search
 
 BUDGET = np.array([28.5, 8.0, 234.5, 76.9])  # FCM-CTC's effort (quintic, judged plants)
 TOL = np.array([0.5, 0.5, 1.0, 1.0])  # the claims' practical tolerances
@@ -100,7 +100,7 @@ def _held(rows):
         [
             {"regime": r, "controller": c, "metric": m, "joint": j, "proposed_median": v}
             for r, c, values in rows
-            for (m, j), v in zip(ops.EFFORT_METRICS, values, strict=True)
+            for (m, j), v in zip(effort.EFFORT_METRICS, values, strict=True)
         ]
     )
 
@@ -113,7 +113,7 @@ def test_a_searched_table_over_budget_on_the_judged_plants_is_flagged():
             ("quintic", "FCM-CTC-searched-continuous", [27.1, 7.8, 235.4, 77.8]),  # in tol
         ]
     )
-    flags = ops.effort_flags(held)
+    flags = effort.effort_flags(held)
     assert flags["controller"].tolist() == ["FCM-CTC-searched", "FCM-CTC-searched-continuous"]
     assert flags["within"].tolist() == [False, True]
     assert flags["FCM-CTC torque_variation_Nm1"].tolist() == [234.5, 234.5]
@@ -127,7 +127,7 @@ def test_the_shipped_quintic_tables_are_over_budget_where_judged():
 
     spec = search.load_spec()
     held = pd.read_csv(search.folder_of(spec) / "heldout.csv")
-    flags = ops.effort_flags(held).set_index(["regime", "controller"])["within"]
+    flags = effort.effort_flags(held).set_index(["regime", "controller"])["within"]
     assert not flags["quintic"].any()
     assert flags["raw"].all()
 
@@ -141,7 +141,7 @@ def test_the_search_section_says_over_budget_where_it_is_and_only_there():
             ("raw", "FCM-CTC-searched", [43.0, 13.1, 75.0, 25.2]),
         ]
     )
-    lines = [s for s in search.effort_lines(held) if s.startswith("- ")]
+    lines = [s for s in effort.effort_lines(held) if s.startswith("- ")]
     assert lines[0].startswith("- quintic FCM-CTC-searched: 262.9 / 83.0 against 234.5 / 76.9")
     assert "OVER" in lines[0] and "not crowned" in lines[0]
     assert "OVER" not in lines[1] and lines[1].endswith("within FCM-CTC's effort")
@@ -158,7 +158,7 @@ def test_the_shipped_opponents_give_their_numbers_and_keep_the_rule():
     spec = search.load_spec()
     meta = json.loads(ops.shipped_path(spec).read_text())
     assert meta["settings"] == json.loads(json.dumps(spec.settings()))
-    tol = np.array([TOLERANCES[m] for m, _ in ops.EFFORT_METRICS])
+    tol = np.array([TOLERANCES[m] for m, _ in effort.EFFORT_METRICS])
     for regime, o in meta["opponents"].items():
         x = [o["wn"][0], o["zeta"][0], o["wn"][1], o["zeta"][1]]
         values = ops.evaluate_loops(

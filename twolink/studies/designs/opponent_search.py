@@ -17,7 +17,7 @@ judged*. The ranking is the training index only: the judged plants veto a loop w
 effort is over budget there, they never promote one by its performance, so the claims'
 performance stays held out. The opponent is the first admissible loop in the order of the
 training index; a searched fuzzy table over budget on the judged plants is reported so
-(:func:`effort_flags`).
+(:func:`twolink.studies.designs.effort.effort_flags`).
 """
 
 from __future__ import annotations
@@ -28,6 +28,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from twolink.studies.designs.effort import within_budget
 
 __all__ = [
     "FAMILIES",
@@ -114,14 +116,6 @@ def shipped_opponents(folder: Path) -> dict[str, SearchedOpponent]:
     return {r: SearchedOpponent.from_json(o) for r, o in data["opponents"].items()}
 
 
-def within_budget(values: np.ndarray, budget: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
-    """Per row of ``values`` (n, 4: peak |τ|₁, peak |τ|₂, Σ|Δτ|₁, Σ|Δτ|₂): each at most the
-    budget plus its tolerance (a NaN, a failed run, is never within)."""
-    v = np.atleast_2d(np.asarray(values, dtype=float))
-    ok = v <= np.asarray(budget, dtype=float) + np.asarray(tolerance, dtype=float)
-    return ok.all(axis=1) & np.isfinite(v).all(axis=1)
-
-
 def admissible(
     train: np.ndarray,
     judged: np.ndarray,
@@ -193,7 +187,7 @@ def evaluate_loops(stp: Any, loops: list[dict[str, Any]]) -> np.ndarray:
         ComputedTorque(arm, ref, kp=c["kp"], kd=c["kd"], torque_limit=c["torque_limit"])
         for c in loops
     ]
-    return evaluate_controllers(stp.scenarios, ctrls)
+    return evaluate_controllers(stp.scenarios, ctrls, stp.model_g)
 
 
 def judged_setup(spec: Any, regime: str) -> Any:
@@ -359,54 +353,6 @@ def main(argv: list[str] | None = None) -> int:
         figure(found, args.out / "figures" / "frontier_per_joint.png")
     print(path)
     return 0
-
-
-EFFORT_METRICS = (
-    ("torque_peak_Nm", 1),
-    ("torque_peak_Nm", 2),
-    ("torque_variation_Nm", 1),
-    ("torque_variation_Nm", 2),
-)  # fmt: skip; within_budget's column order
-
-
-def effort_flags(held: Any, proposed: str = "FCM-CTC") -> Any:
-    """The effort rule on a held-out table (``search/heldout.csv``: paired_claims rows per
-    regime and controller): per regime and searched controller, its four effort medians on
-    the judged plants beside FCM-CTC's there, and ``within`` (each at most FCM-CTC's plus
-    the tolerance). One row per (regime, controller)."""
-    import pandas as pd
-
-    from twolink.studies.judgments.claims import TOLERANCES
-
-    tol = np.array([TOLERANCES[m] for m, _ in EFFORT_METRICS])
-    rows = []
-    for (regime, name), g in held.groupby(["regime", "controller"], sort=False):
-        if name == proposed:
-            continue
-        base = held[(held["regime"] == regime) & (held["controller"] == proposed)]
-
-        def medians(t: Any) -> np.ndarray:
-            return np.array(
-                [
-                    float(t[(t["metric"] == m) & (t["joint"] == j)]["proposed_median"].iloc[0])
-                    for m, j in EFFORT_METRICS
-                ]
-            )
-
-        mine, budget = medians(g), medians(base)
-        rows.append(
-            {
-                "regime": regime,
-                "controller": name,
-                **{f"{m}{j}": v for (m, j), v in zip(EFFORT_METRICS, mine, strict=True)},
-                **{
-                    f"{proposed} {m}{j}": v
-                    for (m, j), v in zip(EFFORT_METRICS, budget, strict=True)
-                },
-                "within": bool(within_budget(mine, budget, tol)[0]),
-            }
-        )
-    return pd.DataFrame(rows)
 
 
 def _ratio_and_index(budget: np.ndarray) -> Callable[[Any], tuple[Any, Any]]:

@@ -41,6 +41,7 @@ import pandas as pd
 
 from twolink.foundation.shipped import runs_dir
 from twolink.simulation.config import TomlTable, read_toml
+from twolink.studies.designs import effort
 
 __all__ = [
     "DEFAULT_SPEC",
@@ -200,6 +201,9 @@ class Setup:
 
     scenarios: tuple[Any, ...]
     fcm: dict[str, Any]
+    # the batch models' gravity: None, the largest |g| of these plants (as the shipped
+    # search ran); the sweep's own (plan.model_gravity()) runs each plant as the sweep does
+    model_g: float | None = None
 
 
 def setup(spec: SearchSpec, regime: str) -> Setup:
@@ -241,19 +245,24 @@ def evaluate_tables(stp: Setup, tables: np.ndarray, inference: str) -> np.ndarra
     from twolink.controllers.rule_table import RuleTableCTC
 
     ctrls = [RuleTableCTC.from_table(t, inference, **stp.fcm) for t in tables]
-    return evaluate_controllers(stp.scenarios, ctrls)
+    return evaluate_controllers(stp.scenarios, ctrls, stp.model_g)
 
 
-def evaluate_controllers(scenarios: Any, ctrls: list[Any]) -> np.ndarray:
-    """Per controller, on every scenario (the batch engine): the medians of peak |τ|₁,
-    peak |τ|₂, Σ|Δτ|₁, Σ|Δτ|₂ and IAE₁ + IAE₂, (n, 5); NaN where a run failed."""
+def evaluate_controllers(
+    scenarios: Any, ctrls: list[Any], model_g: float | None = None
+) -> np.ndarray:
+    """Per controller, on every scenario (the batch engine, its models under the gravity
+    ``model_g``: :func:`twolink.simulation.experiment.iter_scenarios`): the medians of peak
+    |τ|₁, peak |τ|₂, Σ|Δτ|₁, Σ|Δτ|₂ and IAE₁ + IAE₂, (n, 5); NaN where a run failed."""
     from twolink.simulation.experiment import iter_scenarios
     from twolink.simulation.metrics import error_measures, torque_measures
 
     n, p = len(ctrls), len(scenarios)
     values = np.full((n, p, 5), np.nan)
     arms = [(k, i) for k in range(n) for i in range(p)]
-    runs = iter_scenarios([scenarios[i] for _, i in arms], [ctrls[k] for k, _ in arms])
+    runs = iter_scenarios(
+        [scenarios[i] for _, i in arms], [ctrls[k] for k, _ in arms], model_g=model_g
+    )
     for m, traj in runs:
         k, i = arms[m]
         if isinstance(traj, Exception) or traj.status != "ok":
@@ -594,27 +603,10 @@ def report_section(manifest: Any, out: Path) -> list[str]:
             f"{f['designed'][4]:.4g} | {f['empty'][4]:.4g} | {rules} rules, {where} |"
         )
     lines.append("")
-    lines += effort_lines(held)
+    lines += effort.effort_lines(held)
     for regime in spec.regimes:
         lines.append(f"- {regime}: {conclusion_sentence(meta, held, regime)}")
     return lines
-
-
-def effort_lines(held: pd.DataFrame) -> list[str]:
-    """The effort rule on the judged plants (docs/reproduction.md, "The linear opponent by
-    search"): each best table's Σ|Δτ| per joint beside FCM-CTC's, and whether it is within
-    FCM-CTC's effort there; one over it is not an answer at equal effort."""
-    from twolink.studies.designs.opponent_search import effort_flags
-
-    lines = ["Effort on the claims' plants (medians; Σ|Δτ| [N·m] per joint, FCM-CTC's beside):", ""]
-    for r in effort_flags(held).to_dict("records"):
-        word = "within FCM-CTC's effort" if r["within"] else "OVER FCM-CTC's effort: not crowned"
-        lines.append(
-            f"- {r['regime']} {r['controller']}: {r['torque_variation_Nm1']:.1f} / "
-            f"{r['torque_variation_Nm2']:.1f} against {r['FCM-CTC torque_variation_Nm1']:.1f} / "
-            f"{r['FCM-CTC torque_variation_Nm2']:.1f}: {word}"
-        )
-    return [*lines, ""]
 
 
 def load_output(out: Path) -> tuple[dict[str, Any], pd.DataFrame] | None:

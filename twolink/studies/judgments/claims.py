@@ -159,6 +159,9 @@ def _hodges_lehmann_rows(
             continue
         m = int(n * (n + 1) // 2)
         k = int(math.floor(m / 2.0 - z * math.sqrt(n * (n + 1) * (2 * n + 1) / 24.0)))
+        # [min, max] of the Walsh averages covers with 1 - 2^(1-n): short of conf, n
+        # plants cannot give the interval asked for (it is the whole line)
+        unbounded = k < 0 and 1.0 - 2.0 ** (1 - n) < conf
         k = min(max(k, 0), m - 1)
         ranks = sorted({k, m - 1 - k, (m - 1) // 2, m // 2})
         step = max(1, budget // m)
@@ -171,6 +174,8 @@ def _hodges_lehmann_rows(
             else:  # np.median's mean of the two middle values
                 estimate[part] = (walsh[:, m // 2 - 1] + walsh[:, m // 2]) / 2.0
             low[part], high[part] = walsh[:, k], walsh[:, m - 1 - k]
+        if unbounded:
+            low[members], high[members] = -np.inf, np.inf
     return estimate, low, high
 
 

@@ -138,22 +138,26 @@ def judged_rows(claims: pd.DataFrame) -> int:
 
 def minimum_plants(rows: int, limit: int = 1000) -> tuple[int, int]:
     """The fewest plants on which any verdict is possible in a table of ``rows`` judged
-    rows, derived from the tests the verdicts use (docs/statistics.md), each on its most
-    favourable sample and Holm-adjusted as the smallest of ``rows`` equal p-values (×
-    rows): ("equivalent": TOST on identical plants, d = 0 everywhere, p × rows < α;
-    "better"/"worse": the margin test on plants all beyond the margin, 2 p × rows < α).
-    With fewer plants every verdict of the typical plant is "inconclusive" whatever the
-    controllers do (the share verdicts need more still)."""
-    from twolink.studies.judgments.claims import ALPHA, _margin_tests
+    rows: the verdict rule itself (:func:`~twolink.studies.judgments.claims.judge_rows`,
+    docs/statistics.md: the typical plant's interval at 1 − 5 %/rows) asked on its most
+    favourable samples: "equivalent" on identical plants (every difference 0), "better" on
+    plants all beyond the margin. With fewer plants every verdict of the typical plant is
+    "inconclusive" whatever the controllers do (the share verdicts need more still)."""
+    from twolink.studies.judgments.claims import judge_rows
 
     rows = max(rows, 1)
+
+    def verdicts(d: np.ndarray) -> set:
+        a = np.tile(d, (rows, 1))
+        zero, none = np.zeros(rows), np.zeros(rows, bool)
+        judged = judge_rows(a, np.zeros_like(a), np.ones(rows), np.full(rows, np.nan), zero, none)
+        return set(judged["verdict"])
+
     equivalent = differ = 0
     for n in range(2, limit + 1):
-        tost, _, _ = _margin_tests([np.zeros(n)], [1.0])
-        _, below, _ = _margin_tests([-2.0 - np.arange(n) / n], [1.0])
-        if not equivalent and tost[0] * rows < ALPHA:
+        if not equivalent and verdicts(np.zeros(n)) == {"equivalent"}:
             equivalent = n
-        if not differ and 2 * below[0] * rows < ALPHA:
+        if not differ and verdicts(-2.0 - np.arange(n) / n) == {"better"}:
             differ = n
         if equivalent and differ:
             return equivalent, differ
@@ -165,7 +169,7 @@ def too_few(plants: int, rows: int) -> str:
     "" where there are enough for every verdict of the typical plant."""
     equivalent, differ = minimum_plants(rows)
     tests = (
-        f"with the signed-rank tests Holm-corrected over {rows} rows, "
+        f"with the typical plant's interval at 1 − 5 %/{rows} over {rows} rows, "
         f'"equivalent" needs at least {equivalent} plants and "better" or "worse" {differ}'
     )
     if plants < equivalent:

@@ -1,0 +1,80 @@
+"""The effort rule (docs/reproduction.md, "The linear opponent by search, per joint"): a
+loop, or a searched fuzzy table, is within FCM-CTC's effort where each of its medians of
+peak |τ| and Σ|Δτ| per joint stays within FCM-CTC's plus the metric's practical tolerance,
+on the plants where it is judged."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+EFFORT_METRICS = (
+    ("torque_peak_Nm", 1),
+    ("torque_peak_Nm", 2),
+    ("torque_variation_Nm", 1),
+    ("torque_variation_Nm", 2),
+)  # fmt: skip; within_budget's column order
+
+
+def within_budget(values: np.ndarray, budget: np.ndarray, tolerance: np.ndarray) -> np.ndarray:
+    """Per row of ``values`` (n, 4: peak |τ|₁, peak |τ|₂, Σ|Δτ|₁, Σ|Δτ|₂): each at most the
+    budget plus its tolerance (a NaN, a failed run, is never within)."""
+    v = np.atleast_2d(np.asarray(values, dtype=float))
+    ok = v <= np.asarray(budget, dtype=float) + np.asarray(tolerance, dtype=float)
+    return ok.all(axis=1) & np.isfinite(v).all(axis=1)
+
+
+def effort_flags(held: Any, proposed: str = "FCM-CTC") -> Any:
+    """The effort rule on a held-out table (``search/heldout.csv``: paired_claims rows per
+    regime and controller): per regime and searched controller, its four effort medians on
+    the judged plants beside FCM-CTC's there, and ``within`` (each at most FCM-CTC's plus
+    the tolerance). One row per (regime, controller)."""
+    import pandas as pd
+
+    from twolink.studies.judgments.claims import TOLERANCES
+
+    tol = np.array([TOLERANCES[m] for m, _ in EFFORT_METRICS])
+    rows = []
+    for (regime, name), g in held.groupby(["regime", "controller"], sort=False):
+        if name == proposed:
+            continue
+        base = held[(held["regime"] == regime) & (held["controller"] == proposed)]
+
+        def medians(t: Any) -> np.ndarray:
+            return np.array(
+                [
+                    float(t[(t["metric"] == m) & (t["joint"] == j)]["proposed_median"].iloc[0])
+                    for m, j in EFFORT_METRICS
+                ]
+            )
+
+        mine, budget = medians(g), medians(base)
+        rows.append(
+            {
+                "regime": regime,
+                "controller": name,
+                **{f"{m}{j}": v for (m, j), v in zip(EFFORT_METRICS, mine, strict=True)},
+                **{
+                    f"{proposed} {m}{j}": v
+                    for (m, j), v in zip(EFFORT_METRICS, budget, strict=True)
+                },
+                "within": bool(within_budget(mine, budget, tol)[0]),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def effort_lines(held: Any) -> list[str]:
+    """The effort rule on the judged plants (docs/reproduction.md, "The linear opponent by
+    search"): each best table's Σ|Δτ| per joint beside FCM-CTC's, and whether it is within
+    FCM-CTC's effort there; one over it is not an answer at equal effort."""
+    lines = ["Effort on the claims' plants (medians; Σ|Δτ| [N·m] per joint, FCM-CTC's beside):", ""]
+    for r in effort_flags(held).to_dict("records"):
+        word = "within FCM-CTC's effort" if r["within"] else "OVER FCM-CTC's effort: not crowned"
+        lines.append(
+            f"- {r['regime']} {r['controller']}: {r['torque_variation_Nm1']:.1f} / "
+            f"{r['torque_variation_Nm2']:.1f} against {r['FCM-CTC torque_variation_Nm1']:.1f} / "
+            f"{r['FCM-CTC torque_variation_Nm2']:.1f}: {word}"
+        )
+    return [*lines, ""]
