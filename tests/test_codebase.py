@@ -269,3 +269,17 @@ def test_every_stage_of_the_studies_is_a_package_with_a_one_line_docstring():
     for stage in stages:
         doc = _ast.get_docstring(_ast.parse((stage / "__init__.py").read_text()))
         assert doc and "\n" not in doc.strip(), stage
+
+
+MAX_LONG_FUNCTIONS = 12  # functions past a screen (80 lines); each split where its steps have names
+
+
+def test_at_most_12_functions_are_longer_than_a_screen():
+    long = sorted(
+        (node.end_lineno - node.lineno + 1, f"{name}.{node.name}")
+        for name, path in module_files().items()
+        for node in ast.walk(ast.parse(path.read_text()))
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef)
+        and node.end_lineno - node.lineno + 1 > 80
+    )
+    assert len(long) <= MAX_LONG_FUNCTIONS, long

@@ -39,7 +39,7 @@ def test_torque_activity_exact_differenced_filtered(table):
 
 def test_the_reports_sensor_line_says_the_papers_only_for_the_true_state():
     from twolink.simulation.sensor import Sensor
-    from twolink.studies.reproduction.reproduce import sensor_choice
+    from twolink.studies.reproduction.choices import sensor_choice
 
     ideal = sensor_choice({Sensor()})
     assert ideal.startswith("ideal (true angles and rates) in the paper's experiments, as the")

@@ -81,3 +81,13 @@ def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:
             label = f"{s.label}:\n{m.label} (θ1 + θ2)"
             profiles.append((label, performance_profile(costs(results, key))))
     plots.save_figure(answer.profiles_figure(profiles), out / PROFILES_FIGURE)
+
+
+def answer_at_a_glance(
+    out: Path, manifest: Manifest, claim_tables: Sequence[Any], draw: Any
+) -> list[str]:
+    """The answer at a glance: its figures drawn by ``draw`` (a task of the pool), and
+    ``summary.md`` written; returns the summary's lines (the report's first section)."""
+    studies = judged(manifest, claim_tables)
+    draw(answer_figures, out, studies, manifest.proposed)
+    return write_summary(out, manifest, studies)

@@ -12,7 +12,6 @@ leaves only whole files, and running it again completes it.
 from __future__ import annotations
 
 import functools
-import math
 import os
 import sys
 import time
@@ -29,10 +28,11 @@ from twolink.simulation.experiment import (
     iter_scenarios,
     measure,
 )
-from twolink.simulation.outcome import classify_run, settling_window
+from twolink.simulation.outcome import classify_run
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import joint_values
 from twolink.studies.judgments.claims_studies import raw_steps, run_claims
+from twolink.studies.reproduction.choices import describe_choices
 from twolink.studies.reproduction.hero import HERO_FIGURE, hero
 from twolink.studies.reproduction.manifest import (
     DEFAULT_MANIFEST,
@@ -242,107 +242,6 @@ def load_trajectory(out: Path, spec: RunSpec) -> Trajectory:
     return Trajectory.load(out / spec.folder / "trajectory.npz")
 
 
-def describe_choices(
-    specs: list[RunSpec], scenarios: dict[str, Scenario], design_config: Any
-) -> dict[str, str]:
-    """What the paper leaves open, as this reproduction actually set it (from its files).
-
-    Read from the loaded scenarios (``scenarios[spec.folder]``), so the report cannot
-    drift from what was run.
-    """
-    first = next(iter(scenarios.values()))
-    a, c = first.arm, first.controller
-    wn = [math.sqrt(k) for k in c.kp]
-    zeta = [kd / (2 * w) if w else math.nan for kd, w in zip(c.kd, wn, strict=True)]
-    references = sorted(
-        {
-            f"θ{sp.experiment.joint} {type(ref).__name__.lower()} "
-            + (
-                f"{ref.initial:g}→{ref.final:g} rad"
-                + (f" in {ref.duration:g} s" if hasattr(ref, "duration") else "")
-            )
-            for sp in specs
-            for ref in [
-                (scenarios[sp.folder].reference.joint1, scenarios[sp.folder].reference.joint2)[
-                    sp.experiment.joint - 1
-                ]
-            ]
-        }
-    )
-    scales = sorted(
-        {
-            ", ".join(f"{k} ×{v:g}" for k, v in sorted(sc.plant.scale.items()))
-            for sc in scenarios.values()
-            if sc.plant.scale
-        }
-    )
-    fuzzy = next(
-        (sc.controller for sc in scenarios.values() if sc.controller.kind in FUZZY_KINDS), None
-    )
-    flex = sorted(
-        {
-            f"k = {sc.plant.flexibility.k} N·m/rad, d = {sc.plant.flexibility.d} N·m·s/rad, "
-            f"j = {sc.plant.flexibility.j} kg·m², start {sc.plant.springs!r} (the scenario "
-            "keys of [plant.flexibility])"
-            for sc in scenarios.values()
-            if sc.plant.flexibility is not None
-        }
-    )
-    choices = {
-        "arm": f"two uniform rods, m1 = {a.m1:g} kg, m2 = {a.m2:g} kg, L1 = {a.l1:g} m, "
-        f"L2 = {a.l2:g} m, g = {a.g:g} m/s² (runs/paper/base.toml)",
-        "CTC gains": f"Kp = {c.kp} s⁻², Kd = {c.kd} s⁻¹: ωn = {wn[0]:.3g} rad/s, "
-        f"ζ = {zeta[0]:.3g}, torque limit {c.torque_limit} N·m, from the gain study's rule "
-        "(section below; docs/control.md)",
-        "references": "; ".join(references) + "; the other joint holds at its start",
-        "uncertainty": "the plant's "
-        + "; ".join(scales)
-        + " against the controller's nominal model (runs/paper/*_uncertain.toml)",
-    }
-    if fuzzy is not None:
-        f = fuzzy.fuzzy
-        choices["fuzzy term"] = (
-            "normalised universes [-1, 1], 7 triangular labels, min/max Mamdani, centroid; "
-            f"ke = {f.ke:.4g} /rad, kde = {f.kde:.4g} s/rad, ku = {f.ku:.4g} rad/s², mode "
-            f"{f.mode!r}: inside the CTC bracket (docs/control.md); by the scaling rule "
-            f"(docs/fuzzy.md) span E = {f.span:.3g} rad (the PD term's unsaturated range), "
-            f"ke = 1/E, kde = ke/ωn, ku = {f.authority:g} · Kp · E"
-        )
-        choices["no rule fires"] = "zero fuzzy correction: the CTC term alone acts"
-    choices["FCM design"] = (
-        f"c = {design_config.clusters}, m = {design_config.fuzzifier:g}, "
-        f"ε = {design_config.tolerance:g}, seed {design_config.seed}, on the 7x7 "
-        f"fuzzy-CTC's {len(design_config.scenarios)} design runs (steps up and down on both "
-        "joints, coupled moves, disturbed starts); settled tail: "
-        f"{design_config.settled!r} (|e| + |ė|), odd symmetry: {design_config.symmetry!r}; "
-        f"{len(design_config.validation)} held-out moves (runs/paper/design.toml)"
-    )
-    if flex:
-        choices["flexible joints"] = "; ".join(flex)
-    choices["simulation"] = (
-        f"{first.duration:g} s, RK4 at {first.timestep * 1e3:g} ms, control every "
-        f"{first.control_dt * 1e3:g} ms with zero-order hold"
-    )
-    choices["ess"] = (
-        f"the mean |target − θ| over the settling window (the last "
-        f"{settling_window(first.duration):g} s of {first.duration:g} s), not one sample"
-    )
-    choices["sensor"] = sensor_choice({sc.sensor for sc in scenarios.values()})
-    return choices
-
-
-def sensor_choice(sensors: Any) -> str:
-    """The "sensor" line of the choices: the experiments' sensors, "as the paper's
-    simulation" only where all see the true state (the paper's simulation measures it)."""
-    return (
-        "; ".join(sorted(s.describe() for s in sensors))
-        + " in the paper's experiments"
-        + (", as the paper's simulation" if all(s.ideal for s in sensors) else "")
-        + "; the gain study and the claims studies state their own (their sections; "
-        "docs/sensors.md)"
-    )
-
-
 def flexible_study(
     sweep_file: Path, out: Path, model_error: dict[str, float] | None = None
 ) -> list[str]:
@@ -525,12 +424,9 @@ def _reproduce(
     overrides: dict[str, Any] | None,
 ) -> Reproduction:
     """:func:`reproduce` once its inputs are checked and its folder is held."""
-    from tqdm import tqdm
-
     from twolink.foundation.executors import open_executor
     from twolink.foundation.io import atomic_write_json, atomic_write_text
     from twolink.studies.designs.design import design_or_load
-    from twolink.studies.designs.gains import report_section
     from twolink.studies.designs.search import search_closing
     from twolink.studies.reproduction import answer, report
     from twolink.studies.reproduction.report_sections import design_section, oscillation_section
@@ -541,20 +437,7 @@ def _reproduce(
     # The pool starts first: its workers import while the design runs. Left by Ctrl-C or
     # any failure, it stops its tasks at once (SweepExecutor.__exit__); written files are whole.
     with open_executor(kind, workers) as pool:
-        # The flexible-joint studies first: they need nothing of the design (their FCM-CTC
-        # is the shipped designed rule base), so the workers start while it runs here.
-        study = (
-            pool.submit(quietly, flexible_study, manifest.flexible_study, out)
-            if manifest.flexible_study is not None
-            else None
-        )
-        mismatched = (
-            pool.submit(
-                quietly, flexible_study, manifest.flexible_study, out, manifest.flexible_model_error
-            )
-            if manifest.flexible_model_error
-            else None
-        )
+        study, mismatched = _start_flexible_studies(pool, manifest, out)
         warned: list[tuple[str, list[str], list[str]]] = []  # per task: its warnings, runs
         phase("design: the FCM rule base (reused when its inputs are unchanged)")
         result, designed = design_or_load(config, out / "design")
@@ -563,15 +446,7 @@ def _reproduce(
             manifest, rule_base, result.clustering.centers, overrides, centre_rules(result)
         )
         scenarios = {sp.folder: load_scenario(sp.experiment.scenario, sp.overrides) for sp in specs}
-        phase(
-            f"runs: {len(specs)} experiments x controllers x variants, as batches of arms"
-            + (" (and the flexible-joint study)" if study else "")
-            + (
-                f"; beside them the claims study ({manifest.claims_study.name})"
-                if manifest.claims_study is not None
-                else ""
-            )
-        )
+        phase(_runs_phase(len(specs), study is not None, manifest))
         # Resume per run, unless the design was just made: its rule base's runs are new.
         rows, pending = run_all(
             specs, out, pool, trace, None if designed else scenarios, busy=study is not None
@@ -584,107 +459,175 @@ def _reproduce(
         def draw(function: Any, *args: Any) -> None:  # a figure, as a task of the pool
             drawing.append(pool.submit(function, *args))
 
-        claims: list[str] = []
-        claim_tables: list[Any] = []
-        # The runs' bar advances as their batches finish, while the claims sweeps (on
-        # the same pool) show their own.
-        with tqdm(
-            total=len(specs),
-            initial=sum(bool(r) for r in rows),
-            desc="runs",
-            unit="run",
-            disable=not progress,
-        ) as bar:
-            for fut, indices in pending.items():
-                fut.add_done_callback(functools.partial(_advance, bar, len(indices)))
-            if manifest.claims_study is not None:
-                claims, claim_tables = run_claims(manifest, out, pool, progress)
-            for fut in as_completed(pending):
-                batch, lines = fut.result()
-                for i, row in zip(pending[fut], batch, strict=True):
-                    rows[i] = row
-                stopped = [
-                    specs[i].folder
-                    for i, r in zip(pending[fut], batch, strict=True)
-                    if r["status"] != "ok"
-                ]
-                warned.append((f"runs batch of {len(batch)}", lines, stopped))
+        claims, claim_tables = _collect_runs(
+            manifest, out, pool, progress, specs, rows, pending, warned
+        )
         summary: list[str] = []
         if claim_tables:  # the answer at a glance: summary.md and its figures
-            judged = answer.judged(manifest, claim_tables)
-            draw(answer.answer_figures, out, judged, manifest.proposed)
-            summary = answer.write_summary(out, manifest, judged)
-        # The combined recording first (the longest task left), beside the figures.
+            summary = answer.answer_at_a_glance(out, manifest, claim_tables, draw)
         phase(
             "figures: responses, phase plane, membership functions, control surfaces"
             + (f"; and reproduction.rrd ({len(specs)} runs) beside them" if trace else "")
             + ", in the pool"
         )
-        if trace:
-            drawing.append(pool.submit(_combined_recording, out, specs))
-        # the gain study's figure next (the slowest figure, ~1.5 s), then the responses
-        gain_section = (
-            report_section(manifest.gain_study, out, pool, draw)
-            if manifest.gain_study is not None
-            else []
+        gain_section, figures, trajectories = _draw_figures(
+            pool, manifest, specs, out, trace, drawing
         )
-        figures: dict[str, str] = {}
-        for variant in manifest.variants:
-            for exp in manifest.experiments:
-                runs = {
-                    sp.controller: sp.folder
-                    for sp in specs
-                    if sp.experiment is exp and sp.variant is variant
-                }
-                name = f"figures/{variant.name}_{exp.key}.png"
-                label = exp.label
-                title = f"{label}: {exp.title}\n({variant.title})"
-                drawing.append(
-                    pool.submit(response_figure, out, runs, exp.joint, title, out / name)
-                )
-                figures[f"{variant.name}/{exp.key}"] = name
-        trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
-        shown = hero(specs, trajectories, (manifest.proposed, manifest.baseline))
-        if shown is not None:  # the README's figure: where the pair differ most
-            drawing.append(pool.submit(response_figure, out, *shown, out / HERO_FIGURE))
         sections = oscillation_section(specs, scenarios, trajectories, rows) + gain_section
-        calibrated = None
-        if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
-            from twolink.studies.designs import calibration_report
-
-            shipped = calibration_report.rerun_shipped(manifest.calibration)
-            sections += calibration_report.report_section(manifest.calibration, out, shipped, draw)
-            calibrated = calibration_report.table_values(shipped)
+        more, calibrated = _calibration(manifest, out, draw)
+        sections += more
         validity = design_evidence.result()
         sections += design_section(result, specs, scenarios, rows, validity)
-        for name, fut in (("flexible_study", study), ("flexible_study_error", mismatched)):
-            if fut is not None:
-                more, lines = fut.result()
-                sections += more
-                warned.append((f"{name}/", lines, _stopped(out / name)))
+        sections += _flexible_sections(out, study, mismatched, warned)
         sections += warnings_section(warned)
         _say_warnings(warned, progress)
         for fut in drawing:
             fut.result()
     phase("report: report.md, metrics.csv, metrics.json")
-    atomic_write_text(
-        out / "report.md",
-        report.render(
-            rows,
-            manifest,
-            describe_choices(specs, scenarios, config),
-            figures,
-            sections,
-            lead_sections=claims,
-            calibrated=calibrated,
-            claims_tables=claim_tables,
-            closing=search_closing(out),
-            summary=summary,
-        ),
-    )
+    text = report.render(
+        rows, manifest, describe_choices(specs, scenarios, config), figures, sections,
+        lead_sections=claims, calibrated=calibrated, claims_tables=claim_tables,
+        closing=search_closing(out), summary=summary,
+    )  # fmt: skip
+    atomic_write_text(out / "report.md", text)
     atomic_write_text(out / "metrics.csv", report.rows_to_csv(rows))
     atomic_write_json(out / "metrics.json", rows)
     return Reproduction(out, rows, designed, rule_base)
+
+
+def _draw_figures(
+    pool: Any, manifest: Manifest, specs: list[RunSpec], out: Path, trace: bool, drawing: list
+) -> tuple[list[str], dict[str, str], dict[str, Trajectory]]:
+    """The figures and the combined recording as tasks of ``pool`` (added to ``drawing``):
+    the recording first (the longest task left), the gain study's figure next (the slowest,
+    ~1.5 s), then the responses and the README's figure (where the pair differ most).
+    Returns the gain study's section, the response figures and the runs' trajectories."""
+    from twolink.studies.designs.gains import report_section
+
+    if trace:
+        drawing.append(pool.submit(_combined_recording, out, specs))
+    gain_section = []
+    if manifest.gain_study is not None:
+        draw = lambda function, *args: drawing.append(pool.submit(function, *args))  # noqa: E731
+        gain_section = report_section(manifest.gain_study, out, pool, draw)
+    figures = _draw_responses(pool, manifest, specs, out, drawing)
+    trajectories = {sp.folder: load_trajectory(out, sp) for sp in specs}
+    shown = hero(specs, trajectories, (manifest.proposed, manifest.baseline))
+    if shown is not None:
+        drawing.append(pool.submit(response_figure, out, *shown, out / HERO_FIGURE))
+    return gain_section, figures, trajectories
+
+
+def _runs_phase(runs: int, flexible: bool, manifest: Manifest) -> str:
+    """The runs phase's line: what runs beside the experiments."""
+    return (
+        f"runs: {runs} experiments x controllers x variants, as batches of arms"
+        + (" (and the flexible-joint study)" if flexible else "")
+        + (
+            f"; beside them the claims study ({manifest.claims_study.name})"
+            if manifest.claims_study is not None
+            else ""
+        )
+    )
+
+
+def _calibration(manifest: Manifest, out: Path, draw: Any) -> tuple[list[str], Any]:
+    """The shipped calibration rerun (a few runs): its report section and the report's
+    calibrated column (none where the manifest names no calibration)."""
+    if manifest.calibration is None:
+        return [], None
+    from twolink.studies.designs import calibration_report
+
+    shipped = calibration_report.rerun_shipped(manifest.calibration)
+    section = calibration_report.report_section(manifest.calibration, out, shipped, draw)
+    return section, calibration_report.table_values(shipped)
+
+
+def _start_flexible_studies(pool: Any, manifest: Manifest, out: Path) -> tuple[Any, Any]:
+    """The flexible-joint studies as tasks of ``pool`` (their warnings recorded): they need
+    nothing of the design (their FCM-CTC is the shipped designed rule base), so the workers
+    start while it runs. None for a study the manifest does not name."""
+    study = mismatched = None
+    if manifest.flexible_study is not None:
+        study = pool.submit(quietly, flexible_study, manifest.flexible_study, out)
+    if manifest.flexible_model_error:
+        mismatched = pool.submit(
+            quietly, flexible_study, manifest.flexible_study, out, manifest.flexible_model_error
+        )
+    return study, mismatched
+
+
+def _collect_runs(
+    manifest: Manifest,
+    out: Path,
+    pool: Any,
+    progress: bool,
+    specs: list[RunSpec],
+    rows: list[dict[str, Any]],
+    pending: dict[Any, list[int]],
+    warned: list[tuple[str, list[str], list[str]]],
+) -> tuple[list[str], list[Any]]:
+    """The runs' rows into ``rows`` as their batches finish (their warnings and stopped
+    runs into ``warned``), the claims studies beside them on the same pool; returns the
+    claims' sections and tables. The runs' bar advances as batches finish, while the
+    claims sweeps show their own."""
+    from tqdm import tqdm
+
+    claims: list[str] = []
+    claim_tables: list[Any] = []
+    initial = sum(bool(r) for r in rows)
+    with tqdm(
+        total=len(specs), initial=initial, desc="runs", unit="run", disable=not progress
+    ) as bar:
+        for fut, indices in pending.items():
+            fut.add_done_callback(functools.partial(_advance, bar, len(indices)))
+        if manifest.claims_study is not None:
+            claims, claim_tables = run_claims(manifest, out, pool, progress)
+        for fut in as_completed(pending):
+            batch, lines = fut.result()
+            for i, row in zip(pending[fut], batch, strict=True):
+                rows[i] = row
+            stopped = [
+                specs[i].folder
+                for i, r in zip(pending[fut], batch, strict=True)
+                if r["status"] != "ok"
+            ]
+            warned.append((f"runs batch of {len(batch)}", lines, stopped))
+    return claims, claim_tables
+
+
+def _draw_responses(
+    pool: Any, manifest: Manifest, specs: list[RunSpec], out: Path, drawing: list[Any]
+) -> dict[str, str]:
+    """Each experiment's response figure per variant, as tasks of ``pool`` (added to
+    ``drawing``); returns "variant/experiment" -> its file."""
+    figures: dict[str, str] = {}
+    for variant in manifest.variants:
+        for exp in manifest.experiments:
+            runs = {
+                sp.controller: sp.folder
+                for sp in specs
+                if sp.experiment is exp and sp.variant is variant
+            }
+            name = f"figures/{variant.name}_{exp.key}.png"
+            title = f"{exp.label}: {exp.title}\n({variant.title})"
+            drawing.append(pool.submit(response_figure, out, runs, exp.joint, title, out / name))
+            figures[f"{variant.name}/{exp.key}"] = name
+    return figures
+
+
+def _flexible_sections(
+    out: Path, study: Any, mismatched: Any, warned: list[tuple[str, list[str], list[str]]]
+) -> list[str]:
+    """The flexible-joint studies' report sections once they end (their warnings and
+    stopped runs into ``warned``)."""
+    sections: list[str] = []
+    for name, fut in (("flexible_study", study), ("flexible_study_error", mismatched)):
+        if fut is not None:
+            more, lines = fut.result()
+            sections += more
+            warned.append((f"{name}/", lines, _stopped(out / name)))
+    return sections
 
 
 def centre_rules(result: Any) -> list[str]:
