@@ -184,3 +184,18 @@ def test_the_search_sentence_answers_yes_only_where_every_regime_is_better_and_n
     other = _search_item("raw", "continuous", "better", "better", 120, 0, 130, 0, (-0.2, -0.3))
     assert "** Yes:" in search_sentence([mixed, other])
     assert "(−0.2 rad·s, 120 of 200 plants)" in search_sentence([mixed, other])
+
+
+def test_a_table_over_the_effort_where_judged_is_no_yes():
+    """A searched table better on every IAE but over FCM-CTC's effort on the judged plants
+    (the effort rule, docs/reproduction.md) answers nothing at equal effort: not "Yes", and
+    the sentence says it is over, with both sides' Σ|Δτ|."""
+    from twolink.studies.judgments.conclusions import search_sentence
+
+    over = _search_item("raw", "mamdani", "better", "better", 150, 0, 160, 0, (-0.1, -0.2))
+    over |= {"within_effort": False, "variation": (262.9, 83.0), "variation_budget": (234.5, 76.9)}
+    said = search_sentence([over])
+    assert "** No:" in said
+    assert "over FCM-CTC's effort there (Σ|Δτ| 262.9 / 83 N·m against 234.5 / 76.9)" in said
+    within = over | {"within_effort": True}
+    assert "** Yes:" in search_sentence([within]) and "over FCM" not in search_sentence([within])

@@ -486,6 +486,11 @@ def sentence_numbers(meta: dict[str, Any], held: pd.DataFrame) -> list[dict[str,
     held-out plants its IAE per joint against CTC-best (better, worse, n, Hodges-Lehmann
     estimate and interval, verdict) and its peak torque's and Σ|Δτ|'s verdicts."""
     out = []
+    flags = {}  # (regime, controller) -> its effort on the held-out plants, where judged
+    if "FCM-CTC" in set(held["controller"]):
+        flags = {
+            (r["regime"], r["controller"]): r for r in effort.effort_flags(held).to_dict("records")
+        }
     for f in meta["searches"]:
         name = controller_name(f["inference"])
         rows = held[
@@ -508,6 +513,14 @@ def sentence_numbers(meta: dict[str, Any], held: pd.DataFrame) -> list[dict[str,
         for key, short in (("torque_peak_Nm", "peak"), ("torque_variation_Nm", "variation")):
             for r in mine[mine["metric"] == key].itertuples():
                 item[f"{short}{r.joint}_verdict"] = r.verdict
+        flag = flags.get((f["regime"], name))
+        if flag is not None:  # the effort rule where the claim is judged (effort.py)
+            item["within_effort"] = bool(flag["within"])
+            item["variation"] = (flag["torque_variation_Nm1"], flag["torque_variation_Nm2"])
+            item["variation_budget"] = (
+                flag["FCM-CTC torque_variation_Nm1"],
+                flag["FCM-CTC torque_variation_Nm2"],
+            )
         out.append(item)
     return out
 

@@ -317,8 +317,10 @@ def search_sentence(items: Sequence[Mapping[str, Any]]) -> str | None:
             ),
         )
         verdicts = [best.get(f"iae{j}_verdict") for j in (1, 2)]
-        beats.append("better" in verdicts and "worse" not in verdicts)
-        helps.append("better" in verdicts)
+        # a table over FCM-CTC's effort where it is judged is no answer at equal effort
+        fair = best.get("within_effort", True)
+        beats.append(fair and "better" in verdicts and "worse" not in verdicts)
+        helps.append(fair and "better" in verdicts)
         said = []
         for j in (1, 2):
             v = verdicts[j - 1]
@@ -328,11 +330,19 @@ def search_sentence(items: Sequence[Mapping[str, Any]]) -> str | None:
             if v in ("better", "worse"):
                 size += f", {best[f'iae{j}_{v}']} of {best[f'iae{j}_n']} plants"
             said.append(f"{v} on θ{j} IAE ({size})")
-        parts.append(f"{_REGIME_WORDS.get(regime, regime)}, {' and '.join(said)}")
+        over = ""
+        if not fair:
+            (a, b), (c, d) = best["variation"], best["variation_budget"]
+            over = (
+                f", but over FCM-CTC's effort there (Σ|Δτ| {a:.4g} / {b:.4g} N·m against "
+                f"{c:.4g} / {d:.4g}): not at equal effort"
+            )
+        parts.append(f"{_REGIME_WORDS.get(regime, regime)}, {' and '.join(said)}{over}")
     answer = "Yes" if all(beats) else ("Not outright" if any(helps) else "No")
     return (
         "**Can a fuzzy term of this structure beat the best linear loop at equal effort?** "
-        f"{answer}: the best of {tables} rule tables searched within FCM-CTC's effort, "
+        f"{answer}: the best of {tables} rule tables searched within FCM-CTC's effort on the "
+        "training plants, "
         "judged against CTC-best on held-out plants, is " + "; ".join(parts) + "."
     )
 
