@@ -100,19 +100,23 @@ def test_shipped_frontier_is_current_and_its_opponents_follow_the_rule():
 
 
 def test_the_claims_studies_judge_fcm_ctc_against_the_shipped_opponent():
+    """The claims' CTC-best is the shipped per-joint search's loop (issue 48: the grid's one
+    ωn and ζ for both joints is no longer the strongest linear opponent), and the sweep runs
+    it with its own gains per joint and its torque limit."""
+    from twolink.simulation.config import scenario_from_dict
+    from twolink.studies.designs.opponent_search import shipped_opponents
     from twolink.studies.judgments.claims_studies import fair_opponent, regime_plan
     from twolink.studies.reproduction.manifest import load_manifest
 
     manifest = load_manifest()
-    _, chosen = frontier.load_frontier(frontier.load_spec())
+    searched = shipped_opponents(manifest.path.parent)
     raw = next(v for v in manifest.variants if v.raw_steps)
     for variant, regime in ((None, frontier.QUINTIC), (raw, raw.name)):
         o = fair_opponent(manifest, variant)
-        assert o == chosen[regime]
+        assert o == searched[regime]
         plan = regime_plan(manifest, variant, {"controllers": {frontier.OPPONENT: o.controller()}})
-        from twolink.simulation.config import scenario_from_dict
-
         s = scenario_from_dict(plan.controller_data(frontier.OPPONENT), plan.file)
-        assert s.controller.kp == (o.wn**2,) * 2
-        assert s.controller.kd == pytest.approx((2 * o.zeta * o.wn,) * 2)
+        assert s.controller.kp == pytest.approx([w**2 for w in o.wn])
+        kd = [2 * z * w for z, w in zip(o.zeta, o.wn, strict=True)]
+        assert s.controller.kd == pytest.approx(kd)
         assert s.controller.torque_limit == pytest.approx(o.torque_limit)
