@@ -125,3 +125,16 @@ def test_what_the_backend_cannot_run_is_refused_before_compiling():
         main, ["sweep", "runs/sweeps/robustness.toml", "--precision", "float32"]
     )
     assert result.exit_code == 2 and "--precision is MJX's" in result.output
+
+
+@pytest.mark.slow  # CI installs the mjx extra before the slow tests only
+def test_importing_mjx_prints_nothing_about_warp():
+    """MJX's notes on its optional Warp backend (GPU kernels twolink does not use) are not
+    said; anything else MJX prints would be."""
+    import subprocess
+    import sys
+
+    code = "from twolink.simulation import mjx_engine as m; m.available(); m._jax()"
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "warp" not in (done.stdout + done.stderr).lower()

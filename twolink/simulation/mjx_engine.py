@@ -53,11 +53,32 @@ __all__ = ["PRECISIONS", "arm_model", "available", "prepare_batch_mjx", "simulat
 PRECISIONS = ("float64", "float32")
 
 
+# What importing MJX prints to stdout about its optional Warp backend (GPU kernels twolink
+# does not use), once per module that tries it: not a fault of the user's, not said.
+_WARP_NOTES = ("Failed to import warp:", "Failed to import mujoco_warp:")
+
+
+def _import_mjx() -> Any:
+    """``mujoco.mjx``, imported without its notes on Warp (:data:`_WARP_NOTES`); anything
+    else it prints is printed as it was."""
+    import contextlib
+    import io
+
+    printed = io.StringIO()
+    with contextlib.redirect_stdout(printed):
+        from mujoco import mjx
+    for line in printed.getvalue().splitlines():
+        if not line.startswith(_WARP_NOTES):
+            print(line)
+    return mjx
+
+
 def available() -> bool:
     """Whether MJX and JAX are installed."""
     try:
         import jax  # noqa: F401
-        from mujoco import mjx  # noqa: F401
+
+        _import_mjx()
     except ImportError:
         return False
     return True
@@ -66,7 +87,8 @@ def available() -> bool:
 def _jax(precision: str = "float64"):
     try:
         import jax
-        from mujoco import mjx
+
+        mjx = _import_mjx()
     except ImportError as exc:
         raise ValueError(
             f'the mjx backend needs MJX and JAX: pip install "twolink[mjx]" (missing: {exc.name})'
