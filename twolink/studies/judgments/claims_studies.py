@@ -1,5 +1,6 @@
 """The reproduction's claims studies: the claims sweep of the manifest, as its file says
-and again in each regime of a ``raw_steps`` variant (the paper's own references), judged
+and again in each regime of a ``raw_steps`` variant (the paper's own references) and on
+the lab arm (the manifest's ``lab_study``: the same plants with friction and a disturbance), judged
 with :mod:`twolink.studies.judgments.claims`, each against the baseline and against the fair linear
 opponent, CTC-best (:mod:`twolink.studies.designs.frontier`). The pieces of a regime (the raw steps,
 the reference's own step metrics, the sweep in a regime) are
@@ -19,9 +20,13 @@ from twolink.studies.judgments.claims_plans import (
     regime_plan,
 )
 from twolink.studies.judgments.conclusions import ClaimsStudy
-from twolink.studies.reproduction.manifest import Manifest
+from twolink.studies.reproduction.manifest import Manifest, Variant
+
+# The lab arm's regime (the manifest's lab_study): its files are claims_lab.csv and the like.
+LAB = Variant("lab", "the lab arm (joint friction and a load step)", {})
 
 __all__ = [
+    "LAB",
     "SMOOTH_KINDS",
     "fair_opponent",
     "raw_steps",
@@ -40,13 +45,18 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
     from twolink import sweep
     from twolink.studies.designs import frontier, search
 
-    variants = (None, *(v for v in manifest.variants if v.raw_steps))
+    # each regime: (the manifest it judges, the variant its moves come from, its label)
+    regimes: list[tuple[Manifest, Any, Any]] = [(manifest, None, None)]
+    regimes += [(manifest, v, v) for v in manifest.variants if v.raw_steps]
+    if manifest.lab_study is not None:  # the lab arm: its own sweep file, quintic moves
+        regimes.append((dataclasses.replace(manifest, claims_study=manifest.lab_study), None, LAB))
+    variants = [label for _, _, label in regimes]
     plans = []
-    for variant in variants:
+    for judged, variant, _ in regimes:
         # the fair linear opponent: the best linear loop at the proposed controller's effort
         opponent = fair_opponent(manifest, variant, pool)
         overrides = {"controllers": {OPPONENT: opponent.controller()}}
-        plans.append((opponent, regime_plan(manifest, variant, overrides)))
+        plans.append((opponent, regime_plan(judged, variant, overrides)))
     try:
         # every regime's sweep at once on the pool, each into the reproduction's own
         # folder (a changed sweep file's results are replaced)
@@ -67,8 +77,10 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
         raise KeyboardInterrupt from None  # the reproduction's own stop
     sections: list[str] = []
     tables = []
-    for variant, (opponent, plan), outcome in zip(variants, plans, outcomes, strict=True):
-        more, studies = _claims_study(manifest, out, variant, opponent, plan, outcome)
+    for (judged, _, variant), (opponent, plan), outcome in zip(
+        regimes, plans, outcomes, strict=True
+    ):
+        more, studies = _claims_study(judged, out, variant, opponent, plan, outcome)
         sections += more
         tables += studies
     # after the claims: where the fair opponent comes from, and the strongest fuzzy term
@@ -140,6 +152,7 @@ def _claims_study(
         same_as={},
         every=every,
         integral=integral,
+        lab=variant is LAB,
     )
     return sections, [study]
 

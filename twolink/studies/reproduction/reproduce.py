@@ -474,12 +474,13 @@ def reproduce(
         _check_run(manifest, sp)
     if manifest.flexible_study is not None:
         sweep.load_sweep(manifest.flexible_study)
-    if manifest.claims_study is not None:
-        names = sweep.load_sweep(manifest.claims_study).controller_names
+    for key in ("claims_study", "lab_study"):  # each judged by the claim's two names
+        study = getattr(manifest, key)
+        names = () if study is None else sweep.load_sweep(study).controller_names
         missing = [n for n in (manifest.proposed, manifest.baseline) if n not in names]
-        if missing:
+        if study is not None and missing:
             raise ConfigError(
-                f"{manifest.path}: claims_study: {manifest.claims_study.name} must run "
+                f"{manifest.path}: {key}: {study.name} must run "
                 f"{missing} by name (it runs {list(names)})"
             )
     check_output_folder(out)
