@@ -141,6 +141,8 @@ def _claims_study(
     sections += opponent_section(opponent, manifest) + report.claims_section(
         fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {OPPONENT}", sensor
     )
+    if variant is LAB:
+        sections += hunting_section()
     label = regime or "the claims study's quintic moves"
     study = ClaimsStudy(
         label=label,
@@ -181,4 +183,23 @@ def opponent_section(opponent: Any, manifest: Manifest) -> list[str]:
         f"plants ({opponent.index:.4g} rad·s; {p}: {opponent.proposed_index:.4g}) among those",
         f"whose median peak |τ| and Σ|Δτ| per joint stay within {p}'s (its largest ratio to",
         f"{p}'s: {ratio}). Does {p} beat the best linear loop given the same effort?",
+    ]
+
+
+def hunting_section() -> list[str]:
+    """The lab arm's figure: integral action hunting against friction beside CTC's clean
+    stop (:mod:`twolink.figures.hunting`)."""
+    from twolink.figures.hunting import HUNTING_FIGURE
+
+    return [
+        "",
+        "### Stick-slip hunting on one plant",
+        "",
+        "The nominal arm with friction at the top of the lab arm's ranges (F_c = 2 and",
+        "0.5 N·m, F_s = 1.5 F_c, v_s = 0.01 rad/s), the base gains, θ1 stepping 0.5 rad:",
+        "CTC stops short of the target by its dead band F_s / (M̂ Kp) and stays; CTC-I's",
+        "integrator winds up to breakaway, the joint slips past the target and sticks",
+        'again, over and over (docs/model.md, "Friction").',
+        "",
+        f"![stick-slip hunting]({HUNTING_FIGURE})",
     ]

@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from twolink.figures.hunting import HUNTING_FIGURE, save_hunting_figure
 from twolink.foundation.interrupts import raise_if_dropped
 from twolink.foundation.io import SEAL_NAME, seal_intact, to_toml
 from twolink.simulation.config import FUZZY_KINDS, ConfigError, Scenario, load_scenario, merge
@@ -608,6 +609,8 @@ def _reproduce(
         shown = hero(specs, trajectories, (manifest.proposed, manifest.baseline))
         if shown is not None:  # the README's figure: where the pair differ most
             drawing.append(pool.submit(response_figure, out, *shown, out / HERO_FIGURE))
+        if manifest.lab_study is not None:  # the lab arm's section shows hunting
+            drawing.append(pool.submit(save_hunting_figure, out / HUNTING_FIGURE))
         sections = oscillation_section(specs, scenarios, trajectories, rows) + gain_section
         calibrated = None
         if manifest.calibration is not None:  # the shipped fit, rerun (a few runs)
