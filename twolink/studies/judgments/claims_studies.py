@@ -23,7 +23,7 @@ from twolink.studies.judgments.conclusions import ClaimsStudy
 from twolink.studies.reproduction.manifest import Manifest, Variant
 
 # The lab arm's regime (the manifest's lab_study): its files are claims_lab.csv and the like.
-LAB = Variant("lab", "the lab arm (joint friction and a load step)", {})
+LAB = Variant("lab", "the lab arm, with joint friction and a load step", {})
 
 __all__ = [
     "LAB",
