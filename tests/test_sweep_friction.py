@@ -140,3 +140,27 @@ def test_friction_draws_last_so_the_other_draws_stay(tmp_path):
         (a, seed_a), (b, seed_b) = plain.draw(i), lab.draw(i)
         assert seed_a == seed_b and {n: b[n] for n in a} == a
         assert 1.0 <= b["coulomb1"] <= 2.0 and 1.2 <= b["stribeck_ratio"] <= 1.5
+
+
+def test_friction_level_is_a_share_of_each_joints_holding_torque(tmp_path):
+    """friction_level = 0.1 on the nominal arm: F_c = 0.1 G(q = 0) per joint, G from the
+    closed form of two uniform rods held horizontal, (m1 l1/2 + m2 (l1 + l2/2)) g and
+    m2 l2/2 g = (19.62, 4.905) N·m."""
+    text = SWEEP.replace("coulomb1 = {", "friction_level = {").replace(
+        "low = 1.0, high = 2.0", "low = 0.1, high = 0.1"
+    )
+    plan = sw.load_sweep(write(tmp_path, text))
+    values, seed = plan.draw(0)
+    friction = plan.sample_data(values, seed)["plant"]["friction"]
+    assert friction["coulomb"] == pytest.approx([1.962, 0.4905], rel=1e-12)
+    assert friction["breakaway"] == pytest.approx([1.5 * 1.962, 1.5 * 0.4905], rel=1e-12)
+
+
+def test_friction_level_and_a_joints_coulomb_conflict(tmp_path):
+    text = SWEEP + 'friction_level = { dist = "grid", values = [0.1] }\n'
+    text = (
+        text.replace('[controllers.ctc]\nkind = "ctc"\n', "") + '[controllers.ctc]\nkind = "ctc"\n'
+    )
+    path = write(tmp_path, text)
+    with pytest.raises(ConfigError, match="parameters.coulomb1: conflicts with 'friction_level'"):
+        sw.load_sweep(path)

@@ -48,7 +48,8 @@ sets both joints' damping from a damping ratio, d = 2 ζ sqrt(k j) with each joi
 (drawn or the base's): realistic light damping at every stiffness. ``wn`` is the closed
 loop's bandwidth [rad/s] at ζ = 1: every controller of the sample gets kp = wn², kd = 2 wn,
 ki = wn³ / 4 (the gain study's rule; over the controllers' own gains). ``coulomb1 coulomb2``
-are the joints' Coulomb friction [N m], ``stribeck_ratio`` their breakaway / Coulomb and
+are the joints' Coulomb friction [N m] (``friction_level``: both, as a fraction of their
+holding gravity torque on the nominal arm), ``stribeck_ratio`` their breakaway / Coulomb and
 ``stribeck_velocity`` v_s [rad/s], over the base's ``[plant.friction]``
 (:mod:`twolink.sweep.friction_draws`). Distributions:
 ``uniform`` (low, high), ``loguniform`` (low, high), ``normal`` (mean, std, optional
@@ -70,6 +71,7 @@ from typing import Any
 
 import numpy as np
 
+from twolink.arm import dynamics
 from twolink.arm.params import Flexibility
 from twolink.foundation.executors import EXECUTORS
 from twolink.foundation.io import unsafe_name_problem
@@ -269,7 +271,10 @@ class SweepPlan:
                     2.0 * z * math.sqrt(k * j) for k, j in zip(flex["k"], flex["j"], strict=True)
                 ]
             plant["flexibility"] = flex
-        friction = friction_data(self.base.get("plant", {}).get("friction", {}), values)
+        holding = (0.0, 0.0)
+        if "friction_level" in values:  # the nominal arm's holding torque, horizontal
+            holding = tuple(dynamics.gravity(self.nominal_scenario().arm, np.zeros(2)))
+        friction = friction_data(self.base.get("plant", {}).get("friction", {}), values, holding)
         if friction is not None:
             plant["friction"] = friction
         return merge(self.base, {"plant": plant, "seed": noise_seed})
@@ -528,6 +533,9 @@ def _parameters(top: TomlTable, file: str) -> tuple[Parameter, ...]:
         both = [f"{p}{j}" for j in (1, 2) if f"{p}{j}" in pt.data]
         if p in pt.data and both:
             pt.fail(both[0], f"conflicts with {p!r}, which sets both joints")
+    for coulomb in ("coulomb1", "coulomb2"):
+        if coulomb in pt.data and "friction_level" in pt.data:
+            pt.fail(coulomb, "conflicts with 'friction_level', which sets both joints' Coulomb")
     for damping in ("d", "d1", "d2"):
         if damping in pt.data and "zeta_joint" in pt.data:
             pt.fail(damping, "conflicts with 'zeta_joint', which sets the damping of both joints")
