@@ -85,10 +85,12 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     report = (reproduction.out / "report.md").read_text()
     head = "## The paper's claims on 200 plants"
     assert head in report and report.index(head) < report.index("### Table 2:")
-    # the conclusions come first, at most 8 sentences, from the same table
+    from twolink.studies.judgments.conclusions import MOST
+
+    # the conclusions come first, at most MOST sentences, from the same table
     conclusions = report[report.index("## Conclusions") : report.index("## Who wins")]
     assert report.index("## Conclusions") < report.index(head)
-    assert len(conclusions.strip().splitlines()) <= 1 + 1 + 8
+    assert len(conclusions.strip().splitlines()) <= 1 + 1 + MOST
     results = load_results(reproduction.out / "claims_study")
     names = {"CTC", "PD-G", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "CTC-best"}
     assert len(results) == 1200 and set(results["controller"]) == names
