@@ -1,6 +1,6 @@
 """Stick-slip hunting beside a clean stop (docs/reproduction.md, "The lab arm"): CTC with
-integral action and CTC on the same arm with friction at the top of the lab arm's level,
-the base scenario's gains, a 0.5 rad step of θ1 held for 20 s. The integrator winds up to
+integral action and CTC on the same arm with friction at the harsh end of the lab arm's
+ranges, the base scenario's gains, a 0.5 rad step of θ1 held for 20 s. The integrator winds up to
 breakaway, the joint slips past the target and sticks again; CTC stops short by its dead
 band and stays there (docs/model.md, "Friction")."""
 
@@ -20,7 +20,8 @@ __all__ = [
 ]
 
 HUNTING_FIGURE = "figures/hunting.png"
-# The top of runs/sweeps/lab.toml's ranges: F_c (2, 0.5) N m, F_s = 1.5 F_c, v_s = 0.01 rad/s
+# The harsh end of runs/sweeps/lab.toml's ranges (most friction, sharpest dip):
+# F_c (2, 0.5) N m, F_s = 1.5 F_c, v_s = 0.01 rad/s
 HUNTING_FRICTION = {"coulomb": [2.0, 0.5], "breakaway": [3.0, 0.75], "stribeck_velocity": 0.01}
 CONTROLLERS = {"CTC-I": "ctc_integral", "CTC": "ctc"}
 

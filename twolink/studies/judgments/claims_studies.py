@@ -189,17 +189,18 @@ def opponent_section(opponent: Any, manifest: Manifest) -> list[str]:
 def hunting_section() -> list[str]:
     """The lab arm's figure: integral action hunting against friction beside CTC's clean
     stop (:mod:`twolink.figures.hunting`)."""
-    from twolink.figures.hunting import HUNTING_FIGURE
+    from twolink.figures.hunting import HUNTING_FIGURE, HUNTING_FRICTION
 
+    f = HUNTING_FRICTION
     return [
         "",
         "### Stick-slip hunting on one plant",
         "",
-        "The nominal arm with friction at the top of the lab arm's ranges (F_c = 2 and",
-        "0.5 N·m, F_s = 1.5 F_c, v_s = 0.01 rad/s), the base gains, θ1 stepping 0.5 rad:",
-        "CTC stops short of the target by its dead band F_s / (M̂ Kp) and stays; CTC-I's",
-        "integrator winds up to breakaway, the joint slips past the target and sticks",
-        'again, over and over (docs/model.md, "Friction").',
+        "The nominal arm with friction at the harsh end of the lab arm's ranges",
+        f"(F_c = {f['coulomb']} N·m, F_s = {f['breakaway']} N·m, v_s = {f['stribeck_velocity']}",
+        "rad/s), the base gains, θ1 stepping 0.5 rad: CTC stops short of the target by its",
+        "dead band and stays; CTC-I's integrator winds up to breakaway, the joint slips past",
+        'the target and sticks again, over and over (docs/model.md, "Friction").',
         "",
         f"![stick-slip hunting]({HUNTING_FIGURE})",
     ]
