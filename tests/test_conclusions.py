@@ -14,6 +14,7 @@ from twolink.studies.judgments.claims import CLAIM_METRICS, paired_claims, paire
 from twolink.studies.judgments.conclusions import (
     MOST,
     ClaimsStudy,
+    lab_sentence,
     limit_cycle_sentence,
     sentences,
     study_sentence,
@@ -152,8 +153,8 @@ def test_at_most_eight_sentences_and_none_twice():
     lines = [variant_sentence("rigid arm", 10, {"overshoot_pct": (0, 0, 10)}, {}, {}, "F", "C")]
     out = sentences(lines * 3, [s, s])
     assert len(out) == len(set(out)) <= MOST
-    with pytest.raises(ValueError, match="at most 8"):
-        sentences([f"line {k}" for k in range(9)], [])
+    with pytest.raises(ValueError, match=f"at most {MOST}"):
+        sentences([f"line {k}" for k in range(MOST + 1)], [])
 
 
 def _search_item(regime, inference, v1, v2, b1=0, w1=0, b2=0, w2=0, est=(0.0, 0.0)):
@@ -199,3 +200,54 @@ def test_a_table_over_the_effort_where_judged_is_no_yes():
     assert "over FCM-CTC's effort there (Σ|Δτ| 262.9 / 83 N·m against 234.5 / 76.9)" in said
     within = over | {"within_effort": True}
     assert "** Yes:" in search_sentence([within]) and "over FCM" not in search_sentence([within])
+
+
+def lab_study(every: pd.DataFrame | None = None) -> ClaimsStudy:
+    """The synthetic study as the lab arm's, with a controller the sentence leaves out."""
+    s = study("CTC-best", same=False)
+    r = results("CTC-best")
+    more = r[r["controller"] == "CTC"].assign(controller="PD-G")
+    pd_g = paired_claims_many(pd.concat([r, more]), [("PD-G", "CTC")], WINNER_METRICS)
+    every = pd.concat([s.every, pd_g]) if every is None else every
+    return ClaimsStudy(**{**s.__dict__, "every": every, "lab": True, "label": "the lab arm"})
+
+
+def _clause(sentence: str, pair: str) -> str:
+    """What the brackets after ``pair`` say."""
+    return sentence.split(f"{pair} (", 1)[1].split(")", 1)[0]
+
+
+def test_the_lab_sentence_says_who_beats_whom_with_sizes_and_counts():
+    s = lab_study()
+    said = lab_sentence(s)
+    assert said.startswith("**The lab arm, 200 plants**")
+    assert "PD-G" not in said  # only the claim's controllers, the integral one, opponents
+    row = s.every[(s.every["proposed"] == "CTC-I") & (s.every["opponent"] == "CTC")]
+    better = row[row["verdict"] == "better"]
+    assert len(better) and not (row["verdict"] == "worse").any()
+    best = better.loc[(better["estimate"].abs() / better["tolerance"]).idxmax()]
+    assert f"CTC-I beats CTC (better/worse on {len(better)}/0 of {len(row)} metrics" in said
+    size = f"{-best['estimate'] * 1e3:.2g}"  # mrad, the 3 mrad less ess it was given
+    assert f"ess −{size} mrad, better on {best['better']} of 200 plants" in said
+    # the same tables with one metric worse: a trade, not a win; all worse: a loss
+    every = s.every.copy()
+    mine = (every["proposed"] == "CTC-I") & (every["opponent"] == "CTC")
+    worst = every[mine & (every["verdict"] != "better")].index[0]
+    every.loc[worst, "verdict"] = "worse"
+    every.loc[worst, "worse"] = 150
+    traded = lab_sentence(lab_study(every.reset_index(drop=True)))
+    assert "CTC-I trades with CTC (" in traded and "CTC-I beats CTC (" not in traded
+    assert "worse on 150 of 200 plants" in _clause(traded, "CTC-I trades with CTC")
+    every.loc[mine, "verdict"] = "worse"
+    assert "CTC-I loses to CTC (" in lab_sentence(lab_study(every.reset_index(drop=True)))
+    every.loc[mine, "verdict"] = "equivalent"
+    assert "CTC-I is not told from CTC (better/worse on 0/0" in lab_sentence(
+        lab_study(every.reset_index(drop=True))
+    )
+
+
+def test_the_lab_arm_has_its_own_sentence_after_the_regimes():
+    s, lab = study(), lab_study()
+    out = sentences(["a line"], [s, lab])
+    assert out[-1] == lab_sentence(lab)
+    assert sum("The lab arm" in x for x in out) == 1  # not among the regimes' claims

@@ -31,6 +31,7 @@ def paper_paths(text: str) -> str:
         "design",
         "flexible_study",
         "claims_study",
+        "lab_study",
         "gain_study",
         "calibration",
     ):
@@ -159,4 +160,34 @@ def test_a_claims_sweep_must_run_the_claims_two_controllers(tmp_path):
     result = CliRunner().invoke(main, ["reproduce", "--manifest", str(path), "--out", str(out)])
     assert result.exit_code == 2, result.output
     assert "m.toml: claims_study: other.toml must run ['FCM-CTC']" in result.output
+    assert not out.exists()
+
+
+def test_the_lab_sweep_must_run_the_claims_two_controllers(tmp_path):
+    from click.testing import CliRunner
+
+    from twolink.interface.cli import main
+
+    sweep = tmp_path / "lab.toml"
+    sweep.write_text(
+        (PAPER.parent / "sweeps" / "lab.toml")
+        .read_text()
+        .replace("[controllers.CTC]", "[controllers.C]")
+        .replace('"../paper/base.toml"', f'"{PAPER}/base.toml"')
+    )
+    text = paper_paths((PAPER / "reproduce.toml").read_text())
+    path = tmp_path / "m.toml"
+    path.write_text(text.replace(f'"{PAPER}/../sweeps/lab.toml"', f'"{sweep}"'))
+    assert load_manifest(path).lab_study == sweep
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["reproduce", "--manifest", str(path), "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert (
+        result.output.strip()
+        .splitlines()[-1]
+        .endswith(
+            "m.toml: lab_study: lab.toml must run ['CTC'] by name (it runs "
+            "['C', 'PD-G', 'CTC-I', 'FCM-CTC', 'FCM-CTC-continuous'])"
+        )
+    )
     assert not out.exists()

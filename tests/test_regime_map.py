@@ -81,3 +81,23 @@ def test_a_share_without_a_verdict_is_listed_apart_from_the_verdicts():
     row = summary(t).iloc[0]
     assert row["worse_share"] == "θ2 osc 29/100" and row["worse"] == "θ1 IAE"
     assert row["better_share"] == "" and row["effect"] == "hurts"
+
+
+def test_a_friction_axis_splits_the_cells_and_shows_in_the_table():
+    """Two friction levels of one cell otherwise: two cells, each its own effect."""
+    from twolink.studies.judgments.regimes import FRICTION_AXIS, markdown
+
+    t = pd.DataFrame(
+        {
+            "regime": "quintic", "wn": 15.0, "mass": 1.0, "payload": 0.0,
+            FRICTION_AXIS: [0.0, 0.0, 0.1, 0.1],
+            "proposed": "FCM-CTC", "opponent": "CTC", "fuzzy_active_share": 0.1,
+            "n": 100, "joint": [1, 2, 1, 2], "metric": "iae_rad_s",
+            "verdict": ["equivalent", "equivalent", "worse", "equivalent"],
+        }
+    )  # fmt: skip
+    summ = summary(t)
+    assert list(summ[FRICTION_AXIS]) == [0.0, 0.1]
+    assert list(summ["effect"]) == ["no difference shown", "hurts"]
+    text = "\n".join(markdown(summ))
+    assert "| F_c [% of G] |" in text and "| 15 | 1 | 0 | 10 | 10.0 % | 100 | hurts |" in text

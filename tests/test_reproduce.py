@@ -88,9 +88,11 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     # the answer first, then the paper's tables, the claims in full as an appendix (issue 46)
     order = ["## The answer at a glance", "### Table 2:", "## Conclusions", "## Appendix", head]
     assert [report.index(h) for h in order] == sorted(report.index(h) for h in order)
-    # the conclusions: at most 8 sentences, from the same table
+    from twolink.studies.judgments.conclusions import MOST
+
+    # the conclusions: at most MOST sentences, from the same table
     conclusions = report[report.index("## Conclusions") : report.index("## Appendix")]
-    assert len(conclusions.strip().splitlines()) <= 1 + 1 + 8
+    assert len(conclusions.strip().splitlines()) <= 1 + 1 + MOST
     results = load_results(reproduction.out / "claims_study")
     names = {"CTC", "PD-G", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "CTC-best"}
     assert len(results) == 1200 and set(results["controller"]) == names

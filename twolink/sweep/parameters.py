@@ -12,11 +12,13 @@ from typing import Any
 import numpy as np
 
 from twolink.simulation.config import TomlTable
+from twolink.sweep.friction_draws import FRICTION_NAMES
 
 __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Parameter"]
 
 DISTRIBUTIONS = ("uniform", "loguniform", "normal", "choice", "grid")
-# name -> domain of the drawn value: "positive" (> 0), "nonnegative" (>= 0) or "any".
+# name -> domain of the drawn value: "positive" (> 0), "nonnegative" (>= 0),
+# "at_least_one" (>= 1: a ratio such as breakaway / Coulomb) or "any".
 PARAMETERS: Mapping[str, str] = {
     "m1": "positive",
     "m2": "positive",
@@ -31,6 +33,7 @@ PARAMETERS: Mapping[str, str] = {
     "k_scale": "positive",  # plant.scale.k: the plant's stiffness / the controllers' model
     "j_scale": "positive",  # plant.scale.j: the same for the rotor inertia
     "wn": "positive",  # the controllers' bandwidth [rad/s], zeta = 1
+    **FRICTION_NAMES,  # joint friction over the base's [plant.friction]
 }  # fmt: skip
 TRUNCATION_TRIES = 10_000
 # A truncated normal must keep this share of the draws: with 10,000 tries per value, no
@@ -106,6 +109,8 @@ def _check_value(t: TomlTable, key: str, value: Any, domain: str) -> float:
         t.fail(key, f"must be > 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
     if domain == "nonnegative" and value < 0:
         t.fail(key, f"must be >= 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
+    if domain == "at_least_one" and value < 1:
+        t.fail(key, f"must be >= 1 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
     return float(value)
 
 
@@ -152,8 +157,9 @@ def _parameter(name: str, data: Any, file: str) -> Parameter:
         return _check_value(t, key, t.raw(key), dom)
 
     if dist in ("uniform", "loguniform"):
-        low = need("low", "positive" if dist == "loguniform" else domain)
-        high = need("high", "positive" if dist == "loguniform" else domain)
+        # a log needs > 0; a domain of its own (>= 1) stays
+        dom = "positive" if dist == "loguniform" and domain != "at_least_one" else domain
+        low, high = need("low", dom), need("high", dom)
         if low > high:
             t.fail("high", f"must be >= low ({low}): the distribution is empty, got {high}")
         p = Parameter(name, dist, low=low, high=high)

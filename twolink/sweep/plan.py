@@ -47,7 +47,11 @@ against the joints the flexible-joint laws model (``[plant.scale] k, j``). ``zet
 sets both joints' damping from a damping ratio, d = 2 ζ sqrt(k j) with each joint's k and j
 (drawn or the base's): realistic light damping at every stiffness. ``wn`` is the closed
 loop's bandwidth [rad/s] at ζ = 1: every controller of the sample gets kp = wn², kd = 2 wn,
-ki = wn³ / 4 (the gain study's rule; over the controllers' own gains). Distributions:
+ki = wn³ / 4 (the gain study's rule; over the controllers' own gains). ``coulomb1 coulomb2``
+are the joints' Coulomb friction [N m] (``friction_level``: both, as a fraction of their
+holding gravity torque on the nominal arm), ``stribeck_ratio`` their breakaway / Coulomb and
+``stribeck_velocity`` v_s [rad/s], over the base's ``[plant.friction]``
+(:mod:`twolink.sweep.friction_draws`). Distributions:
 ``uniform`` (low, high), ``loguniform`` (low, high), ``normal`` (mean, std, optional
 low/high truncation by rejection), ``choice`` (values, optional weights), ``grid`` (values:
 sample i takes the (i mod size)-th point of the full grid over all grid parameters, the
@@ -67,6 +71,7 @@ from typing import Any
 
 import numpy as np
 
+from twolink.arm import dynamics
 from twolink.arm.params import Flexibility
 from twolink.foundation.executors import EXECUTORS
 from twolink.foundation.io import unsafe_name_problem
@@ -87,6 +92,7 @@ from twolink.simulation.config import (
     strip_replace,
 )
 from twolink.simulation.outcome import SuccessSpec, finished, largest_step
+from twolink.sweep.friction_draws import FRICTION_NAMES, friction_data
 from twolink.sweep.parameters import (
     DISTRIBUTIONS,
     PARAMETERS,
@@ -223,7 +229,9 @@ class SweepPlan:
         """Parameter values of sample ``i`` and its measurement-noise seed.
 
         Grid parameters come from ``i``; the others are drawn, in name order, from
-        ``default_rng([seed, i])``, and the noise seed is drawn after them.
+        ``default_rng([seed, i])``, and the noise seed is drawn after them; the friction
+        parameters last, so adding friction to a sweep leaves its plants and noise as
+        they were (the lab arm's plants are the robustness study's).
         """
         values: dict[str, float] = {}
         k = i
@@ -232,10 +240,14 @@ class SweepPlan:
                 values[p.name] = p.values[k % len(p.values)]
                 k //= len(p.values)
         rng = np.random.default_rng([self.seed, i])
-        for p in self.parameters:
-            if p.dist != "grid":
+        drawn = [p for p in self.parameters if p.dist != "grid"]
+        for p in drawn:
+            if p.name not in FRICTION_NAMES:
                 values[p.name] = p.draw(rng)
         noise_seed = int(rng.integers(0, 2**31))
+        for p in drawn:
+            if p.name in FRICTION_NAMES:
+                values[p.name] = p.draw(rng)
         return {p.name: values[p.name] for p in self.parameters}, noise_seed
 
     def sample_data(self, values: Mapping[str, float], noise_seed: int) -> dict[str, Any]:
@@ -270,6 +282,12 @@ class SweepPlan:
                     2.0 * z * math.sqrt(k * j) for k, j in zip(flex["k"], flex["j"], strict=True)
                 ]
             plant["flexibility"] = flex
+        holding = (0.0, 0.0)
+        if "friction_level" in values:  # the nominal arm's holding torque, horizontal
+            holding = tuple(dynamics.gravity(self.nominal_scenario().arm, np.zeros(2)))
+        friction = friction_data(self.base.get("plant", {}).get("friction", {}), values, holding)
+        if friction is not None:
+            plant["friction"] = friction
         return merge(self.base, {"plant": plant, "seed": noise_seed})
 
     def model_gravity(self) -> float:
@@ -522,6 +540,9 @@ def _parameters(top: TomlTable, file: str) -> tuple[Parameter, ...]:
         both = [f"{p}{j}" for j in (1, 2) if f"{p}{j}" in pt.data]
         if p in pt.data and both:
             pt.fail(both[0], f"conflicts with {p!r}, which sets both joints")
+    for coulomb in ("coulomb1", "coulomb2"):
+        if coulomb in pt.data and "friction_level" in pt.data:
+            pt.fail(coulomb, "conflicts with 'friction_level', which sets both joints' Coulomb")
     for damping in ("d", "d1", "d2"):
         if damping in pt.data and "zeta_joint" in pt.data:
             pt.fail(damping, "conflicts with 'zeta_joint', which sets the damping of both joints")

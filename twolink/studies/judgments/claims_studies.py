@@ -1,5 +1,6 @@
 """The reproduction's claims studies: the claims sweep of the manifest, as its file says
-and again in each regime of a ``raw_steps`` variant (the paper's own references), judged
+and again in each regime of a ``raw_steps`` variant (the paper's own references) and on
+the lab arm (the manifest's ``lab_study``: the same plants with friction and a disturbance), judged
 with :mod:`twolink.studies.judgments.claims`, each against the baseline and against the fair linear
 opponent, CTC-best (:mod:`twolink.studies.designs.frontier`). The pieces of a regime (the raw steps,
 the reference's own step metrics, the sweep in a regime) are
@@ -19,11 +20,15 @@ from twolink.studies.judgments.claims_plans import (
     regime_plan,
 )
 from twolink.studies.judgments.conclusions import ClaimsStudy
-from twolink.studies.reproduction.manifest import Manifest
+from twolink.studies.reproduction.manifest import Manifest, Variant
+
+# The lab arm's regime (the manifest's lab_study): its files are claims_lab.csv and the like.
+LAB = Variant("lab", "the lab arm, with joint friction and a load step", {})
 
 EFFORT_METRICS = ("torque_peak_Nm", "torque_variation_Nm")  # judged against the fair opponent
 
 __all__ = [
+    "LAB",
     "SMOOTH_KINDS",
     "fair_opponent",
     "raw_steps",
@@ -42,13 +47,18 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
     from twolink import sweep
     from twolink.studies.designs import frontier, search
 
-    variants = (None, *(v for v in manifest.variants if v.raw_steps))
+    # each regime: (the manifest it judges, the variant its moves come from, its label)
+    regimes: list[tuple[Manifest, Any, Any]] = [(manifest, None, None)]
+    regimes += [(manifest, v, v) for v in manifest.variants if v.raw_steps]
+    if manifest.lab_study is not None:  # the lab arm: its own sweep file, quintic moves
+        regimes.append((dataclasses.replace(manifest, claims_study=manifest.lab_study), None, LAB))
+    variants = [label for _, _, label in regimes]
     plans = []
-    for variant in variants:
+    for judged, variant, _ in regimes:
         # the fair linear opponent: the best linear loop at the proposed controller's effort
         opponent = fair_opponent(manifest, variant, pool)
         overrides = {"controllers": {OPPONENT: opponent.controller()}}
-        plans.append((opponent, regime_plan(manifest, variant, overrides)))
+        plans.append((opponent, regime_plan(judged, variant, overrides)))
     try:
         # every regime's sweep at once on the pool, each into the reproduction's own
         # folder (a changed sweep file's results are replaced)
@@ -69,8 +79,10 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
         raise KeyboardInterrupt from None  # the reproduction's own stop
     sections: list[str] = []
     tables = []
-    for variant, (opponent, plan), outcome in zip(variants, plans, outcomes, strict=True):
-        more, studies = _claims_study(manifest, out, variant, opponent, plan, outcome)
+    for (judged, _, variant), (opponent, plan), outcome in zip(
+        regimes, plans, outcomes, strict=True
+    ):
+        more, studies = _claims_study(judged, out, variant, opponent, plan, outcome)
         sections += more
         tables += studies
     # after the claims: where the fair opponent comes from, and the strongest fuzzy term
@@ -138,6 +150,8 @@ def _claims_study(
     sections += opponent_section(opponent, manifest) + report.claims_section(
         fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {OPPONENT}", sensor
     )
+    if variant is LAB:
+        sections += hunting_section()
     label = regime or "the claims study's quintic moves"
     study = ClaimsStudy(
         label=label,
@@ -149,6 +163,7 @@ def _claims_study(
         same_as={},
         every=every,
         integral=integral,
+        lab=variant is LAB,
     )
     return sections, [study]
 
@@ -202,4 +217,24 @@ def opponent_section(opponent: Any, manifest: Manifest) -> list[str]:
         f"plants ({opponent.index:.4g} rad·s; {p}: {opponent.proposed_index:.4g}) among those",
         f"whose median peak |τ| and Σ|Δτ| per joint stay within {p}'s (its largest ratio to",
         f"{p}'s: {ratio}). Does {p} beat the best linear loop given the same effort?",
+    ]
+
+
+def hunting_section() -> list[str]:
+    """The lab arm's figure: integral action hunting against friction beside CTC's clean
+    stop (:mod:`twolink.figures.hunting`)."""
+    from twolink.figures.hunting import HUNTING_FIGURE, HUNTING_FRICTION
+
+    f = HUNTING_FRICTION
+    return [
+        "",
+        "### Stick-slip hunting on one plant",
+        "",
+        "The nominal arm with friction at the harsh end of the lab arm's ranges",
+        f"(F_c = {f['coulomb']} N·m, F_s = {f['breakaway']} N·m, v_s = {f['stribeck_velocity']}",
+        "rad/s), the base gains, θ1 stepping 0.5 rad: CTC stops short of the target by its",
+        "dead band and stays; CTC-I's integrator winds up to breakaway, the joint slips past",
+        'the target and sticks again, over and over (docs/model.md, "Friction").',
+        "",
+        f"![stick-slip hunting]({HUNTING_FIGURE})",
     ]

@@ -12,7 +12,9 @@ the tables and nothing else:
 - where the proposed controller makes a limit cycle its baseline does not, and on how
   many plants;
 - whether the controller with integral action beats the proposed controller and every
-  opponent.
+  opponent;
+- on the lab arm (friction and a disturbance), who beats whom among the proposed
+  controller, the baseline, the integral one and the opponents.
 
 The opponents are whatever the study names (:class:`ClaimsStudy`), so the sentences keep
 working when a stronger linear opponent replaces CTC-matched.
@@ -29,13 +31,14 @@ import pandas as pd
 __all__ = [
     "MOST",
     "ClaimsStudy",
+    "lab_sentence",
     "limit_cycle_sentence",
     "search_sentence",
     "study_sentence",
     "variant_sentence",
 ]
 
-MOST = 8  # sentences
+MOST = 9  # sentences: 8, and one for the lab arm (issue 47)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -61,6 +64,9 @@ class ClaimsStudy:
         the proposed and the opponents).
     integral : str or None
         The controller with integral action, if the study runs one.
+    lab : bool
+        The lab arm's study (friction and a disturbance): said in its own sentence
+        (:func:`lab_sentence`), apart from the claim's regimes.
     """
 
     label: str
@@ -72,6 +78,7 @@ class ClaimsStudy:
     same_as: Mapping[str, str]
     every: pd.DataFrame
     integral: str | None = None
+    lab: bool = False
 
 
 def _name(r: Any) -> str:
@@ -238,6 +245,41 @@ def integral_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
     return f"**Integral action:** {name} " + "; it ".join(parts) + "."
 
 
+def lab_sentence(study: ClaimsStudy) -> str:
+    """The lab arm in one sentence: for each pair its tables judge among the proposed
+    controller, the baseline, the integral one and the opponents, who wins: better on
+    some winner metrics and worse on none ("beats"), the reverse ("loses to"), both
+    ("trades with") or neither ("is not told from"); with the counts of metrics, and the
+    largest shift each way (in tolerances) with the plants it holds on."""
+    named = {study.proposed, study.baseline, study.integral, *study.claims}
+    clauses = []
+    for (a, b), t in study.every.groupby(["proposed", "opponent"], sort=False):
+        if a not in named or b not in named:
+            continue
+        better, worse = _rows(t, "better"), _rows(t, "worse")
+        verb = {
+            (True, False): "beats",
+            (False, True): "loses to",
+            (True, True): "trades with",
+            (False, False): "is not told from",
+        }[(bool(better), bool(worse))]
+        said = [f"better/worse on {len(better)}/{len(worse)} of {len(t)} metrics"]
+        for side, rows in (("better", better), ("worse", worse)):
+            if rows:
+                r = max(rows, key=lambda r: abs(r.estimate) / r.tolerance)
+                said.append(
+                    f"{_name(r)} {_signed(r.metric, r.estimate)}, {side} on "
+                    f"{getattr(r, side)} of {r.n} plants"
+                )
+        clauses.append(f"{a} {verb} {b} ({'; '.join(said)})")
+    label = study.label[0].upper() + study.label[1:]
+    return (
+        f"**{label}, {study.plants} plants** (typical-plant shift, first minus second): "
+        + "; ".join(clauses)
+        + "."
+    )
+
+
 def variant_sentence(
     title: str,
     experiments: int,
@@ -351,11 +393,14 @@ def sentences(
     variant_lines: Sequence[str], studies: Sequence[ClaimsStudy], closing: Sequence[str] = ()
 ) -> list[str]:
     """The conclusions, in order: the paper's experiments, the claims per study, limit
-    cycles, integral action, then ``closing`` (the table search's); at most :data:`MOST`,
-    no sentence twice."""
+    cycles, integral action, the lab arm, then ``closing`` (the table search's); at most
+    :data:`MOST`, no sentence twice."""
     out = list(variant_lines)
+    lab = [s for s in studies if s.lab]
+    studies = [s for s in studies if not s.lab]
     out += [study_sentence(s, first=k == 0) for k, s in enumerate(studies)]
     out += [x for x in (limit_cycle_sentence(studies), integral_sentence(studies)) if x]
+    out += [lab_sentence(s) for s in lab]
     out += list(closing)
     out = list(dict.fromkeys(out))
     if len(out) > MOST:

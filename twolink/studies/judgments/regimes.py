@@ -24,10 +24,22 @@ import pandas as pd
 
 from twolink.foundation.shipped import runs_dir
 
-__all__ = ["CELL", "OPPONENTS", "REGIME_METRICS", "regime_table", "run_regimes", "summary"]
+__all__ = [
+    "CELL",
+    "FRICTION_AXIS",
+    "OPPONENTS",
+    "REGIME_METRICS",
+    "cell_axes",
+    "regime_table",
+    "run_regimes",
+    "summary",
+]
 
 DEFAULT_STUDY = runs_dir() / "sweeps" / "regimes.toml"  # package data
 CELL = ("wn", "mass", "payload")
+# The optional friction axis: a study that grids friction_level (both joints' Coulomb
+# friction as a fraction of their holding torque, docs/sweeps.md) has it in its cells.
+FRICTION_AXIS = "friction_level"
 # The paper's FCM-CTC and our continuous inference of the same rules
 PROPOSED = ("FCM-CTC", "FCM-CTC-continuous")
 OPPONENTS = ("CTC", "CTC-I")
@@ -68,6 +80,11 @@ def run_regimes(
     return {regime: outcome.results for regime, outcome in zip(REGIMES, outcomes, strict=True)}
 
 
+def cell_axes(frame: pd.DataFrame) -> tuple[str, ...]:
+    """The axes of a map's cells: :data:`CELL`, and the friction axis where swept."""
+    return (*CELL, FRICTION_AXIS) if FRICTION_AXIS in frame.columns else CELL
+
+
 def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
     """One row per (regime, cell, proposed, opponent, joint, metric): the proposed
     controller's paired statistics against the opponent on the cell's plants, and the
@@ -86,7 +103,7 @@ def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
     )
     ran = set(frame["controller"])
     pairs = [(p, o) for p in PROPOSED if p in ran for o in OPPONENTS]
-    by = ["regime", *CELL]
+    by = ["regime", *cell_axes(frame)]
     table = paired_claims_many(frame, pairs, REGIME_METRICS, (1, 2), by)
     active = ["joint1_fuzzy_active_share", "joint2_fuzzy_active_share"]
     fuzzy = frame[frame["controller"].isin(PROPOSED)]
@@ -98,7 +115,7 @@ def regime_table(results: dict[str, pd.DataFrame]) -> pd.DataFrame:
     keys = zip(*(table[c] for c in [*by, "proposed"]), strict=True)
     table["fuzzy_active_share"] = [share[tuple(k)] for k in keys]
     table["regime"] = table["regime"].astype(str)
-    first = ["regime", *CELL, "proposed", "opponent", "fuzzy_active_share", "joint", "metric"]
+    first = [*by, "proposed", "opponent", "fuzzy_active_share", "joint", "metric"]
     return table[first + [c for c in table.columns if c not in first]]
 
 
@@ -116,7 +133,7 @@ def summary(table: pd.DataFrame) -> pd.DataFrame:
     ``worse_share``: "θ2 osc 29/100"), and the effect of the verdicts: ``helps`` (better
     on some, worse on none), ``hurts`` (the reverse), ``mixed``, or ``no difference
     shown``."""
-    keys = ["regime", *CELL, "proposed", "opponent"]
+    keys = ["regime", *cell_axes(table), "proposed", "opponent"]
     groups: dict[tuple, list[dict]] = {}  # one pass over plain rows (pandas' per-group
     for r in table.to_dict("records"):  # itertuples took seconds on the regime map)
         groups.setdefault(tuple(r[k] for k in keys), []).append(r)
@@ -163,6 +180,7 @@ def markdown(summ: pd.DataFrame) -> list[str]:
     """The regime map as markdown: per regime, proposed controller and opponent, the
     cells where it helps and hurts, then every cell's line."""
     out = ["# The regime map: where the FCM term acts, helps and hurts", ""]
+    friction = FRICTION_AXIS in summ.columns
     groups = summ.groupby(["regime", "proposed", "opponent"], sort=False)
     for (regime, proposed, opponent), t in groups:
         counts = t["effect"].value_counts()
@@ -178,13 +196,17 @@ def markdown(summ: pd.DataFrame) -> list[str]:
             "Better / worse: the verdicts; on a share: no verdict, but a share of plants",
             "practically better / worse shown above 5 % (plants of the cell; docs/statistics.md).",
             "",
-            "| ωn [rad/s] | mass × | payload [kg] | fuzzy on | plants | effect | better | worse "
+            "| ωn [rad/s] | mass × | payload [kg] | "
+            + ("F_c [% of G] | " if friction else "")
+            + "fuzzy on | plants | effect | better | worse "
             "| better on a share | worse on a share |",
-            "|---|---|---|---|---|---|---|---|---|---|",
+            "|---|---|---|---|---|---|---|---|---|---|" + ("---|" if friction else ""),
         ]
         for r in t.itertuples():
+            level = f"{100 * getattr(r, FRICTION_AXIS):g} | " if friction else ""
             out.append(
-                f"| {r.wn:g} | {r.mass:g} | {r.payload:g} | {100 * r.fuzzy_active_share:.1f} % "
+                f"| {r.wn:g} | {r.mass:g} | {r.payload:g} | {level}"
+                f"{100 * r.fuzzy_active_share:.1f} % "
                 f"| {r.plants} | {r.effect} | {_cell(r.better)} | {_cell(r.worse)} "
                 f"| {_cell(getattr(r, 'better_share', ''))} "
                 f"| {_cell(getattr(r, 'worse_share', ''))} |"
@@ -211,15 +233,17 @@ def figure(summ: pd.DataFrame) -> Any:
         mine = (summ["regime"] == regime) & (summ["proposed"] == proposed)
         t = summ[mine & (summ["opponent"] == OPPONENTS[0])]
         wns = sorted(set(t["wn"]))
-        cols = sorted(set(zip(t["mass"], t["payload"], strict=True)))
+        level = t[FRICTION_AXIS] if FRICTION_AXIS in t.columns else [0.0] * len(t)
+        cols = sorted(set(zip(t["mass"], t["payload"], level, strict=True)))
         grid = np.full((len(wns), len(cols)), np.nan)
-        for r in t.itertuples():
-            i, j = wns.index(r.wn), cols.index((r.mass, r.payload))
+        for r, f in zip(t.itertuples(), level, strict=True):
+            i, j = wns.index(r.wn), cols.index((r.mass, r.payload, f))
             grid[i, j] = 100 * r.fuzzy_active_share
             colour = "white" if grid[i, j] < 25 else "black"  # readable on viridis
             ax.text(j, i, marks[r.effect], ha="center", va="center", fontsize=12, color=colour)
         image = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis", vmin=0, vmax=50)
-        ax.set_xticks(range(len(cols)), [f"m×{m:g}\n+{p:g} kg" for m, p in cols], fontsize=7)
+        names = [f"m×{m:g}\n+{p:g} kg" + (f"\nF {100 * f:g}%" if f else "") for m, p, f in cols]
+        ax.set_xticks(range(len(cols)), names, fontsize=7)
         ax.set_yticks(range(len(wns)), [f"{w:g}" for w in wns])
         ax.set_ylabel("ωn [rad/s]")
         ax.set_title(

@@ -89,6 +89,9 @@ class Manifest:
         A sweep file whose plants judge the claim with confidence intervals
         (:mod:`twolink.studies.judgments.claims`); it must run ``proposed`` and ``baseline`` by
         those names.
+    lab_study : Path or None
+        The lab arm's sweep file (the claims study's plants with friction and a
+        disturbance), judged as the claims study; it must run ``proposed`` and ``baseline``.
     gain_study : Path or None
         The gain-study file (:mod:`twolink.studies.designs.gains`) whose trade-off the report shows.
     """
@@ -109,6 +112,9 @@ class Manifest:
     # The flexible-joint map's third axis: the plant's [plant.scale] factors against every
     # controller's model (masses, g, and the joints' k and j); empty: the exact model only.
     flexible_model_error: dict[str, float] = field(default_factory=dict)
+    # The lab arm (docs/reproduction.md): the claims study's plants with friction and a
+    # disturbance, a sweep file run and judged as the claims study is.
+    lab_study: Path | None = None
 
 
 def _claim_role(top: TomlTable, key: str, kind: str, controllers: dict[str, Any]) -> str:
@@ -162,7 +168,8 @@ def _paper_values(e: TomlTable, controllers: dict[str, Any]) -> dict[str, dict[s
     return paper
 
 
-SWEEP_KEYS = ("flexible_study", "claims_study")  # optional sweep files the reproduction runs
+# optional sweep files the reproduction runs
+SWEEP_KEYS = ("flexible_study", "claims_study", "lab_study")
 
 
 def _sweep_file(top: TomlTable, key: str, manifest: Path) -> Path | None:
@@ -261,7 +268,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
     design = _referenced_file(
         top, "design", top.string("design", "design.toml"), path.parent, "design file"
     )
-    flexible_study, claims_study = (_sweep_file(top, key, path) for key in SWEEP_KEYS)
+    flexible_study, claims_study, lab_study = (_sweep_file(top, key, path) for key in SWEEP_KEYS)
     gains = top.raw("gain_study")
     if gains is not None and not isinstance(gains, str):
         top.fail("gain_study", f"must be a gain-study file path, got {gains!r}")
@@ -291,6 +298,7 @@ def load_manifest(path: str | Path = DEFAULT_MANIFEST) -> Manifest:
         gain_study,
         calibration,
         model_error,
+        lab_study,
     )
 
 

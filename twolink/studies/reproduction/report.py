@@ -496,7 +496,7 @@ def _pct(x: float) -> str:
 def conclusions(
     rows, manifest: Manifest, studies: Sequence[Any] = (), closing: Sequence[str] = ()
 ) -> list[str]:
-    """The report's first section: at most 8 sentences
+    """The report's first section: at most 9 sentences
     (:mod:`twolink.studies.judgments.conclusions`), from the same numbers as the tables below: per
     plant variant the paper's experiments (:func:`claims`' counts, the runs' outcomes and
     linear growth), then each claims study's tables

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from twolink.figures.hunting import HUNTING_FIGURE, save_hunting_figure
 from twolink.foundation.interrupts import raise_if_dropped
 from twolink.foundation.io import SEAL_NAME, seal_intact, to_toml
 from twolink.simulation.config import FUZZY_KINDS, ConfigError, Scenario, load_scenario, merge
@@ -398,12 +399,13 @@ def reproduce(
         _check_run(manifest, sp)
     if manifest.flexible_study is not None:
         sweep.load_sweep(manifest.flexible_study)
-    if manifest.claims_study is not None:
-        names = sweep.load_sweep(manifest.claims_study).controller_names
+    for key in ("claims_study", "lab_study"):  # each judged by the claim's two names
+        study = getattr(manifest, key)
+        names = () if study is None else sweep.load_sweep(study).controller_names
         missing = [n for n in (manifest.proposed, manifest.baseline) if n not in names]
-        if missing:
+        if study is not None and missing:
             raise ConfigError(
-                f"{manifest.path}: claims_study: {manifest.claims_study.name} must run "
+                f"{manifest.path}: {key}: {study.name} must run "
                 f"{missing} by name (it runs {list(names)})"
             )
     check_output_folder(out)
@@ -515,6 +517,8 @@ def _draw_figures(
     shown = hero(specs, trajectories, (manifest.proposed, manifest.baseline))
     if shown is not None:
         drawing.append(pool.submit(response_figure, out, *shown, out / HERO_FIGURE))
+    if manifest.lab_study is not None:  # the lab arm's section shows hunting
+        drawing.append(pool.submit(save_hunting_figure, out / HUNTING_FIGURE))
     return gain_section, figures, trajectories
 
 
