@@ -24,7 +24,7 @@ __all__ = ["answer_figures", "judged", "question", "write_summary"]
 def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
     """Each claims study (:class:`twolink.studies.judgments.conclusions.ClaimsStudy`, in
     :func:`twolink.studies.judgments.claims_studies.run_claims`' order: the claims sweep,
-    then each raw-steps variant, then the lab arm) with its files: ``claims[_V].csv`` against the baseline,
+    each raw-steps variant, the lab arm) with its files: ``claims[_V].csv`` against the baseline,
     ``claims_matched[_V].csv`` against the other opponent, ``claims_study[_V]/``."""
     suffixes = ["", *(f"_{v.name}" for v in manifest.variants if v.raw_steps)]
     suffixes += ["_lab"] * sum(bool(getattr(s, "lab", False)) for s in studies)  # the lab arm
