@@ -21,6 +21,10 @@ from twolink.studies.reproduction.summary import (
 __all__ = ["answer_figures", "judged", "question", "write_summary"]
 
 
+# the regimes' short names in the answer, by their files' suffix (the summary defines them)
+REGIME_NAMES = {"": "quintic moves", "_raw": "raw steps", "_lab": "lab arm"}
+
+
 def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
     """Each claims study (:class:`twolink.studies.judgments.conclusions.ClaimsStudy`, in
     :func:`twolink.studies.judgments.claims_studies.run_claims`' order: the claims sweep,
@@ -34,8 +38,9 @@ def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
             name: (f"claims{'' if name == study.baseline else '_matched'}{suffix}.csv", t)
             for name, t in study.claims.items()
         }
+        name = REGIME_NAMES.get(suffix, "")
         out.append(
-            Judged(study.label, study.plants, study.proposed, files, f"claims_study{suffix}")
+            Judged(study.label, study.plants, study.proposed, files, f"claims_study{suffix}", name)
         )
     return out
 

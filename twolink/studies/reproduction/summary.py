@@ -32,6 +32,7 @@ class Judged:
     proposed: str
     tables: Mapping[str, tuple[str, pd.DataFrame]]
     sweep: str = ""
+    name: str = ""  # the regime's short name in the answer (defined in the terms); "" label
 
 
 def _number(x: float) -> str:
@@ -39,46 +40,61 @@ def _number(x: float) -> str:
 
 
 def _size(rows: pd.DataFrame) -> str:
-    """A verdict's size, in tolerances: "typical shift +1.6 to +7.7 tolerances"; rows inside
-    the band say how equal instead, their intervals' largest bound; "" where no row
-    has an estimate."""
+    """A verdict's size, in tolerances: its typical shift, "+1.6 to +7.7 tolerances"; rows
+    inside the band say how equal instead, their intervals' largest bound, "within 0.4
+    tolerance" ("exactly 0" only where every bound is 0); "" where no row has an estimate."""
     shift = (rows["estimate"] / rows["tolerance"]).to_numpy(float)
     bound = (rows[["ci_low", "ci_high"]].abs().max(axis=1) / rows["tolerance"]).to_numpy(float)
     if not np.isfinite(shift).any():
         return ""
     lo, hi = np.nanmin(shift), np.nanmax(shift)
-    if np.nanmax(bound) == 0:
-        return "typical shift exactly 0"
-    if np.nanmax(np.abs(shift)) <= 1:  # inside the band: how far inside
-        return f"intervals within {np.nanmax(bound):.2g} tolerance"
-    return (
-        f"typical shift {_number(lo) if lo == hi else f'{_number(lo)} to {_number(hi)}'} tolerances"
-    )
+    reach = np.nanmax(bound) if np.isfinite(bound).any() else np.inf  # none: no bound known
+    if reach == 0:
+        return "exactly 0"
+    if np.nanmax(np.abs(shift)) <= 1 and np.isfinite(reach):  # inside the band: how far
+        return f"within {reach:.2g} tolerance"
+    return f"{_number(lo) if lo == hi else f'{_number(lo)} to {_number(hi)}'} tolerances"
 
 
-SIZED = 2  # verdicts per sentence given with their size (the rest: their count; the figure)
+SIZED = 2  # verdicts per clause given with their size, at most (the rest: the figure)
+NOT_JUDGED = ("undefined", "set by the reference")  # counted together as "not judged"
 
 
-def sentence(study: Judged, opponent: str, table: pd.DataFrame) -> str:
-    """One plain sentence per regime and opponent: every verdict word of the table with its
-    count, the most frequent first; the :data:`SIZED` most frequent that have an estimate
-    also with their size (:func:`_size`), which keeps four tables within :data:`MAX_WORDS`."""
+def clause(table: pd.DataFrame, sized: int = SIZED) -> str:
+    """Every verdict of a table with its count, the most frequent first ("undefined" and
+    "set by the reference" together as "not judged"); the ``sized`` most frequent that
+    have an estimate also with their size (:func:`_size`)."""
     words = table["verdict"].map(lambda v: v if isinstance(v, str) else "undefined")
+    words = words.where(~words.isin(NOT_JUDGED), "not judged")
     groups = sorted(table.groupby(words, sort=False), key=lambda g: -len(g[1]))
-    parts, sized = [], 0
+    parts, done = [], 0
     for verdict, rows in groups:
-        size = _size(rows) if sized < SIZED else ""
-        sized += bool(size)
+        size = _size(rows) if done < sized and verdict != "not judged" else ""
+        done += bool(size)
         parts.append(f"{len(rows)} {verdict}" + (f" ({size})" if size else ""))
-    listed = ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1]
-    return (
-        f"Against {opponent} on {study.label} ({study.plants} plants, {len(table)} rows): {listed}."
+    return ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1]
+
+
+def sentence(study: Judged, sized: int = SIZED) -> str:
+    """One plain sentence per regime: its plants, and per opponent the verdicts of its rows
+    (:func:`clause`), in the tables' order."""
+    against = "; ".join(
+        f"against {opp} ({len(table)} rows), {clause(table, sized)}"
+        for opp, (_, table) in study.tables.items()
     )
+    name = study.name or study.label
+    return f"{name[:1].upper()}{name[1:]} ({study.plants} plants): {against}."
 
 
 def answer(studies: Sequence[Judged]) -> list[str]:
-    """The answer's sentences: per regime and opponent, in the tables' order."""
-    return [sentence(s, opp, table) for s in studies for opp, (_, table) in s.tables.items()]
+    """The answer's sentences, one per regime in the tables' order, within
+    :data:`MAX_WORDS`: each verdict's size is given for the :data:`SIZED` most frequent
+    verdicts of a table, fewer where that would pass the limit (the figure has them all)."""
+    for sized in range(SIZED, -1, -1):
+        said = [sentence(s, sized) for s in studies]
+        if sum(len(s.split()) for s in said) <= MAX_WORDS:
+            break
+    return said
 
 
 def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: str) -> str:
@@ -99,8 +115,12 @@ def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: st
         "*better* / *worse*: its interval (at 1 − 5 %/m over a table's m rows) lies beyond "
         "one tolerance; *equivalent*: within it, with at most 10 % of plants beyond it on "
         "either side; *split*: within it, with more beyond on a side; *inconclusive*: "
-        "neither. The opponents: "
+        "neither; *not judged*: no plant compares, or both take the reference's own value. "
+        "Sizes in brackets are typical shifts, or how far inside the band equal rows' "
+        "intervals reach. The opponents: "
         + "; ".join(f"*{name}*, {what}" for name, what in opponents.items())
+        + ". The regimes: "
+        + "; ".join(f"*{s.name}*, {s.label}" for s in studies if s.name)
         + ".",
         "",
         "**The answer.**",
