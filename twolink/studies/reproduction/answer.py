@@ -21,8 +21,12 @@ from twolink.studies.reproduction.summary import (
 __all__ = ["answer_figures", "judged", "question", "write_summary"]
 
 
-# the regimes' short names in the answer, by their files' suffix (the summary defines them)
-REGIME_NAMES = {"": "quintic moves", "_raw": "raw steps", "_lab": "lab arm"}
+# the regimes' short names in the answer and what they mean, by their files' suffix
+REGIME_NAMES = {
+    "": ("quintic moves", "the claims study's 2 s moves"),
+    "_raw": ("raw steps", "the paper's own steps at ωn = 3 rad/s"),
+    "_lab": ("lab arm", "quintic moves with joint friction and a load step"),
+}
 
 
 def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
@@ -38,10 +42,9 @@ def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
             name: (f"claims{'' if name == study.baseline else '_matched'}{suffix}.csv", t)
             for name, t in study.claims.items()
         }
-        name = REGIME_NAMES.get(suffix, "")
-        out.append(
-            Judged(study.label, study.plants, study.proposed, files, f"claims_study{suffix}", name)
-        )
+        name, defined = REGIME_NAMES.get(suffix, ("", ""))
+        sweep = f"claims_study{suffix}"
+        out.append(Judged(study.label, study.plants, study.proposed, files, sweep, name, defined))
     return out
 
 
@@ -51,21 +54,26 @@ def question(manifest: Manifest) -> str:
 
 
 def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> list[str]:
-    """summary.md in ``out``; returns its lines (the report's first section)."""
+    """summary.md in ``out``; returns its lines for the report's first section, where the
+    sources paragraph is a pointer to summary.md (the first table then comes early)."""
     from twolink.foundation.io import atomic_write_text
     from twolink.studies.designs.frontier import OPPONENT
 
     what = {
         manifest.baseline: "the paper's baseline",
-        OPPONENT: f"CTC tuned per joint by search, the best within {manifest.proposed}'s "
-        "effort on its training plants and on these (docs/reproduction.md); its rows "
-        "include the effort, peak |τ| and Σ|Δτ|",
+        OPPONENT: f"CTC tuned per joint by search within {manifest.proposed}'s effort, on its "
+        "training plants and on these (docs/reproduction.md; its rows include the effort)",
     }
     names = dict.fromkeys(n for s in studies for n in s.tables)
     opponents = {n: what.get(n, "an opponent of the manifest") for n in names}
     text = summary(studies, opponents, question(manifest))
     atomic_write_text(out / "summary.md", text)
-    return text.splitlines()
+    sources = "**Where the numbers come from.**"
+    return [
+        "**Where the numbers come from:** `summary.md`, file and column." if s.startswith(sources)
+        else s
+        for s in text.splitlines()
+    ]  # fmt: skip
 
 
 def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:

@@ -33,6 +33,7 @@ class Judged:
     tables: Mapping[str, tuple[str, pd.DataFrame]]
     sweep: str = ""
     name: str = ""  # the regime's short name in the answer (defined in the terms); "" label
+    defined: str = ""  # what the short name means (the terms); "" the label
 
 
 def _number(x: float) -> str:
@@ -116,11 +117,11 @@ def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: st
         "one tolerance; *equivalent*: within it, with at most 10 % of plants beyond it on "
         "either side; *split*: within it, with more beyond on a side; *inconclusive*: "
         "neither; *not judged*: no plant compares, or both take the reference's own value. "
-        "Sizes in brackets are typical shifts, or how far inside the band equal rows' "
-        "intervals reach. The opponents: "
+        "Brackets: the typical shift, or how far inside the band equal rows reach. "
+        "The opponents: "
         + "; ".join(f"*{name}*, {what}" for name, what in opponents.items())
         + ". The regimes: "
-        + "; ".join(f"*{s.name}*, {s.label}" for s in studies if s.name)
+        + "; ".join(f"*{s.name}*, {s.defined or s.label}" for s in studies if s.name)
         + ".",
         "",
         "**The answer.**",
@@ -134,12 +135,13 @@ def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: st
         "**Where the numbers come from.** Per row, the columns `verdict`, `estimate`, "
         "`tolerance`, `ci_low`, `ci_high`, `share_better`, `share_worse` of "
         + ", ".join(
-            f"`{file}` ({opp}{', ' + s.sweep if s.sweep else ''})"
-            for s in studies
-            for opp, (file, _) in s.tables.items()
-        )
-        + "; the profiles: `joint1_<metric>` + `joint2_<metric>` of each sweep folder's "
-        "`results.parquet` (Dolan & Moré 2002: the share of plants on which a controller's "
-        "cost is within τ times the best's).",
+            dict.fromkeys(
+                f"`{file}` ({opp})" for s in studies for opp, (file, _) in s.tables.items()
+            )
+        )  # fmt: skip
+        + "; the plants: each sweep folder's `results.parquet` ("
+        + ", ".join(f"`{s.sweep}`" for s in studies if s.sweep)
+        + "), also the profiles' (Dolan & Moré 2002: the share of plants on which a "
+        "controller's `joint1_<metric>` + `joint2_<metric>` is within τ times the best's).",
     ]
     return "\n".join(lines) + "\n"
