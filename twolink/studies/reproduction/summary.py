@@ -109,15 +109,14 @@ def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: st
         f"**The question.** The paper claims {proposed} lowers {metrics} against its "
         f"opponents. Does it, on plants that differ from the controllers' model?",
         "",
-        "**Terms.** A *row* is one joint and metric. A metric's *tolerance* is the smallest "
-        "difference that matters (docs/statistics.md). The *typical shift* is the typical "
-        f"plant's difference {proposed} − opponent (Hodges-Lehmann), in tolerances; "
-        "negative is better. "
-        "*better* / *worse*: its interval (at 1 − 5 %/m over a table's m rows) lies beyond "
-        "one tolerance; *equivalent*: within it, with at most 10 % of plants beyond it on "
-        "either side; *split*: within it, with more beyond on a side; *inconclusive*: "
-        "neither; *not judged*: no plant compares, or both take the reference's own value. "
-        "Brackets: the typical shift, or how far inside the band equal rows reach. "
+        "**Terms.** A *row*: one joint and metric; its *tolerance*: the smallest difference "
+        "that matters (docs/statistics.md). The *typical shift*: the typical plant's "
+        f"{proposed} − opponent (Hodges-Lehmann), in tolerances; negative is better. "
+        "*better* / *worse*: its interval (1 − 5 %/m over a table's m rows) lies beyond one "
+        "tolerance; *equivalent*: within it, and at most 10 % of plants beyond it either "
+        "side; *split*: within it, more beyond on a side; *inconclusive*: neither; *not "
+        "judged*: no plant compares, or both take the reference's value. Brackets: the "
+        "shift, or how far inside the band equal rows reach. "
         "The opponents: "
         + "; ".join(f"*{name}*, {what}" for name, what in opponents.items())
         + ". The regimes: "
