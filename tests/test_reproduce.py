@@ -140,7 +140,10 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
         manifest.claims_study, {"reference": moves, "overrides": variant.overrides}
     )
     refs_raw = reference_values(plan_raw.nominal_scenario(), plan_raw.joints)
-    again = paired_claims(raw, "FCM-CTC", "CTC-best", joints=(1, 2), reference_values=refs_raw)
+    again = paired_claims(
+        raw, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_METRICS), joints=(1, 2),
+        reference_values=refs_raw,
+    )  # fmt: skip
     pd.testing.assert_frame_equal(fair_raw, again, check_dtype=False)
 
 
@@ -432,7 +435,13 @@ def test_the_readme_says_what_the_current_reproduction_concludes(reproduction):
     block = readme[readme.index("<!-- answer: start -->") : readme.index("<!-- answer: end -->")]
     assert block.removeprefix("<!-- answer: start -->").strip() == _answer(summary)
     report = (reproduction.out / "report.md").read_text()
-    assert summary.strip() in report and report.index(summary.strip()) < report.index("\n|")
+    # the report's first section is summary.md, its sources a pointer to summary.md
+    lines = summary.strip().splitlines()
+    sources = "**Where the numbers come from.**"
+    assert lines[-1].startswith(sources)
+    opening = "\n".join(lines[:-1]).strip()
+    assert opening in report and report.index(opening) < report.index("\n|")
+    assert "**Where the numbers come from:** `summary.md`" in report
     # and the README claims nothing the report contradicts (the claims of old)
     assert "removes most of CTC's overshoot" not in readme
 
