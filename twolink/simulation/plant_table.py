@@ -5,7 +5,7 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import TYPE_CHECKING
+from typing import Any
 
 from twolink.arm.disturbance import (
     Disturbance,
@@ -16,8 +16,9 @@ from twolink.arm.disturbance import (
 )
 from twolink.arm.params import Flexibility, Friction
 
-if TYPE_CHECKING:
-    from twolink.simulation.config import TomlTable
+# The table reader is twolink.simulation.config.TomlTable, which imports this module: named
+# here by its role only, so the two do not import each other.
+TomlTable = Any
 
 SPRING_STARTS = ("holding", "relaxed")
 ARM_SCALE_KEYS = ("g", "l1", "l2", "m1", "m2")  # [plant.scale] factors on [arm]
