@@ -417,6 +417,21 @@ def opponents(
     return table, {r: choose(table, r) for r, _ in spec.grids}, False
 
 
+def frontier_axes(ax, title: str) -> None:
+    """A frontier panel's axes: effort ratio against the index, both logarithmic, the
+    budget (ratio 1) dotted, and its legend."""
+    ax.axvline(1.0, color="k", lw=0.8, ls=":")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set(
+        xlabel="effort / FCM-CTC's (largest of peak |τ| and Σ|Δτ| per joint)",
+        ylabel="IAE₁ + IAE₂, median over training plants [rad·s]",
+        title=title,
+    )
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=7, loc="best")
+
+
 def frontier_figure(table: pd.DataFrame, chosen: dict[str, Opponent], path: Path) -> Path:
     """Effort (the largest of the four effort ratios to FCM-CTC's) against the index, per
     regime: the CTC grid by ζ, the clipped family, FCM-CTC, its continuous variant, the
@@ -481,16 +496,7 @@ def frontier_figure(table: pd.DataFrame, chosen: dict[str, Opponent], path: Path
                 zorder=6,
                 label=f"{OPPONENT}: {o.describe()}",
             )
-        ax.axvline(1.0, color="k", lw=0.8, ls=":")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set(
-            xlabel="effort / FCM-CTC's (largest of peak |τ| and Σ|Δτ| per joint)",
-            ylabel="IAE₁ + IAE₂, median over training plants [rad·s]",
-            title=f"linear frontier: {regime}",
-        )
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
+        frontier_axes(ax, f"linear frontier: {regime}")
     fig.tight_layout()
     save_figure(fig, path)
     return path

@@ -370,6 +370,7 @@ def figure(opponents: dict[str, Any], path: Path) -> Path:
     ratios to FCM-CTC's on the training plants, against the training index), by family;
     FCM-CTC; the loops the judged plants refused; the opponent chosen."""
     from twolink.figures.plots import plt, save_figure
+    from twolink.studies.designs import frontier
 
     fig, axes = plt.subplots(1, len(opponents), figsize=(6.2 * len(opponents), 5.0), squeeze=False)
     for ax, (regime, o) in zip(axes[0], opponents.items(), strict=True):
@@ -385,16 +386,7 @@ def figure(opponents: dict[str, Any], path: Path) -> Path:
         label = f"CTC-best: ωn {wn[0]:.3g} / {wn[1]:.3g}, ζ {z[0]:.2g} / {z[1]:.2g} ({o['family']})"
         ax.scatter(*point(o["train"]), s=220, facecolors="none", edgecolors="k", lw=1.5,
                    label=label)  # fmt: skip
-        ax.axvline(1.0, color="k", lw=0.8, ls=":")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set(
-            xlabel="effort / FCM-CTC's (largest of peak |τ| and Σ|Δτ| per joint)",
-            ylabel="IAE₁ + IAE₂, median over training plants [rad·s]",
-            title=f"per-joint linear search: {regime}",
-        )
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, loc="best")
+        frontier.frontier_axes(ax, f"per-joint linear search: {regime}")
     fig.tight_layout()
     save_figure(fig, path)
     return path
