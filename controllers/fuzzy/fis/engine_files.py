@@ -29,6 +29,7 @@ from twolink.controllers.fuzzy.fis.sections import (
     naming,
     numbers,
     read_sections,
+    rule_indices,
     variable_range,
     variable_section,
     whole_number,
@@ -166,17 +167,8 @@ def _parse(text: str, source: str) -> FisSystem:
     outputs = tuple(variable(f"Output{i}") for i in range(1, count("NumOutputs") + 1))
     rules = []
     for number, line in sections.get("Rules", []):
-        m = _RULE.match(line)
-        if not m:
-            raise ValueError(f"{source}: line {number}: not a rule 'i j, k (w) : c': {line!r}")
-        index = f"{source}: line {number}: membership index"
-        ante = tuple(whole_number(x, index) for x in m.group(1).split())
-        cons = tuple(whole_number(x, index) for x in m.group(2).split())
-        if len(ante) != len(inputs) or len(cons) != len(outputs):
-            raise ValueError(
-                f"{source}: line {number}: {len(ante)} antecedents and {len(cons)} "
-                f"consequents for {len(inputs)} inputs and {len(outputs)} outputs"
-            )
+        where = f"{source}: line {number}"
+        m, ante, cons = rule_indices(_RULE, line, where, len(inputs), len(outputs))
         connection = whole_number(m.group(4), f"{source}: line {number}: connection")
         rules.append((ante, cons, float(m.group(3)), connection))
     return FisSystem(dict(system), inputs, outputs, tuple(rules))

@@ -36,6 +36,7 @@ from twolink.controllers.fuzzy.fis.sections import (
     naming,
     numbers,
     read_sections,
+    rule_indices,
     variable_range,
     variable_section,
     whole_number,
@@ -383,17 +384,7 @@ def _variable(sections: dict, section: str, source: str, sugeno_out: bool, n_inp
 
 def _rule(line: str, where: str, inputs, outputs, sugeno: bool) -> FisRule:
     """One ``[Rules]`` line, ``i j, k (w) : c``, checked against the variables."""
-    m = _RULE.match(line)
-    if not m:
-        raise ValueError(f"{where}: not a rule 'i j, k (w) : c': {line!r}")
-    index = f"{where}: membership index"
-    ante = tuple(whole_number(v, index) for v in m.group(1).split())
-    cons = tuple(whole_number(v, index) for v in m.group(2).split())
-    if len(ante) != len(inputs) or len(cons) != len(outputs):
-        raise ValueError(
-            f"{where}: {len(ante)} antecedents and {len(cons)} consequents for "
-            f"{len(inputs)} inputs and {len(outputs)} outputs"
-        )
+    m, ante, cons = rule_indices(_RULE, line, where, len(inputs), len(outputs))
     for idx, var in zip((*ante, *cons), (*inputs, *outputs), strict=True):
         if abs(idx) > len(var.mfs):
             raise ValueError(f"{where}: index {idx}: {var.name} has {len(var.mfs)} MFs")

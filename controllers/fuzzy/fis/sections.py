@@ -42,6 +42,26 @@ def whole_number(text: str, where: str) -> int:
     return int(value)
 
 
+def rule_indices(
+    pattern: re.Pattern, line: str, where: str, n_inputs: int, n_outputs: int
+) -> tuple[re.Match, tuple[int, ...], tuple[int, ...]]:
+    """One ``[Rules]`` line, ``i j, k (w) : c``, read with the reader's ``pattern`` (its
+    groups: antecedents, consequents, weight, connection): the match and the antecedents'
+    and consequents' membership indices, whole numbers, one per input and output."""
+    m = pattern.match(line)
+    if not m:
+        raise ValueError(f"{where}: not a rule 'i j, k (w) : c': {line!r}")
+    index = f"{where}: membership index"
+    ante = tuple(whole_number(v, index) for v in m.group(1).split())
+    cons = tuple(whole_number(v, index) for v in m.group(2).split())
+    if len(ante) != n_inputs or len(cons) != n_outputs:
+        raise ValueError(
+            f"{where}: {len(ante)} antecedents and {len(cons)} consequents for "
+            f"{n_inputs} inputs and {n_outputs} outputs"
+        )
+    return m, ante, cons
+
+
 @contextmanager
 def naming(source: str) -> Iterator[None]:
     """Every error of reading ``source`` one line naming it: a check deeper down (a
