@@ -171,12 +171,14 @@ def test_the_words_are_the_vocabularys_and_no_conclusion_says_mixed():
     assert row["share_better_shown"] and row["share_worse_shown"]
     assert row["verdict"] == "equivalent"
     said = describe(table)
-    assert "mixed" not in said and said.startswith("equivalent on 1, but better by more than")
+    assert "mixed" not in said
+    both = "θ1 ess better on 20 of 200, θ1 ess worse on 20 of 200"
+    assert said == f"equivalent on 1, but {both} beyond the tolerance"
     # a split is said as one, with its plants
     d[:40] = 2 * MRAD
     t = sweep({"joint1_steady_state_error_rad": (np.full(200, 0.01), 0.01 + d)})
     said = describe(paired_claims(t, "FCM-CTC", "CTC", ["steady_state_error_rad"], [1]))
-    assert said.startswith("split on 1 (equivalent on the typical plant, but worse by more")
+    assert said.startswith("split on 1 (θ1 ess worse on 40 of 200 beyond the tolerance)")
     assert set(VERDICTS) == set(VERDICT_WORDS)
 
 
@@ -198,3 +200,13 @@ def test_too_few_plants_give_an_unbounded_interval_not_a_short_one():
     assert hodges_lehmann([-3.0, -2.0])[1:] == (-np.inf, np.inf)
     low, high = hodges_lehmann([-3, -2, -2.5, -4, -3.1, -2.2])[1:]
     assert np.isfinite(low) and np.isfinite(high) and high < -2.0
+
+
+def test_an_inconclusive_row_is_named_and_its_shares_left_to_the_table():
+    # wide spread on few plants: the typical plant's interval crosses the band's edge
+    rng = np.random.default_rng(3)
+    d = rng.normal(0.8 * MRAD, 3 * MRAD, 30)
+    t = sweep({"joint2_steady_state_error_rad": (np.full(30, 0.01), 0.01 + d)})
+    table = paired_claims(t, "FCM-CTC", "CTC", ["steady_state_error_rad"], [2])
+    assert table.iloc[0]["verdict"] == "inconclusive"
+    assert describe(table) == "inconclusive on 1 (θ2 ess)"

@@ -222,26 +222,28 @@ def test_the_lab_sentence_says_who_beats_whom_with_sizes_and_counts():
     said = lab_sentence(s)
     assert said.startswith("**The lab arm, 200 plants**")
     assert "PD-G" not in said  # only the claim's controllers, the integral one, opponents
-    row = s.every[(s.every["proposed"] == "CTC-I") & (s.every["opponent"] == "CTC")]
+    # only pairs with the proposed controller on one side: CTC-I against CTC is the tables'
+    assert "CTC-I beats CTC (" not in said and "FCM-CTC " in said
+    row = s.every[(s.every["proposed"] == "CTC-I") & (s.every["opponent"] == "FCM-CTC")]
     better = row[row["verdict"] == "better"]
     assert len(better) and not (row["verdict"] == "worse").any()
     best = better.loc[(better["estimate"].abs() / better["tolerance"]).idxmax()]
-    assert f"CTC-I beats CTC (better/worse on {len(better)}/0 of {len(row)} metrics" in said
+    assert f"CTC-I beats FCM-CTC (better/worse on {len(better)}/0 of {len(row)} metrics" in said
     size = f"{-best['estimate'] * 1e3:.2g}"  # mrad, the 3 mrad less ess it was given
     assert f"ess −{size} mrad, better on {best['better']} of 200 plants" in said
     # the same tables with one metric worse: a trade, not a win; all worse: a loss
     every = s.every.copy()
-    mine = (every["proposed"] == "CTC-I") & (every["opponent"] == "CTC")
+    mine = (every["proposed"] == "CTC-I") & (every["opponent"] == "FCM-CTC")
     worst = every[mine & (every["verdict"] != "better")].index[0]
     every.loc[worst, "verdict"] = "worse"
     every.loc[worst, "worse"] = 150
     traded = lab_sentence(lab_study(every.reset_index(drop=True)))
-    assert "CTC-I trades with CTC (" in traded and "CTC-I beats CTC (" not in traded
-    assert "worse on 150 of 200 plants" in _clause(traded, "CTC-I trades with CTC")
+    assert "CTC-I trades with FCM-CTC (" in traded and "CTC-I beats FCM-CTC (" not in traded
+    assert "worse on 150 of 200 plants" in _clause(traded, "CTC-I trades with FCM-CTC")
     every.loc[mine, "verdict"] = "worse"
-    assert "CTC-I loses to CTC (" in lab_sentence(lab_study(every.reset_index(drop=True)))
+    assert "CTC-I loses to FCM-CTC (" in lab_sentence(lab_study(every.reset_index(drop=True)))
     every.loc[mine, "verdict"] = "equivalent"
-    assert "CTC-I is not told from CTC (better/worse on 0/0" in lab_sentence(
+    assert "CTC-I is not told from FCM-CTC (better/worse on 0/0" in lab_sentence(
         lab_study(every.reset_index(drop=True))
     )
 

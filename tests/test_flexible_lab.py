@@ -172,3 +172,30 @@ def test_the_batch_engine_runs_it_arm_by_arm_as_the_single_path():
     scenarios = [scenario("flexible_fl_kalman", j, p, "17-bit, differenced") for j, p in cells]
     for s, traj in zip(scenarios, run_scenarios(scenarios), strict=True):
         np.testing.assert_array_equal(traj.tau, run_scenario(s).tau)
+
+
+def test_a_biased_filter_leaves_the_encoder_angle_where_the_integral_puts_it():
+    """The integral acts on the encoder's link angle, not the filter's estimate: a filter
+    that reads 30 counts high moves the estimate, not the arm's rest angle. Fed the
+    estimate instead (the mutation), the arm would rest 30 counts low."""
+    s = scenario("flexible_fl_kalman", "realistic", "error", "17-bit, differenced")
+    count = 2 * np.pi / 2**17
+    bias = 30 * count
+
+    def biased() -> ObservedIntegralFlexibleFeedbackLinearisation:
+        law = build_controller(s)
+        update = law.filter.update
+
+        def update_biased(q, motor_q, held):
+            q_hat, qd_hat, th_hat, thd_hat = update(q, motor_q, held)
+            return tuple(v + bias for v in q_hat), qd_hat, th_hat, thd_hat
+
+        law.filter.update = update_biased
+        return law
+
+    plain, shifted = run_scenario(s), run_scenario(s, biased())
+    tail = plain.t >= plain.t[-1] - 0.5  # the last half second: at rest
+    rest = plain.q[tail].mean(axis=0)
+    moved = shifted.q[tail].mean(axis=0)
+    # the same rest within two counts, where the mutation moves it by thirty
+    assert np.all(np.abs(moved - rest) < 2 * count), (moved - rest) / count

@@ -102,27 +102,27 @@ def _count(r: Any, side: str) -> int:
 
 
 def _shares_said(r: Any) -> list[str]:
-    """'worse by more than 10 ms on 35 of 200 in θ2 Tr' for each share the reading names
-    (shown, or the side that makes a split)."""
-    from twolink.studies.judgments.claims_words import SPLIT, SPLIT_SHARE, amount
+    """'θ2 Tr better on 33 of 200' for each share the reading names (shown, or the side
+    that makes a split): plants beyond the row's tolerance that way (its size is the
+    table's; "better" here is a plant's difference, not a verdict)."""
+    from twolink.studies.judgments.claims_words import SPLIT, SPLIT_SHARE
 
-    tol = amount(r.metric, r.tolerance)
     said = []
     for side in ("better", "worse"):
         split = r.verdict == SPLIT and _count(r, side) > SPLIT_SHARE * r.plants
         if getattr(r, f"share_{side}_shown") or split:
             alone = " or alone in reaching it" if getattr(r, f"unreached_{side}") else ""
-            said.append(
-                f"{side} by more than {tol}{alone} on {_count(r, side)} of {r.plants} in {_name(r)}"
-            )
+            said.append(f"{_name(r)} {side}{alone} on {_count(r, side)} of {r.plants}")
     return said
 
 
 def describe(table: pd.DataFrame) -> str:
     """A claims table in one clause, in the verdict words of the table
     (:data:`~twolink.studies.judgments.claims_words.VERDICT_WORDS`): better and worse with
-    their estimates; split with the plants beyond ±δ; equivalent and inconclusive counted,
-    with the shares shown beside them; the rest counted."""
+    their estimates; split with the plants beyond the tolerance each way; equivalent
+    counted, with the shares shown beside it; inconclusive counted and named (its shares
+    are the table's); the rest counted. Short on purpose: the tables hold the intervals
+    and shares."""
     from twolink.studies.judgments.claims_words import SPLIT
 
     parts = []
@@ -132,15 +132,19 @@ def describe(table: pd.DataFrame) -> str:
             named = ", ".join(f"{_name(r)} ({_signed(r.metric, r.estimate)})" for r in rows)
             parts.append(f"{verdict} on {named}")
     split = _rows(table, SPLIT)
-    if split:  # equivalent on the typical plant, more than a tenth beyond ±δ
-        shares = "; ".join(x for r in split for x in _shares_said(r))
-        parts.append(f"{SPLIT} on {len(split)} (equivalent on the typical plant, but {shares})")
-    for verdict in ("equivalent", "inconclusive"):
-        rows = _rows(table, verdict)
-        if rows:
-            shares = [x for r in rows for x in _shares_said(r)]
-            more = f", but {'; '.join(shares)}" if shares else ""
-            parts.append(f"{verdict} on {len(rows)}{more}")
+    if split:  # equivalent on the typical plant, more than a tenth beyond the tolerance
+        shares = ", ".join(x for r in split for x in _shares_said(r))
+        parts.append(f"{SPLIT} on {len(split)} ({shares} beyond the tolerance)")
+    equivalent = _rows(table, "equivalent")
+    if equivalent:
+        shares = [x for r in equivalent for x in _shares_said(r)]
+        more = f", but {', '.join(shares)} beyond the tolerance" if shares else ""
+        parts.append(f"equivalent on {len(equivalent)}{more}")
+    inconclusive = _rows(table, "inconclusive")
+    if inconclusive:
+        parts.append(
+            f"inconclusive on {len(inconclusive)} ({', '.join(_name(r) for r in inconclusive)})"
+        )
     by_reference = len(_rows(table, "set by the reference"))
     if by_reference:
         parts.append(f"{by_reference} set by the reference")
@@ -161,7 +165,7 @@ def study_sentence(study: ClaimsStudy, first: bool = True) -> str:
             f"against {opponent}{also}, met the spec {study.met.get(p, 0)} to "
             f"{study.met.get(opponent, 0)}: {describe(table)}"
         )
-    what = f" ({p} lowers Tp, Td, Ts, Tr, Mp, ess; typical-plant shift in brackets)"
+    what = f" ({p} lowers Tp, Td, Ts, Tr, Mp, ess; brackets: the typical-plant shift)"
     return (
         f"**The paper's claim on {study.plants} plants, {study.label}**{what if first else ''}: "
         + "; ".join(clauses)
@@ -246,16 +250,17 @@ def integral_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
 
 
 def lab_sentence(study: ClaimsStudy) -> str:
-    """The lab arm in one sentence: for each pair its tables judge among the proposed
-    controller, the baseline, the integral one and the opponents, who wins: better on
+    """The lab arm in one sentence: for each pair its tables judge with the proposed
+    controller on one side (against the baseline, the opponents, the integral one), who
+    wins: better on
     some winner metrics and worse on none ("beats"), the reverse ("loses to"), both
     ("trades with") or neither ("is not told from"); with the counts of metrics, and the
     largest shift each way (in tolerances) with the plants it holds on."""
     named = {study.proposed, study.baseline, study.integral, *study.claims}
     clauses = []
     for (a, b), t in study.every.groupby(["proposed", "opponent"], sort=False):
-        if a not in named or b not in named:
-            continue
+        if a not in named or b not in named or study.proposed not in (a, b):
+            continue  # the others among themselves are the tables', not the claim's
         better, worse = _rows(t, "better"), _rows(t, "worse")
         verb = {
             (True, False): "beats",
