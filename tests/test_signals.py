@@ -268,3 +268,59 @@ def test_the_envelope_weighs_every_swing_alike():
                     options={"xatol": 1e-10, "fatol": 1e-14, "maxiter": 20000})  # fmt: skip
     assert (a, s) == pytest.approx((best.x[0] * 1e-3, best.x[1]), rel=1e-4)
     assert a > 0.15e-3
+
+
+@pytest.mark.parametrize("ratio", [5, 12, 40])
+@pytest.mark.parametrize("sigma", [0.0, 5e-5])
+def test_of_two_tones_the_larger_persisting_swing_is_read(ratio, sigma):
+    # issue 48: a 5 mrad slow cycle carrying a 1 mrad fast tone read the fast tone (1.29
+    # mrad). The slow swing is read between its extremes, the fast one's ride on them
+    # included: between 5 and 6 mrad, at most half the last slow period's peak-to-peak;
+    # with white noise of 1 % of the slow cycle (0.05 mrad) the same
+    t = clock(10.0)
+    rng = np.random.default_rng(ratio)
+    noise = rng.normal(0.0, sigma, t.size)
+    slow = 2 * np.pi * t / 2.0
+    e = 5e-3 * np.sin(slow) + 1e-3 * np.sin(ratio * slow + 0.7) + noise
+    got = oscillation_amplitude(t, e)
+    assert 5e-3 <= got <= 0.5 * np.ptp(e[t >= 10.0 - 2.0]) + 1e-12
+    assert got <= 6e-3 + 3 * sigma
+    # the fast one the larger: its own swings (paired, the slow one shifts their middle
+    # only), about 5 mrad, not the 6 of the two together
+    e = 1e-3 * np.sin(slow) + 5e-3 * np.sin(ratio * slow + 0.7) + noise
+    assert oscillation_amplitude(t, e) == pytest.approx(5e-3, rel=0.06)
+
+
+def test_a_decaying_transient_carrying_a_small_chatter_reads_what_is_left_of_it():
+    # the decaying transient above (0.067 mrad left at the end) with a persisting 0.02
+    # mrad chatter at 50 Hz riding on it: what is left of the transient is the larger
+    # swing, read between its extremes (the chatter's ride included), not the chatter
+    # (0.02 mrad before issue 48)
+    t = clock(10.0)
+    left = 0.01 * math.exp(-0.5 * 10.0)
+    transient = 0.01 * np.exp(-0.5 * t) * np.cos(2 * np.pi * t / 0.8)
+    e = transient + 2e-5 * np.sin(2 * np.pi * t / 0.02)
+    assert left * 0.95 <= oscillation_amplitude(t, e) <= left * 1.05 + 2e-5
+
+
+@pytest.mark.parametrize("frequency", [15.0, 20.0, 30.0])
+def test_one_turn_of_a_slow_approach_and_a_ripple_at_its_end_make_no_slower_cycle(frequency):
+    # The flexible map's CTC at k 2000, ωn 4: after the move its error turns once (30
+    # mrad) and creeps back to the target, a 0.1 mrad ripple turning on it only near the
+    # end. That turn and a ripple's swing are no slower cycle (a 15 mrad half-swing
+    # paired with a 0.1 mrad one read 12 mrad): what persists is the ripple
+    t = clock(3.0)
+    approach = np.where(t < 1.7, -0.03 * np.sin(np.pi * t / 3.4), -0.03 * np.exp(-1.5 * (t - 1.7)))
+    e = approach + 1e-4 * np.sin(2 * np.pi * frequency * t)
+    assert oscillation_amplitude(t, e, since=1.5) <= 2e-4
+
+
+def test_the_envelope_at_the_end_is_not_decided_by_the_large_swings_before_it():
+    # the metric on a transient decaying at 2/s onto a 0.5 mrad cycle: 1.0 mrad is left at
+    # the end of the run; weighing every swing alike reads 1.08, the unweighted fit 1.49
+    # (its large early swings pull the envelope up). Nor is the record's first small
+    # turn with the transient's first swings a slower cycle (that read 6.5 mrad)
+    t = clock(10.0)
+    envelope_mrad = np.where(t >= 8.5, 10.0 * np.exp(-2.0 * (t - 8.5)), 0.0) + 0.5
+    e = 1e-3 * envelope_mrad * np.cos(2 * np.pi * (t - 8.5) / 0.5)
+    assert oscillation_amplitude(t, e) == pytest.approx(1e-3 * envelope_mrad[-1], rel=0.1)

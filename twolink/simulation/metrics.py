@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from twolink.simulation.swings import end_envelope, last, settling_window
+from twolink.simulation.swings import last, persisting_swing, settling_window
 
 __all__ = [
     "ErrorMeasures",
@@ -441,6 +441,16 @@ def oscillation_amplitude(
     what persists there. NaN for fewer than 3 samples in the window, or a non-finite
     error.
 
+    Of several tones it reads the larger swing that persists
+    (:func:`twolink.simulation.swings.persisting_swing`): a slower swing that carries
+    faster ones is read the same way from its own turns, between its extremes, so the
+    faster ones' ride on them counts, and stands where it reads at least twice the faster
+    swing (where it is itself the larger). A slow tone of amplitude A carrying a fast one
+    of B < A reads between A and A + B, half the slow cycle's peak-to-peak (5 mrad
+    carrying 1 mrad at 5, 12 or 40 times its frequency: 5.9-6.0 mrad); a fast tone larger
+    than the slow one it rides on reads its own swings, paired: about B (1 mrad carrying
+    5 mrad: 4.75-4.96 mrad).
+
     Parameters
     ----------
     t : ndarray, shape (N,)
@@ -462,8 +472,8 @@ def oscillation_amplitude(
             x = columns[:, j]
             if not np.all(np.isfinite(x)):
                 continue  # NaN, as the other measures give
-            ending = end_envelope(t, x, span, since)
-            out[j] = 0.0 if ending is None else ending[0]
+            reading = persisting_swing(t, x, span, since)
+            out[j] = 0.0 if reading is None else reading
     return _per_column(out if e.ndim > 1 else out[0])
 
 

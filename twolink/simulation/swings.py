@@ -27,6 +27,7 @@ __all__ = [
     "growth_rates",
     "half_swings",
     "last",
+    "persisting_swing",
     "settling_window",
     "turning_points",
 ]
@@ -134,6 +135,24 @@ def noise_level(x: np.ndarray) -> float:
     return float(np.median(fourth)) / 0.6745 / math.sqrt(70.0) if fourth.size else 0.0
 
 
+def _turns(t: np.ndarray, x: np.ndarray, floor: float, since: float) -> np.ndarray:
+    """:func:`turning_points` of ``x`` at or after ``since``, the floor raised to
+    :data:`NOISE_SWINGS` times the :func:`noise_level` after ``since``."""
+    floor = max(floor, NOISE_SWINGS * noise_level(x[t >= since]))
+    idx = turning_points(x, floor)
+    return idx[t[idx] >= since]
+
+
+def _swings(
+    t: np.ndarray, x: np.ndarray, idx: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(times, halves, turns)`` of the turning points ``idx`` (:func:`half_swings`)."""
+    turns = t[idx]
+    if idx.size < 2:
+        return np.empty(0), np.empty(0), turns
+    return 0.5 * (turns[1:] + turns[:-1]), 0.5 * np.abs(np.diff(x[idx])), turns
+
+
 def half_swings(
     t: np.ndarray, x: np.ndarray, floor: float = SWING_FLOOR, since: float = -math.inf
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -142,14 +161,7 @@ def half_swings(
     :func:`noise_level` after ``since``) at or after ``since``, half the change, at the
     midpoint in time. Returns ``(times, halves, turns)``, ``turns`` the turning points'
     times."""
-    floor = max(floor, NOISE_SWINGS * noise_level(x[t >= since]))
-    idx = turning_points(x, floor)
-    idx = idx[t[idx] >= since]
-    turns = t[idx]
-    if idx.size < 2:
-        return np.empty(0), np.empty(0), turns
-    v = x[idx]
-    return 0.5 * (turns[1:] + turns[:-1]), 0.5 * np.abs(np.diff(v)), turns
+    return _swings(t, x, _turns(t, x, floor, since))
 
 
 def envelope(times: np.ndarray, halves: np.ndarray, at: float) -> tuple[float, float]:
@@ -188,7 +200,14 @@ def ending_swings(
     reference stopped, so the move's own tracking error is no swing of it). None where
     there is no swing, or the oscillation has ended (its last turn more than its last
     period before the end)."""
-    times, halves, turns = half_swings(t, x, since=since)
+    return _ending(t, window, half_swings(t, x, since=since))
+
+
+def _ending(
+    t: np.ndarray, window: float, swings: tuple[np.ndarray, np.ndarray, np.ndarray]
+) -> tuple[np.ndarray, np.ndarray] | None:
+    """:func:`ending_swings` of the half-swings ``swings`` (:func:`half_swings`)."""
+    times, halves, turns = swings
     if not halves.size:
         return None
     period = turns[-1] - turns[-3] if turns.size >= 3 else 2.0 * (turns[-1] - turns[-2])
@@ -216,15 +235,100 @@ def end_envelope(
     cycle, or the last swing of a heavily damped one, the record cannot tell) ``a`` is
     half the peak-to-peak over the last ``window`` seconds, what the end shows, and ``s``
     is NaN."""
-    ending = ending_swings(t, x, window, since)
+    return _end_reading(t, x, window, since, half_swings(t, x, since=since))
+
+
+def _end_reading(
+    t: np.ndarray,
+    x: np.ndarray,
+    window: float,
+    since: float,
+    swings: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[float, float] | None:
+    """:func:`end_envelope` of the half-swings ``swings`` of ``x``."""
+    ending = _ending(t, window, swings)
     if ending is None:
         return None
-    _, _, turns = half_swings(t, x, since=since)
+    turns = swings[2]
     if turns.size < 3:
         return 0.5 * float(np.ptp(x[last(t, window)])), math.nan
     a, s = envelope(*ending, at=float(t[-1]))
     seen = x[t >= max(since, t[-1] - (turns[-1] - turns[-3]))]
     return min(a, 0.5 * float(np.ptp(seen))), s
+
+
+SLOWER_SHARE = 2.0  # a slower swing is read where it is this many times the faster one
+
+
+def persisting_swing(
+    t: np.ndarray, x: np.ndarray, window: float, since: float = -math.inf
+) -> float | None:
+    """The amplitude of the larger swing that persists at the end of ``x`` (what
+    :func:`twolink.simulation.metrics.oscillation_amplitude` reads), or None (none): the
+    :func:`end_envelope` of its swings, and of each slower swing that carries a faster one
+    (:func:`_slower_swings`), whichever is the larger. Of a slow cycle carrying a fast
+    one, the slow swings are read between their extremes, the fast one's ride included."""
+    idx = _turns(t, x, SWING_FLOOR, since)
+    fine = _end_reading(t, x, window, since, _swings(t, x, idx))
+    best = None if fine is None else fine[0]
+    for keep in _slower_swings(x[idx], float(x[-1])):
+        slow = idx[keep]
+        # half the last slow period's peak-to-peak bounds its reading: skip it unread
+        # where that cannot beat the reading so far (the fit is the costly part)
+        if best is not None and 0.5 * np.ptp(x[slow[-3] :]) < SLOWER_SHARE * best:
+            continue
+        reading = _end_reading(t, x, window, since, _swings(t, x, slow))
+        # read between its extremes, a slower swing carries the faster one's ride (up to
+        # its amplitude): at twice the faster one or more it is itself the larger
+        if reading is not None and (best is None or reading[0] >= SLOWER_SHARE * best):
+            best = reading[0]
+    return best
+
+
+def _zigzag(v: np.ndarray, end: float, step: float) -> np.ndarray:
+    """Positions in ``v`` (alternating extremes) of the turns between which it moves by at
+    least ``step`` (the zigzag filter: of the extremes in between, the most extreme
+    stands), each come to from a step away and left by one; ``end``, the record's last
+    value, confirms the last. The first extreme of the first step starts it, no turn."""
+    keep: list[int] = []
+    hi = lo = c = 0  # running extremes before the first step; c: the turn to confirm
+    d = 0  # +1: c is a maximum, -1 a minimum, 0: not known yet
+    for i, u in enumerate([*v[1:].tolist(), end], start=1):
+        if d == 0:
+            hi, lo = (i if u > v[hi] else hi), (i if u < v[lo] else lo)
+            if v[hi] - v[lo] >= step and i < v.size:
+                c, d = max(hi, lo), (1 if hi > lo else -1)
+        elif d * (u - v[c]) >= 0:  # of equal extremes the later: the end of a flat top
+            c = i if i < v.size else c
+        elif d * (v[c] - u) >= step:
+            keep.append(c)
+            c, d = i, -d
+    return np.array(keep, dtype=int)
+
+
+def _slower_swings(v: np.ndarray, end: float) -> list[np.ndarray]:
+    """Positions in ``v`` (a record's turns, alternating extremes; ``end`` its last value)
+    of each slower swing that carries a faster one over its last period: the zigzag of
+    ``v`` (:func:`_zigzag`) at half its range, a quarter, ..., where it has three turns or
+    more, turns of ``v`` lie between its last three besides its middle one, and neither
+    of its last two swings is under :data:`WIGGLE_SHARE` of the other (one turn of a slow
+    approach and a ripple at its end make no slower cycle). Down to the step that drops
+    no turn between the first and the last, from which on nothing is slower."""
+    out: list[np.ndarray] = []
+    if v.size < 4:
+        return out
+    step = 0.5 * float(np.ptp(v))
+    for _ in range(24):  # halvings: 2^-24 of the range is below any swing that counts
+        keep = _zigzag(v, end, step)
+        if keep.size >= v.size - 2 and keep[-1] - keep[0] == keep.size - 1:
+            break
+        if keep.size >= 3 and keep[-1] - keep[-3] > 2:
+            last_two = np.abs(np.diff(v[keep[-3:]]))
+            slower = last_two.min() >= WIGGLE_SHARE * last_two.max()
+            if slower and not (out and np.array_equal(keep, out[-1])):
+                out.append(keep)
+        step *= 0.5
+    return out
 
 
 # Growth is judged of what persists above this at the end [rad]: 1 mrad, the claims'
