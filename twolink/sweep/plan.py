@@ -106,10 +106,11 @@ __all__ = ["DISTRIBUTIONS", "PARAMETERS", "Execution", "Parameter", "SweepPlan",
 # Chunk files and manifest (2: Parquet, 3: oscillation_rad, 4: settling_time_target_s,
 # max_error_rad and Tp only where there is a peak); in the digest, so older chunks are
 # not resumed; 5: max_twist_rad).
-FORMAT_VERSION = 8  # 6: tail_error_rad, tail_growth; final error against the target;
+FORMAT_VERSION = 9  # 6: tail_error_rad, tail_growth; final error against the target;
 # 7: oscillation_rad counts a drift as no oscillation (the smaller of rise and fall);
 # 8 (issue 37): ess and the final error the settling window's mean, oscillation_rad the
-# envelope at the end, tail_growth e^(σW), linear_growth_1_s of every law on every plant
+# envelope at the end, tail_growth e^(σW), linear_growth_1_s of every law on every plant;
+# 9 (issue 48): oscillation_rad the larger persisting swing of two tones
 # Samples per task: each task is one batch of arms (samples x controllers) on the batch
 # engine, whose per-step cost is mostly fixed below ~100 arms (docs/sweeps.md).
 DEFAULT_CHUNK_SIZE = 100
