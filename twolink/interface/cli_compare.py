@@ -24,42 +24,61 @@ from twolink.interface.cli_output import done_line, fail_input
     "-n",
     "--plants",
     type=click.IntRange(min=1),
-    default=50,
-    show_default=True,
-    help="Plants drawn as the robustness sweep draws them.",
+    default=None,
+    help="Plants drawn as the robustness sweep draws them.  [default: 50]",
+)
+@click.option(
+    "--plants-file",
+    metavar="FILE.csv",
+    default=None,
+    help="Your own plants instead: a CSV of one row per plant, one column per sweep "
+    "parameter (m1, m2, l1, l2, g, payload, k1, coulomb1, ...: docs/sweeps.md); the "
+    "parameters it lacks stay nominal (docs/compare.md).",
 )
 @out_folder_option("Output folder [default: results/compare/<scenario>_<A>_vs_<B>].")
-@seed_option("Seed of the plants' draws (the same seed, the same plants).")
+@seed_option(
+    "Seed of the plants' draws (the same seed, the same plants) and of each plant's "
+    "measurement noise."
+)
 @workers_option()
 @no_trace_option("Skip the rerun recording (compare.rrd).")
 @set_option("the scenario, for both controllers", "controller.kp=9")
 def compare_command(
-    scenario: str, a: str, b: str, plants: int, out, seed: int, workers, no_trace, settings
-) -> None:
+    scenario: str, a: str, b: str, plants, plants_file, out, seed: int, workers, no_trace,
+    settings,
+) -> None:  # fmt: skip
     """Judge controller A against controller B on SCENARIO (a file or a shipped name) over
-    drawn plants: the paired table with verdicts (better: A lower beyond the tolerance;
-    docs/compare.md), an overlay figure with a difference panel (compare.png) and one
-    rerun recording of the nominal plant (compare.rrd). A and B are controllers of the
-    shipped reproduction (CTC, FCM-CTC, PD-G, CTC-I, CTC-paper, fuzzy-PD,
-    FCM-CTC-continuous) or controller kinds (ctc, fcm_ctc, ...).
+    drawn plants, or your own (--plants-file): the paired table with verdicts (better: A
+    lower beyond the tolerance; docs/compare.md), an overlay figure with a difference
+    panel (compare.png) and one rerun recording of the nominal plant (compare.rrd). A and
+    B are controllers of the shipped reproduction (CTC, FCM-CTC, PD-G, CTC-I, CTC-paper,
+    fuzzy-PD, FCM-CTC-continuous) or controller kinds (ctc, fcm_ctc, ...).
 
     \b
     Examples:
       twolink compare theta1_step FCM-CTC CTC              # the raw θ1 step, 50 plants
       twolink compare theta1_step FCM-CTC CTC --set controller.kp=9 --set controller.kd=6
       twolink compare paper/theta2_step CTC-I CTC -n 200 --out /tmp/cmp
+      twolink compare theta1_step FCM-CTC CTC --plants-file examples/plants.csv   # your 12 plants
     """
     from twolink.foundation.io import unsafe_name_problem
     from twolink.foundation.shipped import locate
     from twolink.simulation.config import ConfigError, load_scenario, parse_set, read_toml
-    from twolink.studies.judgments.compare import check_plants, compare, controller_table
+    from twolink.studies.judgments.compare import compare, compare_sweep, controller_table
 
+    if plants is not None and plants_file is not None:
+        fail_input(
+            f"give -n/--plants or --plants-file, not both: the rows of {plants_file} are the plants"
+        )
+    plants = plants_file if plants_file is not None else 50 if plants is None else plants
     try:
-        check_plants(plants)
         overrides = parse_set(settings)
-        read_toml(locate(scenario))
+        path = locate(scenario)
+        read_toml(path)
         load_scenario(scenario, overrides)  # a bad --set is named now, not after the runs
         controller_table(a), controller_table(b)
+        if a != b:  # the plants (a file's every row and column) are checked now too
+            compare_sweep(path, a, b, plants, seed, overrides)
     except (ConfigError, OSError) as exc:
         fail_input(str(exc))
     if a == b:

@@ -14,9 +14,11 @@ import numpy as np
 from twolink.simulation.config import TomlTable
 from twolink.sweep.friction_draws import FRICTION_NAMES
 
-__all__ = ["DISTRIBUTIONS", "PARAMETERS", "Parameter"]
+__all__ = ["DISTRIBUTIONS", "NOT_DRAWN", "PARAMETERS", "Parameter", "domain_problem"]
 
-DISTRIBUTIONS = ("uniform", "loguniform", "normal", "choice", "grid")
+DISTRIBUTIONS = ("uniform", "loguniform", "normal", "choice", "grid", "listed")
+# Not drawn: a grid point from the sample index, a listed value at it (sample i, values[i])
+NOT_DRAWN = ("grid", "listed")
 # name -> domain of the drawn value: "positive" (> 0), "nonnegative" (>= 0),
 # "at_least_one" (>= 1: a ratio such as breakaway / Coulomb) or "any".
 PARAMETERS: Mapping[str, str] = {
@@ -56,7 +58,8 @@ class Parameter:
     mean, std : float or None
         Normal distribution.
     values, weights : tuple of float
-        Choice and grid points; optional choice weights.
+        Choice and grid points, or the listed values (sample i takes ``values[i]``);
+        optional choice weights.
     """
 
     name: str
@@ -69,7 +72,8 @@ class Parameter:
     weights: tuple[float, ...] = ()
 
     def draw(self, rng: np.random.Generator) -> float:
-        """Draw one value (not for "grid", whose value comes from the sample index)."""
+        """Draw one value (not for "grid" nor "listed", whose values come from the sample
+        index: :meth:`twolink.sweep.plan.SweepPlan.draw`)."""
         if self.dist == "uniform":
             return float(rng.uniform(self.low, self.high))
         if self.dist == "loguniform":
@@ -105,13 +109,21 @@ def _check_value(t: TomlTable, key: str, value: Any, domain: str) -> float:
         )
     if not math.isfinite(value):
         t.fail(key, f"must be finite, got {value!r}")
-    if domain == "positive" and not value > 0:
-        t.fail(key, f"must be > 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
-    if domain == "nonnegative" and value < 0:
-        t.fail(key, f"must be >= 0 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
-    if domain == "at_least_one" and value < 1:
-        t.fail(key, f"must be >= 1 for parameter {t.where.split('.')[-1]!r}, got {value!r}")
+    if problem := domain_problem(t.where.split(".")[-1], domain, value):
+        t.fail(key, problem)
     return float(value)
+
+
+def domain_problem(name: str, domain: str, value: float) -> str | None:
+    """Why the finite ``value`` lies outside ``domain`` (a value of :data:`PARAMETERS`)
+    for parameter ``name``; None where it lies within."""
+    bound = {"positive": "> 0", "nonnegative": ">= 0", "at_least_one": ">= 1"}.get(domain)
+    inside = {
+        "positive": value > 0,
+        "nonnegative": value >= 0,
+        "at_least_one": value >= 1,
+    }.get(domain, True)
+    return None if inside else f"must be {bound} for parameter {name!r}, got {value!r}"
 
 
 def _normal_mass(mean: float, std: float, low: float | None, high: float | None) -> float:
@@ -146,6 +158,7 @@ def _parameter(name: str, data: Any, file: str) -> Parameter:
         "normal": ("mean", "std", "low", "high"),
         "choice": ("values", "weights"),
         "grid": ("values",),
+        "listed": ("values",),
     }[dist]
     for key in t.data:  # a misspelt key first: it explains a "missing" one
         if key not in ("dist", *known):

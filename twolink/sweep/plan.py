@@ -26,6 +26,7 @@ Schema::
     payload = { dist = "choice", values = [0.0, 0.2, 0.5] } # kg at the tip
     k = { dist = "loguniform", low = 20.0, high = 2e4 }     # joint stiffness, both joints
     d1 = { dist = "grid", values = [0.1, 1.0] }             # joint 1 damping
+    l1 = { dist = "listed", values = [0.9, 1.0, 1.1] }      # sample i takes values[i]
 
     [controllers.ctc]                   # name = overrides of the scenario's [controller]
     kind = "ctc"
@@ -55,7 +56,12 @@ holding gravity torque on the nominal arm), ``stribeck_ratio`` their breakaway /
 ``uniform`` (low, high), ``loguniform`` (low, high), ``normal`` (mean, std, optional
 low/high truncation by rejection), ``choice`` (values, optional weights), ``grid`` (values:
 sample i takes the (i mod size)-th point of the full grid over all grid parameters, the
-first parameter by name varying fastest).
+first parameter by name varying fastest), ``listed`` (values: sample i takes ``values[i]``;
+every listed parameter of a sweep has the same number of values and ``samples`` is at most
+that number: a table of the user's own plants, one column per parameter, as ``twolink
+compare --plants-file`` writes it). Grid and listed parameters take nothing from the
+generator, so the other parameters' draws and the noise seed are those of the same sweep
+without them.
 """
 
 from __future__ import annotations
@@ -95,6 +101,7 @@ from twolink.simulation.outcome import SuccessSpec, finished, largest_step
 from twolink.sweep.friction_draws import FRICTION_NAMES, friction_data
 from twolink.sweep.parameters import (
     DISTRIBUTIONS,
+    NOT_DRAWN,
     PARAMETERS,
     Parameter,
     _parameter,
@@ -229,10 +236,11 @@ class SweepPlan:
     def draw(self, i: int) -> tuple[dict[str, float], int]:
         """Parameter values of sample ``i`` and its measurement-noise seed.
 
-        Grid parameters come from ``i``; the others are drawn, in name order, from
-        ``default_rng([seed, i])``, and the noise seed is drawn after them; the friction
-        parameters last, so adding friction to a sweep leaves its plants and noise as
-        they were (the lab arm's plants are the robustness study's).
+        Grid parameters come from ``i``, listed ones are their ``values[i]``; the others
+        are drawn, in name order, from ``default_rng([seed, i])``, and the noise seed is
+        drawn after them; the friction parameters last, so adding friction to a sweep
+        leaves its plants and noise as they were (the lab arm's plants are the robustness
+        study's).
         """
         values: dict[str, float] = {}
         k = i
@@ -240,8 +248,10 @@ class SweepPlan:
             if p.dist == "grid":
                 values[p.name] = p.values[k % len(p.values)]
                 k //= len(p.values)
+            elif p.dist == "listed":
+                values[p.name] = p.values[i]
         rng = np.random.default_rng([self.seed, i])
-        drawn = [p for p in self.parameters if p.dist != "grid"]
+        drawn = [p for p in self.parameters if p.dist not in NOT_DRAWN]
         for p in drawn:
             if p.name not in FRICTION_NAMES:
                 values[p.name] = p.draw(rng)
@@ -295,7 +305,7 @@ class SweepPlan:
         """The gravity of every batch model of this sweep (its arms are tilted against it,
         :func:`twolink.simulation.batch.batch_model`): the largest |g| any sample can draw,
         from the sweep's definition alone (the nominal g where ``g`` is not swept; else
-        the g of each end of its distribution, each choice or grid value; a normal open on
+        the g of each end of its distribution, each choice, grid or listed value; a normal open on
         a side reaches ``NORMAL_REACH`` standard deviations there). So an arm's run depends
         on its own plant, never on the other arms of its batch, N, the chunk size, the
         executor or the number of workers."""
@@ -384,6 +394,7 @@ def load_sweep(path: str | Path, overrides: Mapping[str, Any] | None = None) -> 
     success = _success(top)
     base = _base_scenario(top, path, file)
     parameters = _parameters(top, file)
+    _check_listed(top, parameters, samples)
     controllers = _controllers(top, base, path, file)
     top.done()
 
@@ -531,25 +542,58 @@ def _base_scenario(top: TomlTable, path: Path, file: str) -> dict[str, Any]:
     return base
 
 
+def parameter_conflict(names: Sequence[str]) -> tuple[str, str] | None:
+    """The first of ``names`` that two parameters set at once, with why (None where none
+    does): ``k`` and ``k1``, ``friction_level`` and ``coulomb1``, ``zeta_joint`` and
+    ``d``... What a sweep file's ``[parameters]`` and a plants file's columns refuse."""
+    for p in FLEX_PARAMETERS:
+        both = [f"{p}{j}" for j in (1, 2) if f"{p}{j}" in names]
+        if p in names and both:
+            return both[0], f"conflicts with {p!r}, which sets both joints"
+    for coulomb in ("coulomb1", "coulomb2"):
+        if coulomb in names and "friction_level" in names:
+            return coulomb, "conflicts with 'friction_level', which sets both joints' Coulomb"
+    for damping in ("d", "d1", "d2"):
+        if damping in names and "zeta_joint" in names:
+            return damping, "conflicts with 'zeta_joint', which sets the damping of both joints"
+    return None
+
+
 def _parameters(top: TomlTable, file: str) -> tuple[Parameter, ...]:
     """The ``[parameters]`` drawn, sorted by name."""
     pt = top.table("parameters")
     for pname in pt.data:
         if pname not in PARAMETERS:
             pt.fail(pname, f"unknown parameter (known: {sorted(PARAMETERS)})")
-    for p in FLEX_PARAMETERS:
-        both = [f"{p}{j}" for j in (1, 2) if f"{p}{j}" in pt.data]
-        if p in pt.data and both:
-            pt.fail(both[0], f"conflicts with {p!r}, which sets both joints")
-    for coulomb in ("coulomb1", "coulomb2"):
-        if coulomb in pt.data and "friction_level" in pt.data:
-            pt.fail(coulomb, "conflicts with 'friction_level', which sets both joints' Coulomb")
-    for damping in ("d", "d1", "d2"):
-        if damping in pt.data and "zeta_joint" in pt.data:
-            pt.fail(damping, "conflicts with 'zeta_joint', which sets the damping of both joints")
+    if conflict := parameter_conflict(list(pt.data)):
+        pt.fail(*conflict)
     parameters = tuple(_parameter(n, pt.raw(n), file) for n in sorted(pt.data))
     pt.done()
     return parameters
+
+
+def _check_listed(top: TomlTable, parameters: Sequence[Parameter], samples: int) -> None:
+    """Every listed parameter has one value per sample: the same number of values each,
+    and ``samples`` at most that number."""
+    listed = [p for p in parameters if p.dist == "listed"]
+    if not listed:
+        return
+    first = listed[0]
+    n = len(first.values)
+    for p in listed[1:]:
+        if len(p.values) != n:
+            top.fail(
+                f"parameters.{p.name}.values",
+                f"has {len(p.values)} value{'s' * (len(p.values) != 1)}, but "
+                f"parameters.{first.name}.values has {n}: "
+                "every listed parameter gives one value per sample",
+            )
+    if samples > n:
+        top.fail(
+            "samples",
+            f"must be at most {n}, the number of values of the listed parameters "
+            f"(parameters.{first.name}.values: sample i takes values[i]), got {samples}",
+        )
 
 
 def _controllers(

@@ -2,10 +2,13 @@
 the paired table with its verdicts, an overlay figure with a difference panel, and one
 rerun recording (docs/compare.md).
 
-The plants are the shipped robustness sweep's (``sweeps/robustness``'s ``[parameters]``:
-masses and lengths off by drawn factors, gravity, a payload the controllers do not know
-about); the scenario is run as it stands (its reference, duration and sensor). ``A`` is
-judged against ``B``, plant by plant, with :func:`twolink.studies.judgments.claims.paired_claims`:
+The plants are drawn as the shipped robustness sweep draws them (``sweeps/robustness``'s
+``[parameters]``: masses and lengths off by drawn factors, gravity, a payload the
+controllers do not know about), or are the user's own, a table of one row per plant
+(``plants=`` a CSV file or a DataFrame: :mod:`twolink.sweep.plants_csv`), run as the
+sweep's ``listed`` parameters; the scenario is run as it stands (its reference, duration
+and sensor). ``A`` is judged against ``B``, plant by plant, with
+:func:`twolink.studies.judgments.claims.paired_claims`:
 "better" means A's metric is lower than B's by more than the practical tolerance on the
 typical plant (the verdict rule of docs/statistics.md, Holm-corrected over the table).
 The sweep this runs is written as a file (``compare.toml``) so that ``twolink sweep`` can
@@ -60,8 +63,10 @@ SHOWN = {  # the paired table's columns as printed, in this order (others are in
 class Comparison:
     """What :func:`compare` found: ``claims`` (the paired table, one row per joint and
     metric: docs/statistics.md), ``results`` (the sweep's table, one row per plant and
-    controller), how many plants each met the spec on, the figure and, where written,
-    the folder. ``str()`` prints the table with its header."""
+    controller), how many plants each met the spec on, the figure, where written the
+    folder, and where the plants were the user's own the file they came from
+    (``plants_file``; "plants (a DataFrame)" for a DataFrame). ``str()`` prints the table
+    with its header."""
 
     scenario: str
     a: str
@@ -72,14 +77,16 @@ class Comparison:
     met_spec: dict[str, int]
     figure: Any = field(repr=False)
     folder: Path | None = None
+    plants_file: str | None = None  # the user's plants (a file, or a DataFrame), if given
 
     def __str__(self) -> str:
+        whose = f" of {self.plants_file}" if self.plants_file else ""
         head = (
-            f"{self.a} against {self.b} on {self.plants} plants, {self.scenario} "
+            f"{self.a} against {self.b} on {self.plants} plants{whose}, {self.scenario} "
             f"(better: {self.a} lower beyond the tolerance; docs/statistics.md)"
         )
         met = ", ".join(f"{n} {self.met_spec[n]}" for n in (self.a, self.b))
-        short = too_few(self.plants, judged_rows(self.claims))
+        short = too_few(self.plants, judged_rows(self.claims), listed=bool(self.plants_file))
         return f"{head}\n{format_claims(self.claims)}\nmet the spec: {met} of {self.plants}" + (
             f"\n{short}" if short else ""
         )
@@ -106,12 +113,23 @@ def controller_table(name: str) -> dict[str, Any]:
 
 
 def sweep_text(
-    scenario: Path, a: str, b: str, plants: int, seed: int, overrides: dict | None = None
+    scenario: Path,
+    a: str,
+    b: str,
+    plants: int,
+    seed: int,
+    overrides: dict | None = None,
+    parameters: dict[str, Any] | None = None,
+    whose: str = "the robustness sweep's plants",
 ) -> str:
-    """The sweep :func:`compare` runs, as a file ``twolink sweep`` reads."""
-    parameters = read_toml(PLANTS)["parameters"]
+    """The sweep :func:`compare` runs, as a file ``twolink sweep`` reads: ``plants``
+    samples of ``parameters`` (by default the shipped robustness sweep's draws)."""
+    if parameters is None:
+        parameters = read_toml(PLANTS)["parameters"]
     lines = [
-        f"# twolink compare: {a} against {b} on the robustness sweep's plants",
+        "".join(  # a comment: a file's name with a line break ends no line here
+            c if c.isprintable() else "?" for c in f"# twolink compare: {a} against {b} on {whose}"
+        ),
         f"name = {toml_value('compare')}",
         f"scenario = {toml_value(str(scenario.resolve()))}",
         f"samples = {plants}",
@@ -164,18 +182,20 @@ def minimum_plants(rows: int, limit: int = 1000) -> tuple[int, int]:
     raise ValueError(f"no verdict possible on up to {limit} plants")
 
 
-def too_few(plants: int, rows: int) -> str:
+def too_few(plants: int, rows: int, listed: bool = False) -> str:
     """The line that says a table has too few plants for a verdict, and how many would do;
-    "" where there are enough for every verdict of the typical plant."""
+    "" where there are enough for every verdict of the typical plant. ``listed``: the
+    plants are the rows of the user's plants file, which more rows would add to."""
     equivalent, differ = minimum_plants(rows)
     tests = (
         f"with the typical plant's interval at 1 − 5 %/{rows} over {rows} rows, "
         f'"equivalent" needs at least {equivalent} plants and "better" or "worse" {differ}'
     )
+    more = "more rows in the plants file" if listed else "--plants N"
     if plants < equivalent:
-        return f"too few plants for any verdict ({plants}): {tests} (--plants N)"
+        return f"too few plants for any verdict ({plants}): {tests} ({more})"
     if plants < differ:
-        return f'too few plants for "better" or "worse" ({plants}): {tests} (--plants N)'
+        return f'too few plants for "better" or "worse" ({plants}): {tests} ({more})'
     return ""
 
 
@@ -183,17 +203,53 @@ def check_plants(plants: int) -> None:
     """ConfigError, one line, where ``plants`` is not 1 to the most a sweep holds."""
     from twolink.sweep.plan import too_many_samples
 
+    if isinstance(plants, bool) or not isinstance(plants, int | np.integer):
+        raise ConfigError(
+            f"compare: plants must be a number of plants, a CSV file of plants or a "
+            f"DataFrame, got {plants!r}"
+        )
     if plants < 1:
         raise ConfigError(f"compare: plants must be >= 1, got {plants}")
     if problem := too_many_samples(plants):
         raise ConfigError(f"compare: -n/--plants: {problem}")
 
 
+Plants = int | str | Path | pd.DataFrame  # a number drawn, or a table of the user's own
+
+
+def compare_sweep(
+    path: Path, a: str, b: str, plants: Plants, seed: int, overrides: dict | None = None
+) -> tuple[str, int, str | None]:
+    """The sweep file :func:`compare` writes (``compare.toml``), its number of plants and
+    the user's plants' source (None where they are drawn). ``plants``: a number drawn as
+    the robustness sweep draws them, or a table of one row per plant (a CSV file or a
+    DataFrame, :func:`twolink.sweep.plants_csv.read_plants`), each column a ``listed``
+    parameter; the parameters it has no column for stay nominal. ConfigError (one line,
+    naming the file) for bad plants, before anything runs."""
+    from twolink.simulation.config import MAX_TOML_BYTES
+    from twolink.sweep.plants_csv import listed_parameters, plants_source, read_plants
+
+    if not isinstance(plants, str | Path | pd.DataFrame):
+        check_plants(plants)
+        return sweep_text(path, a, b, int(plants), seed, overrides), int(plants), None
+    source = plants_source(plants)
+    table = read_plants(plants)
+    whose = f"the plants of {source}" if isinstance(plants, pd.DataFrame) else f"{source}'s plants"
+    text = sweep_text(path, a, b, len(table), seed, overrides, listed_parameters(table), whose)
+    if (size := len(text.encode())) > MAX_TOML_BYTES:
+        raise ConfigError(
+            f"{source}: its {len(table):,} plants make a sweep file (compare.toml) of "
+            f"{size:,} bytes, more than the {MAX_TOML_BYTES:,} a sweep file may hold: "
+            "give fewer rows or columns, or split it into several files"
+        )
+    return text, len(table), source
+
+
 def compare(
     scenario: str | Path,
     a: str,
     b: str,
-    plants: int = 50,
+    plants: Plants = 50,
     *,
     out: str | Path | None = None,
     seed: int = 0,
@@ -204,7 +260,10 @@ def compare(
     progress: bool = False,
 ) -> Comparison:
     """Judge controller ``a`` against ``b`` on ``scenario`` (a file or a shipped name,
-    ``theta1_step``) over ``plants`` drawn plants: the paired table with verdicts
+    ``theta1_step``) over ``plants``: a number of plants drawn as the robustness sweep
+    draws them, or the user's own, a CSV file or a DataFrame of one row per plant and one
+    column per sweep parameter (``m1``, ``payload``, ...; the parameters it lacks stay
+    nominal; docs/compare.md, "Your own plants"). It gives the paired table with verdicts
     (:func:`twolink.studies.judgments.claims.paired_claims`), an overlay figure of every plant with
     the difference panel, and (with ``out`` and ``trace``) one rerun recording of the two
     on the nominal plant. With ``out`` it writes there (``claims.csv``, ``compare.png``,
@@ -219,10 +278,9 @@ def compare(
 
     if a == b:
         raise ConfigError(f"compare: give two different controllers, got {a!r} twice")
-    check_plants(plants)
     path = locate(scenario)
     read_toml(path)  # a missing or broken scenario is named here, before anything runs
-    text = sweep_text(path, a, b, plants, seed, overrides)
+    text, plants, source = compare_sweep(path, a, b, plants, seed, overrides)
     with tempfile.TemporaryDirectory(prefix="twolink-compare-") as tmp:
         folder = Path(out) if out is not None else Path(tmp)
         holder = owned_output(folder, "compare", str(path.resolve())) if out else nullcontext()
@@ -246,7 +304,7 @@ def compare(
                 _write(folder, table, figure, runs, plan, a, b, trace)
     return Comparison(
         str(scenario), a, b, plants, table, outcome.results, met, figure,
-        Path(out) if out is not None else None,
+        Path(out) if out is not None else None, source,
     )  # fmt: skip
 
 
