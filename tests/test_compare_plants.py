@@ -42,3 +42,11 @@ def test_too_few_is_said_only_where_true_and_says_how_many_would_do():
     assert equivalent == differ
     assert too_few(differ, 12) == ""
     assert too_few(200, 12) == ""
+
+
+def test_the_docs_give_the_minima_the_code_derives():
+    from pathlib import Path
+
+    text = " ".join((Path(__file__).parents[1] / "docs" / "compare.md").read_text().split())
+    six, twelve = minimum_plants(6)[0], minimum_plants(12)[0]
+    assert f"over six rows {six} plants for either, over twelve {twelve}" in text
