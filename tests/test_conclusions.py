@@ -253,3 +253,16 @@ def test_the_lab_arm_has_its_own_sentence_after_the_regimes():
     out = sentences(["a line"], [s, lab])
     assert out[-1] == lab_sentence(lab)
     assert sum("The lab arm" in x for x in out) == 1  # not among the regimes' claims
+
+
+def test_many_rows_one_way_are_counted_and_the_largest_named_first():
+    from twolink.studies.judgments.conclusions import LISTED, describe
+
+    table = study().claims["CTC"].copy()
+    table = table[table["verdict"] != "set by the reference"].head(5).copy()
+    table["verdict"] = "worse"
+    table["estimate"] = table["tolerance"] * np.array([1.5, 9.0, 2.0, 30.0, 1.1])
+    said = describe(table)
+    # by size in tolerances (30, 9, 2), not by the table's order; the other two counted
+    assert LISTED == 3
+    assert said == "worse on 5, the largest θ1 Tr (+300 ms), θ1 Td (+90 ms), θ1 Ts (+20 ms)"

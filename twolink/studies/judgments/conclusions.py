@@ -39,6 +39,7 @@ __all__ = [
 ]
 
 MOST = 9  # sentences: 8, and one for the lab arm (issue 47)
+LISTED = 3  # better or worse rows named in a clause; beyond, counted and the largest named
 
 
 @dataclasses.dataclass(frozen=True)
@@ -116,21 +117,28 @@ def _shares_said(r: Any) -> list[str]:
     return said
 
 
+def _sized(r: Any) -> str:
+    return f"{_name(r)} ({_signed(r.metric, r.estimate)})"
+
+
 def describe(table: pd.DataFrame) -> str:
     """A claims table in one clause, in the verdict words of the table
     (:data:`~twolink.studies.judgments.claims_words.VERDICT_WORDS`): better and worse with
-    their estimates; split with the plants beyond the tolerance each way; equivalent
-    counted, with the shares shown beside it; inconclusive counted and named (its shares
-    are the table's); the rest counted. Short on purpose: the tables hold the intervals
-    and shares."""
+    their estimates (over :data:`LISTED` rows: counted, the largest in tolerances named);
+    split with the plants beyond the tolerance each way; equivalent counted, with the
+    shares shown beside it; inconclusive counted and named (its shares are the table's);
+    the rest counted. Short on purpose: the tables hold the intervals and shares."""
     from twolink.studies.judgments.claims_words import SPLIT
 
     parts = []
     for verdict in ("better", "worse"):
         rows = _rows(table, verdict)
-        if rows:
-            named = ", ".join(f"{_name(r)} ({_signed(r.metric, r.estimate)})" for r in rows)
-            parts.append(f"{verdict} on {named}")
+        if len(rows) > LISTED:  # counted, and the largest (in tolerances) named
+            rows = sorted(rows, key=lambda r: -abs(r.estimate) / r.tolerance)
+            named = ", ".join(_sized(r) for r in rows[:LISTED])
+            parts.append(f"{verdict} on {len(rows)}, the largest {named}")
+        elif rows:
+            parts.append(f"{verdict} on {', '.join(_sized(r) for r in rows)}")
     split = _rows(table, SPLIT)
     if split:  # equivalent on the typical plant, more than a tenth beyond the tolerance
         shares = ", ".join(x for r in split for x in _shares_said(r))
