@@ -243,3 +243,35 @@ def test_the_commands_refuse_bad_input_before_running_anything(args, said, tmp_p
     result = CliRunner().invoke(main, [*args, "--out", str(tmp_path / "out")])
     assert result.exit_code == 2, result.output
     assert said in result.output and not (tmp_path / "out").exists()
+
+
+def test_the_docs_held_out_table_says_the_shipped_verdicts():
+    """docs/reproduction.md's held-out table (per table: θ1 IAE, θ2 IAE, with counts and
+    verdicts) is the shipped heldout.csv's, against the CTC-best the claims judge with."""
+    import re
+    from pathlib import Path
+
+    import pandas as pd
+
+    spec = search.load_spec()
+    held = pd.read_csv(search.folder_of(spec) / "heldout.csv")
+    text = (Path(__file__).parents[1] / "docs" / "reproduction.md").read_text()
+    names = {
+        "FCM-CTC (designed)": "FCM-CTC",
+        "searched, Mamdani": search.controller_name("mamdani"),
+        "searched, continuous": search.controller_name("continuous"),
+    }
+    seen = 0
+    for regime, label, one, two in re.findall(
+        r"^\| (raw|quintic) \| ([^|]+?) \| ([^|]+) \| ([^|]+) \|", text, re.MULTILINE
+    ):
+        if label not in names:
+            continue
+        for joint, cell in ((1, one), (2, two)):
+            row = held[(held.regime == regime) & (held.controller == names[label])]
+            row = row[(row.metric == "iae_rad_s") & (row.joint == joint)].iloc[0]
+            better, worse = (int(v) for v in cell.split(",")[0].split(" / "))
+            assert (better, worse) == (row.better, row.worse), (regime, label, joint)
+            assert cell.strip().endswith(row.verdict), (regime, label, joint, cell)
+            seen += 1
+    assert seen == 12

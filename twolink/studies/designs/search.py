@@ -83,9 +83,10 @@ class SearchSpec:
     def digest(self) -> str:
         """The search's inputs: its settings, each searched regime's training plants and
         FCM-CTC (the claims sweep's data on them and the rule base's bytes), and the
-        frontier's opponents that judge the best tables on the held-out plants. Not the
-        frontier's grids: the search does not read them (a finer grid that chooses the same
-        opponent leaves the search current; one that chooses another makes it stale)."""
+        opponents that judge the best tables on the held-out plants (CTC-best: the per-joint
+        loop where one is shipped, :func:`judging_opponents`). Not the frontier's grids:
+        the search does not read them (a finer grid that chooses the same opponent leaves
+        the search current; one that chooses another makes it stale)."""
         from twolink.studies.designs import frontier
 
         fspec = frontier.load_spec(self.frontier)
@@ -94,8 +95,7 @@ class SearchSpec:
             plan = frontier.training_plan(fspec, regime)
             parts.append([plan.base, [asdict(p) for p in plan.parameters], plan.controllers])
             parts.append(frontier._rule_base_bytes(plan))
-        saved = frontier.load_frontier(fspec)
-        parts.append(None if saved is None else {r: asdict(o) for r, o in saved[1].items()})
+        parts.append(judging_opponents(fspec, saved_only=True))
         blob = json.dumps(parts, sort_keys=True, default=str)
         return hashlib.sha256(blob.encode()).hexdigest()
 
@@ -380,6 +380,31 @@ def controller_name(inference: str) -> str:
     return SEARCHED if inference == "mamdani" else f"{SEARCHED}-continuous"
 
 
+def judging_opponents(
+    fspec: Any, pool: Any = None, saved_only: bool = False
+) -> dict[str, dict[str, Any]] | None:
+    """CTC-best of each regime, as the claims studies judge against it
+    (:func:`twolink.studies.judgments.claims_studies.fair_opponent`): the per-joint loop
+    shipped beside the manifest where there is one, else the frontier grid's best loop; as
+    ``[controllers]`` entries. ``saved_only``: the grid's from its shipped table only (None
+    where a regime needs it and it is absent), for the digest, which must not run it."""
+    from twolink.studies.designs import frontier, opponent_search
+
+    regimes = [r for r, _ in fspec.grids]
+    searched = opponent_search.shipped_opponents(Path(fspec.manifest).parent)
+    out = {r: o.controller() for r, o in searched.items() if r in regimes}
+    if all(r in out for r in regimes):
+        return out
+    if saved_only:
+        saved = frontier.load_frontier(fspec)
+        if saved is None:
+            return None
+        chosen = saved[1]
+    else:
+        _, chosen, _ = frontier.opponents(fspec, pool)
+    return {r: out.get(r) or chosen[r].controller() for r in regimes}
+
+
 def heldout(
     spec: SearchSpec, found: list[dict[str, Any]], folder: Path, pool: Any = None
 ) -> pd.DataFrame:
@@ -394,7 +419,7 @@ def heldout(
     from twolink.studies.reproduction.report import WINNER_METRICS
 
     fspec = frontier.load_spec(spec.frontier)
-    _, chosen, _ = frontier.opponents(fspec, pool)
+    chosen = judging_opponents(fspec, pool=pool)
     manifest = load_manifest(fspec.manifest)
     metrics = tuple(dict.fromkeys((*CLAIM_METRICS, *WINNER_METRICS)))
     tables = []
@@ -405,7 +430,7 @@ def heldout(
             else next(v for v in manifest.variants if v.name == regime)
         )
         controllers = {
-            frontier.OPPONENT: chosen[regime].controller(),
+            frontier.OPPONENT: chosen[regime],
             manifest.proposed: dict(regime_plan(manifest, variant).controllers)[manifest.proposed],
         }
         for f in found:
