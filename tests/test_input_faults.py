@@ -1,10 +1,14 @@
 """Input faults of issue 49 (the independent audit), each a case that failed on main:
 an ``extends`` through a pure loop of links, a parquet table nested past the recursion
 limit, ``engine = "table"`` with ``inference = "continuous"``, a shipped name with ``..``,
-a local file shadowed by the shipped one of its name. Each: one line naming the file
-(and key), exit 2, no traceback."""
+a local file shadowed by the shipped one of its name, a loop of links given as the file
+itself, a name over the file system's limit. Each: one line naming the file (and key),
+exit 2, no traceback."""
 
 from __future__ import annotations
+
+import os
+from pathlib import Path
 
 import numpy as np
 import pyarrow as pa
@@ -12,6 +16,8 @@ import pyarrow.parquet as pq
 import pytest
 from cli_inputs import QUICK, STEP, invoke, one_error_line
 
+from twolink.foundation.io import unsafe_name_problem
+from twolink.foundation.names import long_name_problem
 from twolink.foundation.shipped import locate, runs_dir
 from twolink.simulation.config import ConfigError, load_scenario
 from twolink.sweep.results import load_results
@@ -26,9 +32,28 @@ def test_extends_through_a_pure_loop_of_links_is_one_line_naming_the_loop(tmp_pa
         result = invoke("run", tmp_path / scenario, "--out", tmp_path / "o", *QUICK)
         assert result.exit_code == 2, result.output
         one_error_line(result)
-        if scenario == "s.toml":  # given directly, the loop is still "no such file"
-            assert f"{tmp_path / 'l1.toml'}: a loop of symbolic links" in result.output
+        assert f"{tmp_path / 'l1.toml'}: a loop of symbolic links" in result.output
         assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize(
+    "command",
+    [["run", *QUICK], ["compare", "CTC", "FCM-CTC", "-n", "2"], ["sweep", "-n", "2"]],
+    ids=["run", "compare", "sweep"],
+)
+@pytest.mark.parametrize("given", ["l1.toml", "l1"])
+def test_a_pure_loop_of_links_given_as_the_file_is_one_line_naming_the_loop(
+    tmp_path, monkeypatch, command, given
+):
+    # Given directly (not through extends) it said "no such file": exists() is False
+    monkeypatch.chdir(tmp_path)
+    Path("l1.toml").symlink_to("l2.toml")
+    Path("l2.toml").symlink_to("l1.toml")
+    result = invoke(command[0], given, *command[1:], "--out", tmp_path / "o")
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert "l1.toml: a loop of symbolic links" in result.output
+    assert not (tmp_path / "o").exists()
 
 
 def test_a_table_nested_past_the_recursion_limit_is_a_value_error_naming_it(tmp_path):
@@ -152,3 +177,65 @@ def test_coverage_of_a_1001_grid_holds_its_firing_a_block_at_a_time():
     whole = float(np.mean(engine.firing(grid_e, grid_d).sum(axis=-1) <= 0))
     assert uncovered_fraction(engine, 201) == whole
     assert 0.69 < result.grid_fraction < 0.70
+
+
+# Names over the file system's limit (255 bytes a name on most), given as any option or
+# argument that becomes a file or folder name: each ended in an OSError traceback (compare,
+# a scenario or sweep file) or "[Errno 36]" with no limit named. Now: exit 2 before any
+# work, one line with the limit.
+LONG = "a" * 300
+OUTPUTS = {
+    "run": ["run", STEP, *QUICK],
+    "sweep": ["sweep", "sweeps/robustness", "-n", "2"],
+    "compare": ["compare", "paper/theta1_step", "CTC", "FCM-CTC", "-n", "2"],
+    "gains": ["gains", "--set", "plants=1"],
+    "calibrate": ["calibrate", "--set", "maxiter=1"],
+    "search": ["search", "--set", "plants=1"],
+    "frontier": ["frontier"],
+    "regimes": ["regimes"],
+    "models": ["models"],
+    "reproduce": ["reproduce"],
+    "design": ["design"],
+    "fis": ["fis"],
+}
+INPUTS = ["run", "sweep", "compare", "gains", "calibrate", "search", "frontier", "regimes"]
+
+
+def refused_as_too_long(result, tmp_path) -> None:
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX")
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert f"at most {limit} bytes a name" in result.output, result.output
+    assert not list(tmp_path.iterdir())  # nothing made
+
+
+@pytest.mark.parametrize("command", sorted(OUTPUTS))
+def test_an_out_with_a_name_over_the_limit_is_one_line_naming_the_limit(tmp_path, command):
+    refused_as_too_long(invoke(*OUTPUTS[command], "--out", tmp_path / LONG / "x"), tmp_path)
+
+
+@pytest.mark.parametrize("command", INPUTS)
+def test_an_input_file_with_a_name_over_the_limit_is_one_line_naming_the_limit(tmp_path, command):
+    args = OUTPUTS[command]
+    given = [
+        *args[:1],
+        tmp_path / f"{LONG}.toml",
+        *args[2 if command in ("run", "sweep", "compare") else 1 :],
+    ]
+    refused_as_too_long(invoke(*given, "--out", tmp_path / "o"), tmp_path)
+
+
+def test_a_figure_whose_derived_name_is_over_the_limit_is_refused_before_the_design(tmp_path):
+    # --figure f.png also writes f_validity.png: 250 + 4 bytes fit, 250 + 13 do not
+    figure = tmp_path / ("b" * 250 + ".png")
+    result = invoke("design", "--out", tmp_path / "rb.toml", "--figure", figure)
+    refused_as_too_long(result, tmp_path)
+
+
+def test_names_from_files_stay_far_inside_the_limit():
+    # sweep, controller and variant names become file names with twolink's suffixes
+    # (".parquet", "_vs_", "_mamdani.toml"): at most 100 ASCII bytes, so they fit any
+    # file system of 143+ bytes a name (eCryptfs's is the smallest usual one)
+    assert unsafe_name_problem("a" * 100) is None and unsafe_name_problem("a" * 101)
+    assert unsafe_name_problem("é") is not None  # ASCII only: a byte a letter
+    assert long_name_problem("a" * 255) is None and long_name_problem("é" * 128)

@@ -5,6 +5,8 @@ import signal
 import subprocess
 import sys
 import threading
+import time
+from pathlib import Path
 
 import pytest
 
@@ -331,3 +333,32 @@ print("after")
     proc = python_module(tmp_path, "resent_late", code)
     assert proc.stdout.split() == ["exit", "130", "after"], proc.stdout + proc.stderr
     assert "Traceback" not in proc.stderr and "Exception ignored" not in proc.stderr
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a terminal's Ctrl-C, Linux")
+@pytest.mark.parametrize("delay", [0.3, 0.5, 0.7, 0.9, 1.1, 1.3, 1.6, 2.0])
+def test_ctrl_c_while_the_command_and_its_pool_start_is_one_line_and_exit_130(tmp_path, delay):
+    # A terminal's Ctrl-C reaches the whole process group: the command still importing,
+    # the fork server starting Python or importing its preload list, a worker just forked.
+    # Each printed a KeyboardInterrupt traceback (14-47 lines) in about half the tries.
+    from twolink.foundation.io import check_ownership
+
+    out = tmp_path / "out"
+    sweep = Path(__file__).resolve().parents[1] / "runs/sweeps/robustness.toml"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "twolink", "sweep", str(sweep), "-n", "8"]
+        + ["--workers", "2", "--no-plots", "--no-progress", "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # its own group, as a terminal's foreground job
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    time.sleep(delay)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)  # to the end of stderr: the server's too
+    assert proc.returncode == 130, err  # the sweep takes seconds more: none is lost
+    assert "Traceback" not in err and len(err.strip().splitlines()) <= 2, err
+    assert err.strip().splitlines()[-1].startswith("interrupted")  # the sweep says by what
+    if out.exists():  # nothing lost: the rerun would take the folder up again
+        check_ownership(out, "sweep", str(sweep))

@@ -28,8 +28,10 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from concurrent import futures
+from contextlib import contextmanager
+from multiprocessing import resource_tracker
 from typing import Any
 
 from twolink.foundation.interrupts import interrupts_held
@@ -247,12 +249,36 @@ def start_fork_server(preload: list[str] | None = None) -> None:
         previous = os.environ.get(_COMMAND_PID)
         os.environ[_COMMAND_PID] = str(os.getpid())
         try:
-            multiprocessing.forkserver.ensure_running()
+            with _server_deaf_to_ctrl_c():
+                multiprocessing.forkserver.ensure_running()
         finally:
             if previous is None:
                 os.environ.pop(_COMMAND_PID, None)
             else:
                 os.environ[_COMMAND_PID] = previous
+
+
+@contextmanager
+def _server_deaf_to_ctrl_c() -> Iterator[None]:
+    """Start the fork server with SIGINT blocked, as the stdlib starts its resource tracker.
+
+    A terminal's Ctrl-C reaches the whole process group; the server, still starting
+    Python or importing its preload list, printed its KeyboardInterrupt's traceback to
+    the command's stderr (and a worker just forked, before its initializer). Blocked
+    from the start (the mask is inherited across exec), SIGINT waits until the server
+    ignores it (:mod:`twolink.foundation.server_watch`); its workers are forked with it
+    ignored. Only this thread blocks it: the command still gets its Ctrl-C."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    # Started first, or its own start would unblock SIGINT before the server's.
+    resource_tracker.ensure_running()
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        if signal.SIGINT not in blocked:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def prestart_fork_server(preload: list[str] | None = None) -> None:

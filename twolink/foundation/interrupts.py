@@ -10,6 +10,11 @@ Held back (:func:`interrupts_held`), where a KeyboardInterrupt would do harm:
   leaves that worker unknown to the pool, so the abort does not end it. It then fails
   loudly (a traceback from the fork server) once the command has exited.
 
+Kept from the pool's fork server: a terminal's Ctrl-C reaches the whole process group,
+and the server, starting Python or importing, printed its own traceback; it starts with
+SIGINT blocked, then ignores it (``executors._server_deaf_to_ctrl_c``). And recorded from
+the entry's first line (``twolink.interface.entry``), while the command line imports.
+
 Raised again where Python or a library dropped it: in a weakref callback or ``__del__``
 (:func:`resend_dropped_ctrl_c`), or caught by a C extension (:func:`raise_if_dropped`).
 And forgotten once handled (:func:`forget_escaped_interrupt`), or ``python -m twolink``

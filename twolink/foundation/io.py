@@ -22,20 +22,7 @@ from typing import IO, Any
 import numpy as np
 
 from twolink.foundation.interrupts import interrupts_held
-
-# Names from files that become folder or file names (sweep, controller and variant names):
-# one rule, so that none can reach outside the output folder ("../x", "/etc", "a/b").
-SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]*$")
-
-
-def unsafe_name_problem(name: Any) -> str | None:
-    """Why ``name`` cannot be a folder name inside an output folder, or None if it can."""
-    if not isinstance(name, str) or not SAFE_NAME.match(name) or len(name) > 100:
-        return (
-            f"must be 1-100 letters, digits, '_', '-' or '.', not starting with '.' or '-' "
-            f"(it names a folder inside --out), got {name!r}"
-        )
-    return None
+from twolink.foundation.names import SAFE_NAME, NameTooLong, refuse_long_name, unsafe_name_problem
 
 
 def check_output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
@@ -50,6 +37,7 @@ def check_output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
         no permission.
     """
     path = Path(path)
+    refuse_long_name(path, option)
     _check_writable(path, path, option)
     return path
 
@@ -63,6 +51,7 @@ def check_output_file(
     (it carries twolink's exact header: :func:`carries_mark`). Errors name the option and
     ``path``."""
     path = Path(path)
+    refuse_long_name(path, option)
     if path.is_symlink():
         raise ForeignOutput(f"{option} {path}: is a symbolic link; give the file itself")
     if path.is_dir():
@@ -183,7 +172,9 @@ __all__ = [
     "TEMPORARY",
     "ForeignOutput",
     "OutputBusy",
+    "NameTooLong",
     "PlantedFile",
+    "SAFE_NAME",
     "WriteFailed",
     "check_ownership",
     "held_by_a_command",
@@ -191,6 +182,7 @@ __all__ = [
     "output_lock",
     "owned_output",
     "show_names",
+    "unsafe_name_problem",
 ]
 
 

@@ -41,6 +41,7 @@ from twolink.foundation.journal import (  # the names, and the journal read back
     journal_command,
     read_journal,
 )
+from twolink.foundation.names import refuse_long_name
 from twolink.foundation.planted import (
     HEX64,
     PlantedFile,
@@ -325,6 +326,7 @@ def check_ownership(
     command picked the folder, not the user) one written for another ``source`` is
     refused too."""
     path = Path(path)
+    refuse_long_name(path, option)
     if path.is_symlink():
         raise ForeignOutput(
             f"{option} {path}: is a symbolic link"

@@ -20,8 +20,11 @@ import errno
 from importlib.resources import files
 from pathlib import Path
 
+from twolink.foundation.names import NameTooLong, refuse_long_name
+
 __all__ = [
     "LinkLoop",
+    "NameTooLong",
     "NotAClone",
     "clone_root",
     "install_target",
@@ -77,11 +80,16 @@ def locate(path: str | Path, suffix: str = SUFFIX) -> Path:
     (``paper/theta1_step`` is ``<runs>/paper/theta1_step.toml``; the extension and a
     leading ``runs/`` may be given too, as the clone's paths read; a name with ``..`` is
     never a shipped one), else ``path`` unchanged, for the caller's own "no such file"
-    error."""
+    error. A name longer than the file system takes (:class:`NameTooLong`) and a loop of
+    symbolic links (:class:`LinkLoop`) are refused in one line: ``exists()`` is False for
+    a loop, so it read "no such file", and raises for the other."""
     path = Path(path)
+    refuse_long_name(path)
+    refuse_link_loop(path)
     if path.exists() or path.is_absolute():
         return path
     local = path.with_name(path.name + suffix) if path.name else path
+    refuse_link_loop(local)
     if local.exists():  # your paper/theta1_step.toml, named as the shipped one would be
         return local
     if ".." in path.parts:  # a shipped name never leaves the shipped files

@@ -30,7 +30,7 @@ from twolink.foundation.interrupts import (
     resend_dropped_ctrl_c,
 )
 from twolink.foundation.io import ForeignOutput, OutputBusy, WriteFailed
-from twolink.foundation.shipped import NotAClone, install_target, locate
+from twolink.foundation.shipped import LinkLoop, NameTooLong, NotAClone, install_target, locate
 from twolink.interface.cli_options import (
     backend_option,
     install_option,
@@ -87,7 +87,7 @@ class _Group(click.Group):
         except click.ClickException as exc:
             exc.show()
             sys.exit(exc.exit_code)
-        except (ForeignOutput, OutputBusy, NotAClone) as exc:
+        except (ForeignOutput, OutputBusy, NotAClone, LinkLoop, NameTooLong) as exc:
             click.echo(f"error: {exc}", err=True)
             sys.exit(2)
         except WriteFailed as exc:
