@@ -388,10 +388,11 @@ def judging_opponents(
     shipped beside the manifest where there is one, else the frontier grid's best loop; as
     ``[controllers]`` entries. ``saved_only``: the grid's from its shipped table only (None
     where a regime needs it and it is absent), for the digest, which must not run it."""
-    from twolink.studies.designs import frontier, opponent_search
+    from twolink.studies.designs import frontier
+    from twolink.studies.designs.searched_opponent import shipped_opponents
 
     regimes = [r for r, _ in fspec.grids]
-    searched = opponent_search.shipped_opponents(Path(fspec.manifest).parent)
+    searched = shipped_opponents(Path(fspec.manifest).parent)
     out = {r: o.controller() for r, o in searched.items() if r in regimes}
     if all(r in out for r in regimes):
         return out
