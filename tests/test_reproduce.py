@@ -318,7 +318,9 @@ def test_the_command_reruns_reusing_the_design_with_identical_metrics_and_each_p
     last = result.stdout.splitlines()[-1]
     assert last.endswith("s (wall time of the whole command, start-up included)")
     said = float(last.removeprefix("done in ").split(" s ")[0])
-    assert wall - 0.5 <= said <= wall + 0.05, (said, wall)  # from the process's start
+    # from the process's start: printed to 0.1 s (±0.05), read from /proc's start time and
+    # uptime, each in 10 ms ticks (±0.02 together); 33.9 printed for a wall of 33.846 is right
+    assert wall - 0.5 <= said <= wall + 0.05 + 0.02, (said, wall)
     assert "met the spec" in result.stdout
 
 
