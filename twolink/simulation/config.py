@@ -401,6 +401,19 @@ class TomlTable:
             self.fail(key, f"must be a number or a list of 2 numbers, got {value!r}")
         return self._checked(key, value[0], **checks), self._checked(key, value[1], **checks)
 
+    def as_float(self, key: str, value: Any) -> float:
+        """``value`` (of ``key``) as a float: a number (not a bool) that a float holds,
+        else the one-line error; any float, NaN and inf included."""
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            self.fail(key, f"must be a number, got {value!r}")
+        try:
+            return float(value)
+        except OverflowError:
+            self.fail(
+                key,
+                f"must be a number a float can hold, got an integer of {len(str(value))} digits",
+            )
+
     def _checked(
         self,
         key: str,
@@ -411,15 +424,7 @@ class TomlTable:
         allow_inf: bool = False,
         allow_nan: bool = False,
     ) -> float:
-        if isinstance(value, bool) or not isinstance(value, int | float):
-            self.fail(key, f"must be a number, got {value!r}")
-        try:
-            value = float(value)
-        except OverflowError:
-            self.fail(
-                key,
-                f"must be a number a float can hold, got an integer of {len(str(value))} digits",
-            )
+        value = self.as_float(key, value)
         if (math.isnan(value) and not allow_nan) or (math.isinf(value) and not allow_inf):
             self.fail(key, f"must be finite, got {value!r}")
         if math.isfinite(value) and abs(value) > MAX_MAGNITUDE:

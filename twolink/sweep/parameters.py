@@ -99,14 +99,7 @@ class Parameter:
 
 
 def _check_value(t: TomlTable, key: str, value: Any, domain: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        t.fail(key, f"must be a number, got {value!r}")
-    try:
-        value = float(value)
-    except OverflowError:
-        t.fail(
-            key, f"must be a number a float can hold, got an integer of {len(str(value))} digits"
-        )
+    value = t.as_float(key, value)
     if not math.isfinite(value):
         t.fail(key, f"must be finite, got {value!r}")
     if problem := domain_problem(t.where.split(".")[-1], domain, value):
