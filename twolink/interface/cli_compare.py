@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from pathlib import Path
+import sys
 
 import click
 
@@ -13,7 +13,7 @@ from twolink.interface.cli_options import (
     set_option,
     workers_option,
 )
-from twolink.interface.cli_output import done_line, fail_input
+from twolink.interface.cli_output import done_line, fail_input, sweep_exits
 
 
 @click.command("compare", short_help="Compare two controllers on one scenario.")
@@ -35,7 +35,10 @@ from twolink.interface.cli_output import done_line, fail_input
     "parameter (m1, m2, l1, l2, g, payload, k1, coulomb1, ...: docs/sweeps.md); the "
     "parameters it lacks stay nominal (docs/compare.md).",
 )
-@out_folder_option("Output folder [default: results/compare/<scenario>_<A>_vs_<B>].")
+@out_folder_option(
+    "Output folder [default: results/compare/<scenario>_<A>_vs_<B>_<N>_plants, or _<FILE> "
+    "for --plants-file].",
+)
 @seed_option(
     "Seed of the plants' draws (the same seed, the same plants) and of each plant's "
     "measurement noise."
@@ -61,10 +64,17 @@ def compare_command(
       twolink compare paper/theta2_step CTC-I CTC -n 200 --out /tmp/cmp
       twolink compare theta1_step FCM-CTC CTC --plants-file examples/plants.csv   # your 12 plants
     """
-    from twolink.foundation.io import unsafe_name_problem
+    from twolink.foundation.io import check_output_folder, check_ownership
     from twolink.foundation.shipped import locate
     from twolink.simulation.config import ConfigError, load_scenario, parse_set, read_toml
-    from twolink.studies.judgments.compare import compare, compare_sweep, controller_table
+    from twolink.studies.judgments.compare import (
+        NothingToJudge,
+        compare,
+        compare_sweep,
+        comparison_source,
+        controller_table,
+        default_folder,
+    )
 
     if plants is not None and plants_file is not None:
         fail_input(
@@ -83,16 +93,24 @@ def compare_command(
         fail_input(str(exc))
     if a == b:
         fail_input(f"give two different controllers, got {a!r} twice")
-    if out is None:
-        name = f"{Path(scenario).stem}_{a}_vs_{b}"
-        if unsafe_name_problem(name):
-            name = "comparison"
-        out = Path("results") / "compare" / name
-    # compare() holds the folder (refusing one it did not write: exit 2, by the group)
-    result = compare(
-        scenario, a, b, plants, out=out, seed=seed, workers=workers, trace=not no_trace,
-        overrides=overrides, progress=True,
-    )  # fmt: skip
+    picked = out is None  # the command's folder: one per pair and plants
+    out = default_folder(scenario, a, b, plants, seed) if picked else out
+    try:  # a folder that cannot be written or is another's: exit 2 before any work
+        check_output_folder(out)
+        check_ownership(out, "compare", comparison_source(path, a, b, plants, seed, overrides),
+                        default=picked)  # fmt: skip
+    except OSError as exc:
+        fail_input(str(exc))
+    # compare() holds the folder; a stop of its sweep is one line and 130 / 143
+    try:
+        with sweep_exits(out / "sweep"):
+            result = compare(
+                scenario, a, b, plants, out=out, seed=seed, workers=workers,
+                trace=not no_trace, overrides=overrides, progress=True,
+            )  # fmt: skip
+    except NothingToJudge as exc:  # every plant diverged: a diverged run's exit, 1
+        click.echo(f"error: {exc}", err=True)
+        sys.exit(1)
     click.echo(str(result))
     click.echo(f"figure:     {out / 'compare.png'} (every plant; below, {a} − {b})")
     click.echo(f"forest:     {out / 'forest.png'} (per metric: the typical shift, the shares)")

@@ -17,6 +17,7 @@ rerun it.
 
 from __future__ import annotations
 
+import os
 import tempfile
 from collections.abc import Sequence
 from contextlib import nullcontext
@@ -33,6 +34,7 @@ from twolink.simulation.config import CONTROLLER_KINDS, ConfigError, read_toml, 
 
 __all__ = [
     "Comparison",
+    "NothingToJudge",
     "compare",
     "controller_table",
     "format_claims",
@@ -242,7 +244,73 @@ def compare_sweep(
             f"{size:,} bytes, more than the {MAX_TOML_BYTES:,} a sweep file may hold: "
             "give fewer rows or columns, or split it into several files"
         )
+    check_rows(text, source)
     return text, len(table), source
+
+
+def check_rows(text: str, source: str) -> None:
+    """ConfigError, one line naming ``source``, its row and column, where a plant of the
+    sweep ``text`` is one the run would refuse: each row is built as the sweep builds it
+    (the scenario of the sample, then its MuJoCo model), before anything runs."""
+    from twolink import sweep
+
+    with tempfile.TemporaryDirectory(prefix="twolink-plants-") as tmp:
+        (Path(tmp) / "compare.toml").write_text(text, encoding="utf-8")
+        plan = sweep.load_sweep(Path(tmp) / "compare.toml")
+    for i in range(plan.samples):
+        values, noise_seed = plan.draw(i)
+        if problem := plant_problem(plan, values, noise_seed):
+            alone = [c for c in values if plant_problem(plan, {c: values[c]}, noise_seed)]
+            where = f"column {alone[0]!r}" if alone else f"columns {', '.join(values)} together"
+            raise ConfigError(f"{source}: row {i + 1} under the header, {where}: {problem}")
+
+
+def plant_problem(plan: Any, values: dict[str, float], noise_seed: int) -> str:
+    """Why the sweep ``plan`` could not run the plant of ``values``: its scenario or its
+    MuJoCo model refused (as :func:`twolink.sweep.chunks` builds them); "" where it can."""
+    from twolink.simulation.experiment import build_plant
+
+    try:
+        build_plant(scenario_from_dict(plan.sample_data(values, noise_seed), plan.file))
+    except ConfigError as exc:
+        return str(exc).removeprefix(f"{plan.file}: ")
+    except ValueError as exc:  # MuJoCo's compiler (a mass below its mjMINVAL)
+        return str(exc)
+    return ""
+
+
+def comparison_source(
+    path: Path, a: str, b: str, plants: Plants, seed: int, overrides: dict | None = None
+) -> str:
+    """What a comparison's folder records it holds (its owner record's source): the
+    scenario, the pair, the plants (drawn: their number and seed; the user's: the file),
+    the seed and the overrides. A comparison of other plants into a folder the command
+    picked is refused by it (docs/compare.md, "Where it writes")."""
+    if isinstance(plants, str | Path):
+        whose = f"the plants of {os.path.abspath(plants)}"
+    elif isinstance(plants, pd.DataFrame):
+        whose = f"{len(plants)} plants of a DataFrame"
+    else:
+        whose = f"{plants} drawn plants"
+    told = f", --set {toml_value(overrides)}" if overrides else ""
+    return f"{path.resolve()}: {a} against {b} on {whose}, seed {seed}{told}"
+
+
+def default_folder(scenario: str, a: str, b: str, plants: Plants, seed: int) -> Path:
+    """The command's folder of a comparison, one per pair and plants, so a comparison of
+    other plants keeps the first one's results: ``results/compare/<scenario>_<A>_vs_<B>``
+    then ``_<N>_plants`` (drawn; ``_seed<S>`` with another seed than 0) or ``_<file>``
+    (the plants file's name without ``.csv``)."""
+    from twolink.foundation.io import unsafe_name_problem
+
+    if isinstance(plants, str | Path):
+        kind = Path(plants).stem
+    else:
+        kind = f"{plants}_plants" + (f"_seed{seed}" if seed else "")
+    name = f"{Path(scenario).stem}_{a}_vs_{b}_{kind}"
+    if unsafe_name_problem(name):
+        name = "comparison" if unsafe_name_problem(f"comparison_{kind}") else f"comparison_{kind}"
+    return Path("results") / "compare" / name
 
 
 def compare(
@@ -280,10 +348,11 @@ def compare(
         raise ConfigError(f"compare: give two different controllers, got {a!r} twice")
     path = locate(scenario)
     read_toml(path)  # a missing or broken scenario is named here, before anything runs
+    held_for = comparison_source(path, a, b, plants, seed, overrides)
     text, plants, source = compare_sweep(path, a, b, plants, seed, overrides)
     with tempfile.TemporaryDirectory(prefix="twolink-compare-") as tmp:
         folder = Path(out) if out is not None else Path(tmp)
-        holder = owned_output(folder, "compare", str(path.resolve())) if out else nullcontext()
+        holder = owned_output(folder, "compare", held_for) if out else nullcontext()
         with holder:
             atomic_write_text(folder / "compare.toml", text)
             plan = sweep.load_sweep(folder / "compare.toml")
@@ -292,6 +361,7 @@ def compare(
                 plan, folder / "sweep", executor=executor, workers=workers, plots=False,
                 progress=progress, replace_other=True,
             )  # fmt: skip
+            refuse_unjudgeable(outcome.results, a, b, folder / "sweep" if out else None)
             nominal = plan.nominal_scenario()
             table = paired_claims(
                 outcome.results, a, b, tuple(metrics or CLAIM_METRICS), plan.joints,
@@ -306,6 +376,31 @@ def compare(
         str(scenario), a, b, plants, table, outcome.results, met, figure,
         Path(out) if out is not None else None, source,
     )  # fmt: skip
+
+
+class NothingToJudge(RuntimeError):
+    """No plant ran to its end under both controllers (every one diverged or failed):
+    there are no metrics to judge."""
+
+
+def refuse_unjudgeable(results: pd.DataFrame, a: str, b: str, kept: Path | None) -> None:
+    """Raise :class:`NothingToJudge` (one line) where no plant of the sweep's ``results``
+    ran to its end ("ok") under both ``a`` and ``b``: a diverged run's metrics are those
+    of a runaway, no plant's answer."""
+    ok = results[results["status"] == "ok"]
+    both = set(ok.loc[ok["controller"] == a, "sample"]) & set(
+        ok.loc[ok["controller"] == b, "sample"]
+    )
+    if both:
+        return
+    bad = results[results["status"] != "ok"]
+    first = str(bad["message"].iloc[0]).splitlines()[0][:120] if len(bad) else ""
+    plants = results["sample"].nunique()
+    where = f"; the sweep's table is in {kept}" if kept is not None else ""
+    raise NothingToJudge(
+        f"no plant ran to its end under both {a} and {b} ({len(bad)} of {len(results)} runs "
+        f"on {plants} plants diverged or failed; first: {first}): nothing to judge{where}"
+    )
 
 
 def _plant_runs(plan: Any, names: Sequence[str]) -> dict[str, Any]:

@@ -1,0 +1,144 @@
+"""Every promise kept at its edge: each case here is one a reliability audit found broken
+(a plants file the run then refuses, a stop during ``compare``, names near the file
+system's limit, library errors that do not say what went wrong, ...), with the answer a
+user of the command line or the library expects (docs/reliability.md)."""
+
+from __future__ import annotations
+
+import errno
+import signal
+from pathlib import Path
+
+import pytest
+from cli_inputs import invoke, one_error_line
+
+from twolink import sweep as sw
+from twolink.simulation.config import ConfigError
+
+REPO = Path(__file__).resolve().parents[1]
+SHORT = ["--set", "duration=0.5", "--workers", "1", "--no-trace"]
+
+
+# ------------------------------------------------- compare --plants-file: refused up front
+
+REFUSED = {  # plants file -> (row, column, what the line says): values the run refuses
+    "a mass beyond the scenario's": ("m1\n1e308\n", 1, "m1", "must be at most 1e+12"),
+    "MuJoCo's smallest mass": ("m1\n5e-324\n", 1, "m1", "mjMINVAL"),
+    "a friction level beyond": ("friction_level\n1e12\n", 1, "friction_level", "at most 1e+12"),
+    "one bad row among good ones": (
+        "m1,payload\n1.0,0.0\n1.1,0.1\n1e300,0.0\n0.9,0.2\n",
+        3,
+        "m1",
+        "at most 1e+12",
+    ),
+}
+
+
+@pytest.mark.parametrize("case", sorted(REFUSED))
+def test_a_plant_the_run_would_refuse_is_one_line_exit_2_before_any_work(tmp_path, case):
+    content, row, column, says = REFUSED[case]
+    path = tmp_path / "plants.csv"
+    path.write_text(content)
+    out = tmp_path / "out"
+    result = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "--plants-file", path,
+                    "--out", out, *SHORT)  # fmt: skip
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    where = f"error: {path}: row {row} under the header, column {column!r}: "
+    assert where in result.output and says in result.output, result.output
+    assert not out.exists()  # no compare.toml, no sweep/
+    from twolink.studies.judgments.compare import compare_sweep
+
+    with pytest.raises(ConfigError, match=f"^{path}: row {row} under the header"):
+        compare_sweep(REPO / "runs" / "theta1_step.toml", "FCM-CTC", "CTC", path, 0)
+
+
+# ------------------------------------------------------------ compare: stops, disks, folders
+
+
+@pytest.mark.parametrize(
+    ("signum", "code"), [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["INT", "TERM"]
+)
+def test_a_stop_during_compares_sweep_is_one_line_and_130_or_143(tmp_path, monkeypatch, signum,
+                                                                 code):  # fmt: skip
+    # the sweep's own stop (twolink.sweep.run_sweep raises it on SIGINT / SIGTERM, its
+    # chunks kept: tests/test_stopping.py), as compare's sweep meets it
+    def stopped(plan, out, **kwargs):
+        raise sw.SweepInterrupted(signum, 0, 1, Path(out))
+
+    monkeypatch.setattr(sw, "run_sweep", stopped)
+    result = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "-n", "2",
+                    "--out", tmp_path / "out", *SHORT)  # fmt: skip
+    assert result.exit_code == code, result.output
+    assert isinstance(result.exception, SystemExit), result.exception  # no traceback
+    lines = [x for x in result.output.splitlines() if x.strip()]
+    assert lines[-1].startswith(f"interrupted by {signal.Signals(signum).name}: "), result.output
+
+
+def test_compare_into_a_folder_it_cannot_write_is_exit_2_before_any_work(tmp_path, monkeypatch):
+    # A read-only disk: the probe file of the folder check cannot be made (EROFS), as every
+    # other command finds it (twolink.foundation.io.check_output_folder)
+    import twolink.foundation.io as tio
+
+    def read_only(*args, **kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    monkeypatch.setattr(tio.tempfile, "NamedTemporaryFile", read_only)
+    ran = []
+    monkeypatch.setattr(sw, "run_sweep", lambda *a, **k: ran.append(a))
+    out = tmp_path / "out"
+    result = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "-n", "2", "--out", out, *SHORT)
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert f"--out {out}: cannot write in {tmp_path} (Read-only file system)" in result.output
+    assert not out.exists() and not ran
+
+
+def test_compare_whose_plants_all_diverged_judges_nothing_and_exits_1(tmp_path):
+    # Arms a million times lighter than the controllers' model: every run leaves the
+    # bounds in its first step (sim.Bounds), under both laws
+    plants = tmp_path / "light.csv"
+    plants.write_text("m1,m2\n1e-6,1e-6\n2e-6,1e-6\n")
+    out = tmp_path / "out"
+    result = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "--plants-file", plants,
+                    "--out", out, *SHORT)  # fmt: skip
+    assert result.exit_code == 1, result.output
+    one_error_line(result)
+    assert (
+        "no plant ran to its end under both FCM-CTC and CTC (4 of 4 runs on 2 plants "
+        "diverged or failed"
+        in result.output
+        and "nothing to judge" in result.output
+    )
+    assert "verdict" not in result.output and not (out / "claims.csv").exists()
+    import twolink
+    from twolink.studies.judgments.compare import NothingToJudge
+
+    with pytest.raises(NothingToJudge, match="no plant ran to its end"):
+        twolink.compare("theta1_step", "FCM-CTC", "CTC", plants=plants,
+                        overrides={"duration": 0.5}, trace=False)  # fmt: skip
+
+
+def test_a_second_comparison_of_the_same_pair_keeps_the_first(tmp_path, monkeypatch):
+    # The command's folder is one per pair and plants: 2 drawn plants, then a plants file,
+    # each in its own; a comparison of other settings into a folder the command picked is
+    # refused before any work, naming what the folder holds
+    monkeypatch.chdir(tmp_path)
+    plants = tmp_path / "mine.csv"
+    plants.write_text("m1\n1.0\n1.1\n")
+    drawn = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "-n", "2", *SHORT)
+    assert drawn.exit_code == 0, drawn.output
+    first = tmp_path / "results" / "compare" / "theta1_step_FCM-CTC_vs_CTC_2_plants"
+    before = (first / "claims.csv").read_bytes()
+    own = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "--plants-file", plants, *SHORT)
+    assert own.exit_code == 0, own.output
+    second = tmp_path / "results" / "compare" / "theta1_step_FCM-CTC_vs_CTC_mine"
+    assert (second / "claims.csv").is_file() and (first / "claims.csv").read_bytes() == before
+    other = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "-n", "2", *SHORT[:1],
+                   "duration=0.4", *SHORT[2:])  # fmt: skip
+    assert other.exit_code == 2, other.output
+    one_error_line(other)
+    assert "same default folder" in other.output and "2 drawn plants" in other.output
+    assert (first / "claims.csv").read_bytes() == before
+    again = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "-n", "2", *SHORT)
+    assert again.exit_code == 0, again.output  # the same comparison: its own folder again
