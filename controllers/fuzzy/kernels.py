@@ -23,6 +23,8 @@ batch run on a machine compiles each kernel once (~1-3 s), later ones load it.
 from __future__ import annotations
 
 import os
+import sys
+import tempfile
 from functools import cache
 from typing import Any
 
@@ -188,14 +190,77 @@ def _continuous_py(e, d, pe, pd, flat, out):
         out[m] = lo + s * (hi - lo)
 
 
+_KERNELS = {"mamdani": _mamdani_py, "table": _table_py, "continuous": _continuous_py}
+
+
+def cache_problem() -> str:
+    """Why numba's cache folder (``NUMBA_CACHE_DIR``, set by :mod:`twolink` to the user's
+    cache folder) cannot be used: not set, not a folder that can be made, or no file can
+    be written in it; "" where it can. numba itself would then cache beside the source
+    (a wheel's site-packages), or fail."""
+    folder = os.environ.get("NUMBA_CACHE_DIR", "")
+    if not folder:
+        return "NUMBA_CACHE_DIR is not set"
+    try:
+        os.makedirs(folder, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder, prefix=".twolink-probe-") as fh:
+            fh.write(b"\0" * 4096)
+            fh.flush()
+            os.fsync(fh.fileno())
+    except OSError as exc:
+        return f"{folder}: {exc.strerror or exc}"
+    return ""
+
+
+_NOTED: list[str] = []  # the note is said once a process
+
+
+def _note_uncached(why: str) -> None:
+    if _NOTED:
+        return
+    _NOTED.append(why)
+    print(
+        f"note: numba's cache cannot be used ({why}); the fuzzy kernels are compiled in "
+        "each process, not cached (set NUMBA_CACHE_DIR to a writable folder)",
+        file=sys.stderr,
+    )
+
+
+@cache
+def _uncached() -> dict[str, Any]:
+    jit = _numba().njit(cache=False, nogil=True)
+    return {name: jit(kernel) for name, kernel in _KERNELS.items()}
+
+
 @cache
 def _compiled() -> dict[str, Any]:
+    """The kernels, cached on disk where numba's cache folder can be used; else compiled
+    in this process alone, with a note (never cached beside the source). A save that
+    fails later (a full disk) turns the cache off the same way."""
+    if why := cache_problem():
+        _note_uncached(why)
+        return _uncached()
     jit = _numba().njit(cache=True, nogil=True)
-    return {
-        "mamdani": jit(_mamdani_py),
-        "table": jit(_table_py),
-        "continuous": jit(_continuous_py),
-    }
+    return {name: _guarded(name, jit(kernel)) for name, kernel in _KERNELS.items()}
+
+
+def _guarded(name: str, kernel: Any) -> Any:
+    """``kernel``, or where numba cannot write its cache (OSError: a full disk) its
+    uncached twin, from then on."""
+    state = {"kernel": kernel}
+
+    def call(*args: Any) -> Any:
+        try:
+            return state["kernel"](*args)
+        except OSError as exc:
+            if state["kernel"] is not kernel:
+                raise
+            _note_uncached(f"{exc.filename or os.environ.get('NUMBA_CACHE_DIR')}: "
+                           f"{exc.strerror or exc}")  # fmt: skip
+            state["kernel"] = _uncached()[name]
+            return state["kernel"](*args)
+
+    return call
 
 
 def warm() -> None:
