@@ -6,6 +6,7 @@ user of the command line or the library expects (docs/reliability.md)."""
 from __future__ import annotations
 
 import errno
+import os
 import signal
 from pathlib import Path
 
@@ -142,3 +143,44 @@ def test_a_second_comparison_of_the_same_pair_keeps_the_first(tmp_path, monkeypa
     assert (first / "claims.csv").read_bytes() == before
     again = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "-n", "2", *SHORT)
     assert again.exit_code == 0, again.output  # the same comparison: its own folder again
+
+
+# ------------------------------------------------------------- a lock left by a full disk
+
+
+def test_a_sub_folders_lock_left_by_a_full_disk_does_not_block_the_rerun(tmp_path, monkeypatch):
+    # `regimes` holds its folder, its sweep a sub-folder (raw_steps/); the disk fills as
+    # the sweep's lock gets its pid: an empty raw_steps/.twolink.lock is left
+    from twolink.foundation import ownership
+    from twolink.foundation.io import atomic_write_text, check_ownership, owned_output
+
+    out = tmp_path / "out"
+    with owned_output(out, "regimes"):
+        atomic_write_text(out / "table.csv", "a,b\n")
+        with monkeypatch.context() as m:
+
+            def full(*args):
+                raise OSError(errno.ENOSPC, "No space left on device")
+
+            m.setattr(ownership.os, "pwrite", full)
+            with pytest.raises(ownership.WriteFailed), owned_output(out / "raw_steps", "sweep"):
+                pass
+    lock = out / "raw_steps" / ".twolink.lock"
+    assert lock.read_bytes() == b""
+    check_ownership(out, "regimes")  # space freed: the rerun takes the folder
+    check_ownership(out / "raw_steps", "sweep")
+    lock.write_bytes(b"4242\n")  # the pid of a command that is gone: a lock too
+    check_ownership(out, "regimes")
+    # a user's file of that name is no lock: still refused
+    for planted in (b"my notes\n", b"12345\nmore\n"):
+        lock.write_bytes(planted)
+        with pytest.raises(ownership.ForeignOutput, match=r"raw_steps/\.twolink\.lock"):
+            check_ownership(out, "regimes")
+    lock.write_bytes(b"")
+    os.link(lock, tmp_path / "elsewhere")  # another name shares its bytes: not twolink's
+    with pytest.raises(ownership.ForeignOutput, match=r"raw_steps/\.twolink\.lock"):
+        check_ownership(out, "regimes")
+    os.unlink(tmp_path / "elsewhere")
+    with owned_output(out, "regimes"), owned_output(out / "raw_steps", "sweep"):
+        atomic_write_text(out / "raw_steps" / "results.csv", "x\n")
+    check_ownership(out, "regimes")

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import stat
 import threading
 from collections.abc import Iterator
@@ -51,6 +52,8 @@ from twolink.foundation.planted import (
     sha256_of,
     shown,
 )
+
+LOCK_TEXT = re.compile(rb"(?:[0-9]{1,20}\n)?")  # what :func:`_locked` writes in a lock
 
 
 class OutputBusy(OSError):
@@ -272,6 +275,8 @@ def foreign_entries(
             name = prefix + entry.name
             if not prefix and entry.name in OWN_NAMES:
                 continue
+            if entry.name == LOCK_NAME and _is_lock(entry):  # a sub-folder's, left there
+                continue
             if name in temporaries and _is_noted(entry, temporaries[name]):
                 removable.append(Path(entry.path))
                 continue
@@ -306,6 +311,22 @@ def foreign_entries(
 
     walk(folder, "")
     return foreign, record, removable
+
+
+def _is_lock(entry: os.DirEntry) -> bool:
+    """Whether ``entry`` is a lock as twolink leaves one (:func:`_locked`): a regular file
+    with one link, empty (a command stopped by a full disk before it wrote its pid) or
+    holding a pid and a line break. A sub-folder a stopped command held keeps it; the
+    kernel released the lock itself (``flock``), so a rerun takes it again."""
+    try:
+        fd, st = open_regular(entry.path)
+        try:
+            data = os.read(fd, 33) if st.st_nlink == 1 else None
+        finally:
+            os.close(fd)
+    except OSError:
+        return False
+    return data is not None and bool(LOCK_TEXT.fullmatch(data))
 
 
 def check_ownership(

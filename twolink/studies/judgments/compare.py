@@ -255,7 +255,7 @@ def check_rows(text: str, source: str) -> None:
     from twolink import sweep
 
     with tempfile.TemporaryDirectory(prefix="twolink-plants-") as tmp:
-        (Path(tmp) / "compare.toml").write_text(text, encoding="utf-8")
+        atomic_write_text(Path(tmp) / "compare.toml", text)
         plan = sweep.load_sweep(Path(tmp) / "compare.toml")
     for i in range(plan.samples):
         values, noise_seed = plan.draw(i)
