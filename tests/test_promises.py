@@ -184,3 +184,54 @@ def test_a_sub_folders_lock_left_by_a_full_disk_does_not_block_the_rerun(tmp_pat
     with owned_output(out, "regimes"), owned_output(out / "raw_steps", "sweep"):
         atomic_write_text(out / "raw_steps" / "results.csv", "x\n")
     check_ownership(out, "regimes")
+
+
+# --------------------------------------------------------------- names near the limit
+
+
+@pytest.mark.parametrize("size", [241, 248, 254])
+def test_a_name_that_fits_but_whose_temporary_does_not_is_refused_before_the_work(tmp_path, size):
+    # `fis --out NAME.fis` writes NAME.fis through .NAME.fis.XXXXXXXX.tmp beside it (14-18
+    # bytes more): the check counts it, so nothing fails after the work
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX")
+    out = tmp_path / ("a" * (size - 4) + ".fis")
+    result = invoke("fis", "--out", out)
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert f"is {size} bytes, and {size + 18} with the temporary" in result.output
+    assert f"at most {limit} bytes a name; {limit - 18} for this one" in result.output
+    assert not list(tmp_path.iterdir())
+
+
+def test_the_longest_name_the_check_passes_is_written(tmp_path):
+    limit = os.pathconf(tmp_path, "PC_NAME_MAX")
+    out = tmp_path / ("a" * (limit - 18 - 4) + ".fis")
+    result = invoke("fis", "--out", out)
+    assert result.exit_code == 0, result.output
+    assert out.is_file() and [p.name for p in tmp_path.iterdir()] == [out.name]
+
+
+def deep(tmp_path: Path, size: int) -> Path:
+    """A path of exactly ``size`` bytes under ``tmp_path``, of names of 200 bytes."""
+    path = str(tmp_path)
+    while len(os.fsencode(path)) < size - 201:
+        path += "/" + "d" * 200
+    return Path(path + "/" + "e" * (size - len(os.fsencode(path)) - 1))
+
+
+@pytest.mark.parametrize("size", [4095, 3840])
+def test_an_out_folder_too_long_for_the_files_inside_it_is_one_line_exit_2(tmp_path, size):
+    path_max = os.pathconf(tmp_path, "PC_PATH_MAX")
+    out = deep(tmp_path, size)
+    assert len(os.fsencode(str(out))) == size
+    result = invoke("run", REPO / "runs" / "paper" / "theta1_step.toml", "--set",
+                    "duration=0.05", "--no-trace", "--no-plots", "--out", out)  # fmt: skip
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert f"the path is {size} bytes" in result.output and f"under {path_max}" in result.output
+    assert not list(tmp_path.iterdir())
+    fits = deep(tmp_path, path_max - 257)  # the longest the check passes: its files fit
+    result = invoke("run", REPO / "runs" / "paper" / "theta1_step.toml", "--set",
+                    "duration=0.05", "--no-trace", "--no-plots", "--out", fits)  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert (fits / "metrics.json").is_file()

@@ -37,7 +37,7 @@ def check_output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
         no permission.
     """
     path = Path(path)
-    refuse_long_name(path, option)
+    refuse_long_name(path, option, "folder")
     _check_writable(path, path, option)
     return path
 
@@ -51,7 +51,7 @@ def check_output_file(
     (it carries twolink's exact header: :func:`carries_mark`). Errors name the option and
     ``path``."""
     path = Path(path)
-    refuse_long_name(path, option)
+    refuse_long_name(path, option, "file")
     if path.is_symlink():
         raise ForeignOutput(f"{option} {path}: is a symbolic link; give the file itself")
     if path.is_dir():

@@ -18,6 +18,16 @@ NAME_MAX = 255
 PATH_MAX = 4096
 
 
+# What an output adds to a name the user gives: a temporary beside it, ".NAME." then
+# tempfile's 8 characters, the name's own suffix again for the writers that keep one
+# (io.atomic_path's: ".png", ".parquet"), then ".tmp" (io.atomic_path, io.scratch_folder).
+TEMPORARY_ROOM = len("..") + 8 + len(".tmp")
+# What an output folder's own files add to its path: its owner record's temporary
+# (".twolink-owner.json.PID.tmp"), a sweep's chunks and their temporaries. A name as long as
+# a file system takes, and its separator, leaves room for all of them.
+FOLDER_ROOM = NAME_MAX + 1
+
+
 class NameTooLong(OSError):
     """A path with a name (or as a whole) longer than the file system takes."""
 
@@ -45,29 +55,53 @@ def _limits(path: Path) -> tuple[int, int]:
     return NAME_MAX, PATH_MAX
 
 
-def long_name_problem(path: str | os.PathLike) -> str | None:
+def long_name_problem(path: str | os.PathLike, output: str = "") -> str | None:
     """Why ``path`` can be no file's path: a name in it longer than its file system takes
     (``PC_NAME_MAX``, 255 bytes on most), or the whole path longer than the system's
     limit (``PC_PATH_MAX``); None if neither. Each name is counted in bytes, as the
-    file system counts it (a non-ASCII letter is 2-4)."""
+    file system counts it (a non-ASCII letter is 2-4).
+
+    ``output``: "file" or "folder" where twolink will write ``path``: its last name must
+    leave room for the temporary written beside it (:data:`TEMPORARY_ROOM` and its
+    suffix), and a folder's whole path for the files twolink writes in it
+    (:data:`FOLDER_ROOM`), so a name that passes never fails after the work."""
     whole = Path(os.path.abspath(path))
     name_max, path_max = _limits(whole)
-    for part in Path(path).parts:
+    parts = Path(path).parts
+    for k, part in enumerate(parts):
         size = len(os.fsencode(part))
-        if size > name_max:
+        room = TEMPORARY_ROOM + len(os.fsencode(Path(part).suffix)) if output else 0
+        last = output and k == len(parts) - 1
+        if size > name_max or (last and size + room > name_max):
             shown = part if len(part) <= 24 else part[:24] + "..."
+            if size > name_max or not last:
+                return (
+                    f"the name {shown!r} is {size} bytes, longer than the file system takes "
+                    f"(at most {name_max} bytes a name)"
+                )
             return (
-                f"the name {shown!r} is {size} bytes, longer than the file system takes "
-                f"(at most {name_max} bytes a name)"
+                f"the name {shown!r} is {size} bytes, and {size + room} with the temporary "
+                f"twolink writes beside it: longer than the file system takes (at most "
+                f"{name_max} bytes a name; {name_max - room} for this one)"
             )
     size = len(os.fsencode(str(whole)))
     if size >= path_max:
         return f"the path is {size} bytes, longer than the system takes (under {path_max})"
+    room = (
+        FOLDER_ROOM if output == "folder" else TEMPORARY_ROOM + len(whole.suffix) if output else 0
+    )
+    if size + room >= path_max:
+        inside = "the files twolink writes in it" if output == "folder" else "its temporary"
+        return (
+            f"the path is {size} bytes: with {inside} ({room} bytes more), longer than the "
+            f"system takes (under {path_max}; at most {path_max - room - 1} bytes for this path)"
+        )
     return None
 
 
-def refuse_long_name(path: str | os.PathLike, what: str = "") -> None:
+def refuse_long_name(path: str | os.PathLike, what: str = "", output: str = "") -> None:
     """:class:`NameTooLong`, one line starting with ``what`` (an option, a key), where
-    :func:`long_name_problem` finds one in ``path``."""
-    if problem := long_name_problem(path):
+    :func:`long_name_problem` finds one in ``path`` (``output``: as a file or folder
+    twolink writes)."""
+    if problem := long_name_problem(path, output):
         raise NameTooLong(f"{what}: {problem}" if what else problem)

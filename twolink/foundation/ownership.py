@@ -347,7 +347,7 @@ def check_ownership(
     command picked the folder, not the user) one written for another ``source`` is
     refused too."""
     path = Path(path)
-    refuse_long_name(path, option)
+    refuse_long_name(path, option, "folder")
     if path.is_symlink():
         raise ForeignOutput(
             f"{option} {path}: is a symbolic link"
