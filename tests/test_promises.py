@@ -235,3 +235,70 @@ def test_an_out_folder_too_long_for_the_files_inside_it_is_one_line_exit_2(tmp_p
                     "duration=0.05", "--no-trace", "--no-plots", "--out", fits)  # fmt: skip
     assert result.exit_code == 0, result.output
     assert (fits / "metrics.json").is_file()
+
+
+# ------------------------------------------------------- two commands into one folder
+
+
+def test_the_loser_of_two_commands_says_the_winner_is_writing_not_that_it_was_stopped(tmp_path):
+    import subprocess
+    import sys
+
+    from twolink.foundation.io import ForeignOutput, OutputBusy, check_ownership
+
+    out = tmp_path / "out"
+    hold = (
+        "import sys, time\n"
+        "from twolink.foundation.io import owned_output, atomic_write_text\n"
+        f"with owned_output({str(out)!r}, 'sweep'):\n"
+        f"    atomic_write_text({str(out / 'part.csv')!r}, 'x\\n')\n"
+        "    print('held', flush=True)\n"
+        "    time.sleep(60)\n"
+    )
+    winner = subprocess.Popen([sys.executable, "-c", hold], stdout=subprocess.PIPE, text=True)
+    try:
+        assert winner.stdout.readline().strip() == "held"
+        with pytest.raises(OutputBusy) as busy:
+            check_ownership(out, "regimes")
+        said = str(busy.value)
+        assert f"`twolink sweep` (pid {winner.pid}) is writing into this folder" in said, said
+        assert "stopped" not in said and "rerun" not in said
+        result = invoke("run", REPO / "runs" / "paper" / "theta1_step.toml", "--no-trace",
+                        "--no-plots", "--set", "duration=0.05", "--out", out)  # fmt: skip
+        assert result.exit_code == 2 and "is writing into this folder" in result.output
+        one_error_line(result)
+    finally:
+        winner.kill()
+        winner.wait()
+    with pytest.raises(ForeignOutput, match="before it was stopped"):  # killed: it was
+        check_ownership(out, "regimes")
+
+
+# ------------------------------------------------------------------ smaller refusals
+
+
+def test_regimes_on_mjx_without_jax_is_one_line_exit_2_before_any_work(tmp_path):
+    from twolink.simulation.mjx_engine import available
+
+    if available():
+        pytest.skip("MJX and JAX are installed here")
+    out = tmp_path / "out"
+    result = invoke("regimes", "--backend", "mjx", "--out", out)
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert "backend 'mjx' needs MJX and JAX: pip install" in result.output
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("links", [1, 2], ids=["to itself", "two in a ring"])
+def test_a_plants_file_that_is_a_loop_of_links_is_one_line_exit_2(tmp_path, links):
+    names = [tmp_path / f"loop{k}.csv" for k in range(links)]
+    for k, name in enumerate(names):
+        name.symlink_to(names[(k + 1) % links].name)
+    out = tmp_path / "out"
+    result = invoke("compare", "theta1_step", "FCM-CTC", "CTC", "--plants-file", names[0],
+                    "--out", out, *SHORT)  # fmt: skip
+    assert result.exit_code == 2, result.output
+    one_error_line(result)
+    assert f"error: {names[0]}: " in result.output and "symbolic links" in result.output
+    assert not out.exists()

@@ -178,25 +178,32 @@ def held_by_a_command(path: str | os.PathLike) -> bool:
     """Whether a twolink command holds ``path`` or a folder above it (it checked, as it
     began, that every file under it is twolink's): this process, or another whose lock
     is held (a killed command's lock and journal are not)."""
-    import fcntl
-
     found = _owner_of(Path(os.path.abspath(path)) / "x")
     if found is None:
         return False
     owner, fd = found
-    if fd is not None:
-        return True
+    return fd is not None or live_holder(owner) is not None
+
+
+def live_holder(folder: Path) -> str | None:
+    """The pid (as its lock says it) of the running process that holds ``folder``'s lock,
+    None where none does (no lock, or the lock of a command that ended or was killed: the
+    kernel released it)."""
+    import fcntl
+
     try:
-        lfd = os.open(owner / LOCK_NAME, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+        lfd = os.open(folder / LOCK_NAME, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
     except OSError:
-        return False
+        return None
     try:
         fcntl.flock(lfd, fcntl.LOCK_SH | fcntl.LOCK_NB)
-    except BlockingIOError:
-        return True  # its holder runs
+    except BlockingIOError:  # its holder runs
+        return shown(os.pread(lfd, 32, 0).decode("ascii", "replace").strip() or "?", 32)
+    except OSError:
+        return None
     finally:
         os.close(lfd)  # releases a lock taken here
-    return False
+    return None
 
 
 def note_written(path: str | os.PathLike) -> None:
@@ -365,6 +372,12 @@ def check_ownership(
             f"every file in it: move them away or choose another {option}"
         )
     held_by = journal_command(path)
+    if held_by is not None and held_by != command and (pid := live_holder(path)) is not None:
+        raise OutputBusy(
+            f"{option} {path}: `twolink {shown(held_by, 40)}` (pid {pid}) is writing into this "
+            f"folder; `twolink {command}` would mix with it: wait for it to finish or choose "
+            f"another {option}"
+        )
     if held_by is not None and held_by != command:
         raise ForeignOutput(
             f"{option} {path}: holds what `twolink {shown(held_by, 40)}` wrote before it was "

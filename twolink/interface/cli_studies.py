@@ -45,6 +45,10 @@ def regimes_command(
 
     if backend == "cpu":  # the workers' server imports on another core while we do
         prestart_fork_server(SWEEP_PRELOAD)
+    from twolink.sweep.execution import backend_problem
+
+    if problem := backend_problem(backend):  # MJX without JAX: before any work
+        fail_input(problem)
     from twolink.foundation.io import atomic_write_text
     from twolink.simulation.config import ConfigError
     from twolink.studies.judgments import regimes

@@ -386,6 +386,19 @@ def run_sweep(
     )[0]
 
 
+def backend_problem(backend: str) -> str | None:
+    """Why the sweeps cannot run on ``backend`` (not one of :data:`BACKENDS`, or MJX and
+    JAX not installed), in one line; None where they can."""
+    if backend not in BACKENDS:
+        return f"backend must be one of {list(BACKENDS)}, got {backend!r}"
+    if backend != "cpu":
+        from twolink.simulation.mjx_engine import available
+
+        if not available():
+            return f'backend {backend!r} needs MJX and JAX: pip install "twolink[mjx]"'
+    return None
+
+
 def run_sweeps(
     sweeps: Sequence[tuple[SweepPlan, str | Path]],
     executor: str | None = None,
@@ -412,13 +425,9 @@ def run_sweeps(
     folders = [job.out.resolve() for job in jobs]
     if len(set(folders)) < len(folders):
         raise ValueError(f"two sweeps into one folder: {[str(f) for f in folders]}")
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
+    if problem := backend_problem(backend):
+        raise ValueError(problem)
     if backend != "cpu":  # one batch in this process: the device is the parallelism
-        from twolink.simulation.mjx_engine import available
-
-        if not available():
-            raise ValueError(f'backend {backend!r} needs MJX and JAX: pip install "twolink[mjx]"')
         executor, workers, scheduler, pool = "inprocess", 1, None, None
     first = jobs[0].plan
     if executor is None:

@@ -90,6 +90,8 @@ def _csv_cells(path: Path, source: str) -> tuple[list[str], list[list[Any]]]:
     """The header's names and the rows' cells (text) of the CSV file ``path``."""
     try:
         raw = read_bounded(path.resolve(), MAX_PLANTS_BYTES)
+    except RuntimeError:  # Path.resolve on a loop of links (an OSError from Python 3.13)
+        raise ConfigError(f"{source}: a loop of symbolic links, no file") from None
     except FileNotFoundError:
         raise ConfigError(f"{source}: no such file (a CSV of plants)") from None
     except OSError as exc:  # too large (by its size, unread), a folder, a pipe, a device
