@@ -469,8 +469,12 @@ def test_a_journal_with_another_name_is_never_appended_by_a_worker(tmp_path):
     other.write_text("theirs")
     os.link(other, out / JOURNAL_NAME)
     (out / "a.txt").write_text("x")
-    with pytest.raises(ForeignOutput, match="journal"):
-        note_written(out / "a.txt")
+    import fcntl
+
+    with open(out / LOCK_NAME) as lock:  # held, as the command that runs the worker holds it
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        with pytest.raises(ForeignOutput, match="journal"):
+            note_written(out / "a.txt")
     assert other.read_text() == "theirs"
 
 

@@ -302,3 +302,86 @@ def test_a_plants_file_that_is_a_loop_of_links_is_one_line_exit_2(tmp_path, link
     one_error_line(result)
     assert f"error: {names[0]}: " in result.output and "symbolic links" in result.output
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["fis", "design"])
+def test_a_file_under_a_killed_commands_folder_is_not_noted_in_its_journal(tmp_path, command):
+    # A command killed while it held `held/` leaves its lock and journal; `fis --out` or
+    # `design --out` into it later must not add to that journal (the rerun would then take
+    # the user's file for its own, and might replace it)
+    import subprocess
+    import sys
+
+    held = tmp_path / "held"
+    hold = (
+        "import time\n"
+        "from twolink.foundation.io import owned_output, atomic_write_text\n"
+        f"with owned_output({str(held)!r}, 'sweep'):\n"
+        f"    atomic_write_text({str(held / 'part.csv')!r}, 'x\\n')\n"
+        "    print('held', flush=True)\n"
+        "    time.sleep(60)\n"
+    )
+    killed = subprocess.Popen([sys.executable, "-c", hold], stdout=subprocess.PIPE, text=True)
+    assert killed.stdout.readline().strip() == "held"
+    killed.kill()
+    killed.wait()
+    journal = (held / ".twolink-journal").read_bytes()
+    out = held / ("rb.fis" if command == "fis" else "rb.toml")
+    args = ["fis", "--out", out] if command == "fis" else ["design", "--out", out]
+    result = invoke(*args)
+    assert result.exit_code == 0, result.output
+    assert out.is_file()
+    assert (held / ".twolink-journal").read_bytes() == journal
+
+
+def test_the_smallest_stribeck_velocity_is_the_curves_limit_without_a_warning():
+    # v_s = 5e-324 (the smallest float): (v / v_s)^2 overflows; the curve is then its
+    # limit, a step at v = 0 from F_s down to F_c, in the single plant and in the batch
+    import warnings
+
+    import numpy as np
+
+    from twolink.arm.params import Friction
+
+    f = Friction(coulomb=(0.5, 0.2), breakaway=(0.6, 0.25), stribeck_velocity=5e-324)
+    v = np.array([[-1.0, 2.0], [1e-3, -1e-300], [0.0, 0.0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        relief = f.stribeck_relief(v)
+        torque = f.torque(v)
+    excess = np.subtract(f.breakaway, f.coulomb)
+    assert np.array_equal(relief, excess * np.sign(v))  # the whole dip, at any rate
+    assert np.array_equal(torque[:2], np.array([0.5, 0.2]) * np.sign(v[:2]))  # F_c sliding
+    assert np.array_equal(torque[2], [0.0, 0.0])
+    from twolink.simulation.config import load_scenario
+    from twolink.simulation.experiment import build_controller, iter_scenarios
+
+    friction = {"coulomb": [0.5, 0.2], "breakaway": [0.6, 0.25], "stribeck_velocity": 5e-324}
+    s = load_scenario("paper/theta1_step", {"duration": 0.05, "plant": {"friction": friction}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        runs = list(iter_scenarios([s, s], [build_controller(s), build_controller(s)]))
+    assert len(runs) == 2 and all(not isinstance(t, Exception) and t.ok for _, t in runs)
+
+
+@pytest.mark.parametrize(("frequency", "refused"), [(1e6, True), (500.0, True), (499.0, False)])
+def test_a_sine_disturbance_at_or_above_the_steps_nyquist_is_refused_naming_the_key(
+    frequency, refused
+):
+    # The sine is applied at each physics step (1 kHz): at 1 MHz it is zero at every step,
+    # at 500 Hz too (sin(pi k)); below, it is sampled (aliased by nothing the loop adds)
+    from twolink.simulation.config import load_scenario
+
+    sine = {"sine": [{"joint": 1, "amplitude": 1.0, "frequency": frequency}]}
+    if not refused:
+        s = load_scenario("paper/theta1_step", {"disturbance": sine})
+        assert s.disturbance.sines[0].frequency == frequency
+        return
+    with pytest.raises(ConfigError) as caught:
+        load_scenario("paper/theta1_step", {"disturbance": sine})
+    said = str(caught.value)
+    assert "disturbance.sine[0].frequency: " in said and "at or above 500 Hz" in said, said
+    assert "timestep 0.001 s" in said and "\n" not in said
+    if frequency < 5e5:  # a finer physics step carries it (below its 500 kHz)
+        finer = {"disturbance": sine, "timestep": 1e-6, "control_dt": 1e-3, "duration": 0.01}
+        assert load_scenario("paper/theta1_step", finer).timestep == 1e-6

@@ -135,6 +135,14 @@ class Flexibility:
             object.__setattr__(self, name, tuple(float(v) for v in value))
 
 
+def squared_rate(v: np.ndarray, stribeck_velocity: float | np.ndarray) -> np.ndarray:
+    """(v / v_s)^2 of the Stribeck curve; inf where it is beyond a float (a v_s as small
+    as 5e-324: the dip is then a step at v = 0, the exponential's limit, exp(-inf) = 0),
+    without a warning."""
+    with np.errstate(over="ignore"):
+        return (v / stribeck_velocity) ** 2
+
+
 @dataclass(frozen=True)
 class Friction:
     """Joint friction per joint: dry (Coulomb, with stiction up to a breakaway torque),
@@ -198,12 +206,12 @@ class Friction:
         the motion (it relieves friction). Zero at rest and continuous in v; ``v`` (..., 2)."""
         v = np.asarray(v, dtype=float)
         excess = np.subtract(self.breakaway, self.coulomb)
-        return excess * -np.expm1(-((v / self.stribeck_velocity) ** 2)) * np.sign(v)
+        return excess * -np.expm1(-squared_rate(v, self.stribeck_velocity)) * np.sign(v)
 
     def torque(self, v: np.ndarray) -> np.ndarray:
         """The friction law f(v) of a sliding joint (the class docstring), opposing the
         motion is -f(v); at v = 0 it is zero (stiction is not a function of v)."""
         v = np.asarray(v, dtype=float)
         fc, fs = np.asarray(self.coulomb), np.asarray(self.breakaway)
-        dry = fc + (fs - fc) * np.exp(-((v / self.stribeck_velocity) ** 2))
+        dry = fc + (fs - fc) * np.exp(-squared_rate(v, self.stribeck_velocity))
         return dry * np.sign(v) + np.asarray(self.viscous) * v

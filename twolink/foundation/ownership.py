@@ -134,13 +134,19 @@ _HELD_LOCK = threading.Lock()
 
 
 def _owner_of(path: Path) -> tuple[Path, int | None] | None:
-    """The nearest folder above ``path`` that a twolink command holds (its lock and
-    journal are there), and this process's journal descriptor for it if it holds it."""
+    """The nearest folder above ``path`` that a twolink command holds (its journal is
+    there, and its lock is held: by this process, or by a running one such as the
+    command whose pool worker this is), and this process's journal descriptor for it if
+    it holds it. A killed command's journal is not appended to."""
     for p in path.parents:
         held = _HELD.get(p)
         if held is not None:
             return p, held[1]
-        if os.path.isfile(p / LOCK_NAME) and os.path.lexists(p / JOURNAL_NAME):
+        if (
+            os.path.isfile(p / LOCK_NAME)
+            and os.path.lexists(p / JOURNAL_NAME)
+            and live_holder(p) is not None
+        ):
             return p, None
     return None
 

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from twolink.arm.disturbance import Disturbance
-from twolink.arm.params import ArmParams, Flexibility, Friction
+from twolink.arm.params import ArmParams, Flexibility, Friction, squared_rate
 from twolink.arm.plant import (
     add_arm,
     holding_motor_q,
@@ -196,7 +196,7 @@ class BatchPlant:
         :meth:`twolink.arm.params.Friction.stribeck_relief` of each arm's rates."""
         excess, vs = self.stribeck
         v = self.data.qvel[self.force_index]
-        return excess * -np.expm1(-((v / vs) ** 2)) * np.sign(v)
+        return excess * -np.expm1(-squared_rate(v, vs)) * np.sign(v)
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray, holding: np.ndarray | None = None) -> None:
         """Every arm at (q0, qd0), time 0, its rotors at the links (springs relaxed) or,

@@ -619,6 +619,16 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         top.fail("control_dt", f"must be a whole multiple of timestep {scenario.timestep}")
     if scenario.duration < scenario.control_dt:
         top.fail("duration", f"must be at least control_dt {scenario.control_dt}")
+    nyquist = 0.5 / scenario.timestep  # the sine is applied at each physics step
+    for n, sine in enumerate(scenario.disturbance.sines if scenario.disturbance else ()):
+        if sine.frequency >= nyquist:
+            top.fail(
+                f"disturbance.sine[{n}].frequency",
+                f"{sine.frequency:g} Hz is at or above {nyquist:g} Hz, the Nyquist frequency "
+                f"of the physics step (timestep {scenario.timestep:g} s), where the sine is "
+                "applied: it would alias (a whole multiple of the step rate is zero at every "
+                "step); give a lower frequency or a finer timestep",
+            )
     if scenario.duration / scenario.timestep > MAX_PHYSICS_STEPS:
         top.fail(
             "duration",
