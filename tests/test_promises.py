@@ -385,3 +385,85 @@ def test_a_sine_disturbance_at_or_above_the_steps_nyquist_is_refused_naming_the_
     if frequency < 5e5:  # a finer physics step carries it (below its 500 kHz)
         finer = {"disturbance": sine, "timestep": 1e-6, "control_dt": 1e-3, "duration": 0.01}
         assert load_scenario("paper/theta1_step", finer).timestep == 1e-6
+
+
+# ------------------------------------------------------------- a planted journal, bounded
+
+
+def planted_journal(folder: Path, size: int) -> None:
+    """A journal of ``size`` bytes of well-formed lines naming files that are not there."""
+    folder.mkdir()
+    (folder / ".twolink.lock").write_bytes(b"")
+    line = "0" * 64 + " 10 1 1 some/file_{}.csv\n"
+    count = size // len(line.format(0))
+    text = "command run\n" + "".join(line.format(k) for k in range(count))
+    (folder / ".twolink-journal").write_text(text)
+
+
+def test_a_planted_journal_over_the_records_bound_is_refused_by_its_size(tmp_path):
+    # 60 MB of journal lines: read and parsed six times over, a 0.3 s run took 60 s; a
+    # journal lists what an owner record does, so it has the record's bound (16 MiB)
+    import time
+
+    from twolink.foundation.io import ForeignOutput, check_ownership
+    from twolink.foundation.planted import MAX_RECORD_BYTES
+
+    out = tmp_path / "out"
+    planted_journal(out, 60_000_000)
+    start = time.perf_counter()
+    with pytest.raises(
+        ForeignOutput, match=r"\(\.twolink-journal \(larger than 16777216 bytes\)\)"
+    ):
+        check_ownership(out, "run")
+    assert time.perf_counter() - start < 1.0  # by its size: not a byte of it is read
+    assert MAX_RECORD_BYTES == 16 << 20
+
+
+def test_a_journal_is_parsed_once_as_a_command_checks_and_takes_its_folder(tmp_path, monkeypatch):
+    from twolink.foundation import journal
+
+    out = tmp_path / "out"
+    planted_journal(out, 4_000_000)  # under the bound: a killed command's, listing nothing here
+    reads = []
+    real = journal.read_bounded
+
+    def counted(where, *args, **kwargs):
+        data = real(where, *args, **kwargs)
+        reads.append(len(data))
+        return data
+
+    monkeypatch.setattr(journal, "read_bounded", counted)
+    result = invoke("run", REPO / "runs" / "paper" / "theta1_step.toml", "--no-trace",
+                    "--no-plots", "--set", "duration=0.05", "--out", out)  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert sum(n > 1_000_000 for n in reads) == 1, reads  # the planted one, once
+
+
+# --------------------------------------------------------- the suite leaves home alone
+
+
+def test_the_suites_rerun_cli_writes_nothing_into_the_users_home(tmp_path):
+    # the recording tests run `python -m rerun rrd verify`, which writes its analytics
+    # opt-in ({"analytics_enabled": true}) into the config folder: the suite's scratch XDG
+    # folders (tests/conftest.py), never HOME
+    import subprocess
+    import sys
+
+    home = tmp_path / "home"
+    home.mkdir()
+    env = {**os.environ, "HOME": str(home)}
+    record = tmp_path / "x.rrd"
+    make = (
+        "import rerun as rr\n"
+        "rr.init('twolink_test', spawn=False)\n"
+        f"rr.save({str(record)!r})\n"
+        "rr.log('a', rr.Scalars([1.0]))\n"
+        "rr.disconnect()\n"
+    )
+    subprocess.run([sys.executable, "-c", make], env=env, check=True, timeout=120)
+    done = subprocess.run([sys.executable, "-m", "rerun", "rrd", "verify", str(record)], env=env,
+                          capture_output=True, text=True, timeout=120)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert list(home.rglob("*")) == []
+    scratch = Path(os.environ["XDG_CONFIG_HOME"])
+    assert not scratch.is_relative_to(Path.home()) and scratch.name == "config"

@@ -192,9 +192,9 @@ def test_report_metrics_equal_step_metrics_of_the_saved_trajectories(reproductio
 
 
 def _rerun(*args):
-    env = {**os.environ, "RERUN_CONFIG_DIR": "/tmp/twolink-rerun-config"}
+    # rerun's analytics config goes to the suite's scratch XDG folders (tests/conftest.py)
     return subprocess.run(
-        [sys.executable, "-m", "rerun", *args], capture_output=True, text=True, env=env, timeout=120
+        [sys.executable, "-m", "rerun", *args], capture_output=True, text=True, timeout=120
     )
 
 

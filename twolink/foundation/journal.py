@@ -8,7 +8,14 @@ import os
 import re
 from pathlib import Path
 
-from twolink.foundation.planted import HEX64, open_regular, plain_relative, read_bounded
+from twolink.foundation.planted import (
+    HEX64,
+    MAX_RECORD_BYTES,
+    open_regular,
+    plain_relative,
+    read_bounded,
+    read_head,
+)
 
 __all__ = ["journal_command", "read_journal"]
 
@@ -28,7 +35,12 @@ RECORD_TEMPORARY = re.compile(r"^\." + re.escape(OWNER_NAME) + r"\.[0-9]+\.tmp$"
 TEMPORARY = re.compile(f"(?:{GENERATED.pattern})|(?:{RECORD_TEMPORARY.pattern})")
 RECORD_KIND = "twolink owner record"
 RECORD_VERSION = 2
-MAX_JOURNAL_BYTES = 64 << 20
+# A journal lists what an owner record lists (and the temporaries): the record's bound.
+# A larger one is no journal twolink wrote, refused by its size before a byte is read.
+MAX_JOURNAL_BYTES = MAX_RECORD_BYTES
+# The last journals parsed, by (device, inode, size, mtime): a command reads its folder's
+# journal several times as it checks and takes the folder, and parses it once.
+_PARSED: dict[tuple[int, int, int, int], tuple[dict, dict]] = {}
 
 
 def read_journal(
@@ -39,29 +51,50 @@ def read_journal(
     or "dir"). Lines that are not twolink's are skipped (a bare ``tmp NAME`` too: it
     does not say what twolink made); a journal that is not a regular file is
     :class:`PlantedFile`. The command that holds the folder: :func:`journal_command`."""
-    return _read_journal(folder, dir_fd)[:2]
+    return _read_journal(folder, dir_fd)
 
 
 def journal_command(folder: Path, dir_fd: int | None = None) -> str | None:
     """The command a journal says holds (or held, if it was killed) the folder, None
-    where it names none (no journal, or one of an older twolink)."""
-    return _read_journal(folder, dir_fd)[2]
-
-
-def _read_journal(folder: Path, dir_fd: int | None) -> tuple[dict, dict, str | None]:
+    where it names none (no journal, or one of an older twolink): its first line, read
+    alone."""
     where = JOURNAL_NAME if dir_fd is not None else folder / JOURNAL_NAME
+    try:
+        head = read_head(where, 256, dir_fd)
+    except FileNotFoundError:
+        return None
+    first = head.split(b"\n", 1)
+    parts = first[0].decode("utf-8", "replace").split(" ", 4) if len(first) == 2 else []
+    return parts[1] if len(parts) == 2 and parts[0] == "command" else None
+
+
+def _read_journal(folder: Path, dir_fd: int | None) -> tuple[dict, dict]:
+    where = JOURNAL_NAME if dir_fd is not None else folder / JOURNAL_NAME
+    try:
+        st = os.stat(where, dir_fd=dir_fd, follow_symlinks=False)
+    except FileNotFoundError:
+        return {}, {}
+    key = (st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns)
+    if key in _PARSED:
+        files, temporaries = _PARSED[key]
+        return dict(files), dict(temporaries)
     try:
         data = read_bounded(where, MAX_JOURNAL_BYTES, dir_fd)
     except FileNotFoundError:
-        return {}, {}, None
+        return {}, {}
+    files, temporaries = _parse(data)
+    if len(_PARSED) >= 4:
+        _PARSED.pop(next(iter(_PARSED)))
+    _PARSED[key] = (files, temporaries)
+    return dict(files), dict(temporaries)
+
+
+def _parse(data: bytes) -> tuple[dict[str, tuple], dict[str, tuple[str, int]]]:
     files: dict[str, tuple] = {}
     temporaries: dict[str, tuple[str, int]] = {}
-    command = None
-    for n, line in enumerate(data.decode("utf-8", "replace").splitlines()):
+    for line in data.decode("utf-8", "replace").splitlines():
         parts = line.split(" ", 4)
-        if n == 0 and len(parts) == 2 and parts[0] == "command":
-            command = parts[1]
-        elif len(parts) == 4 and parts[0] == "tmp" and parts[1] in ("file", "dir"):
+        if len(parts) == 4 and parts[0] == "tmp" and parts[1] in ("file", "dir"):
             if _temporary_name(parts[3]) and parts[2].isdigit():
                 temporaries[parts[3]] = (parts[1], int(parts[2]))
         elif len(parts) == 5 and HEX64.match(parts[0]) and plain_relative(parts[4]):
@@ -69,7 +102,7 @@ def _read_journal(folder: Path, dir_fd: int | None) -> tuple[dict, dict, str | N
                 files[parts[4]] = (parts[0], int(parts[1]), int(parts[2]), int(parts[3]))
             except ValueError:
                 continue
-    return files, temporaries, command
+    return files, temporaries
 
 
 def _temporary_name(name: str) -> bool:

@@ -276,7 +276,9 @@ def foreign_entries(
     try:
         claims, temporaries, record = _claims(folder)
     except PlantedFile as exc:
-        return [f"{OWNER_NAME} or {JOURNAL_NAME} ({exc.strerror})"], None, []
+        which = Path(exc.filename).name if exc.filename else f"{OWNER_NAME} or {JOURNAL_NAME}"
+        why = (exc.strerror or "").removeprefix(f"{exc.filename}: ")
+        return [f"{which} ({why})"], None, []
     claims = {**(inherited or {}), **claims}
     foreign: list[str] = []
     removable: list[Path] = []

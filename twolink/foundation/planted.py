@@ -81,6 +81,16 @@ def read_bounded(
         os.close(fd)
 
 
+def read_head(path: str | os.PathLike, size: int, dir_fd: int | None = None) -> bytes:
+    """The first ``size`` bytes (or fewer) of the regular file ``path``, whatever its
+    length: what a file's first line says, read without reading the file."""
+    fd, _ = open_regular(path, dir_fd)
+    try:
+        return os.read(fd, size)
+    finally:
+        os.close(fd)
+
+
 _STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
 _NOT_BRACKET = re.compile(rb"[^\[\]{}]")
 
