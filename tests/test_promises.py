@@ -467,3 +467,48 @@ def test_the_suites_rerun_cli_writes_nothing_into_the_users_home(tmp_path):
     assert list(home.rglob("*")) == []
     scratch = Path(os.environ["XDG_CONFIG_HOME"])
     assert not scratch.is_relative_to(Path.home()) and scratch.name == "config"
+
+
+# ------------------------------------------------------- the library says what went wrong
+
+
+@pytest.mark.parametrize("joint", [0, 3, -1, True, 1.0, "1"])
+def test_a_response_figure_of_a_joint_other_than_1_or_2_is_refused(joint):
+    # joint=0 read column -1: joint 2's response, labelled θ0
+    import twolink
+    from twolink.simulation.config import load_scenario
+    from twolink.simulation.experiment import run_scenario
+
+    s = load_scenario("paper/theta1_step", {"duration": 0.05})
+    trajs = {"CTC": run_scenario(s)}
+    with pytest.raises(ValueError, match=r"joint must be 1 or 2 .* got " + repr(joint)):
+        twolink.response_figure(trajs, joint, "title", ("CTC", "CTC"))
+    figure = twolink.response_figure(trajs, 1, "title", ("CTC", "CTC"))  # still draws
+    assert "θ1" in " ".join(ax.get_ylabel() for ax in figure.axes)
+
+
+def test_simulate_with_arm_params_for_a_plant_names_the_type_it_wants():
+    import twolink
+    from twolink.arm.plant import Plant
+
+    p = twolink.ArmParams()
+    with pytest.raises(
+        TypeError, match=r"plant must be a twolink\.arm\.plant\.Plant .* got ArmParams"
+    ):
+        twolink.simulate(p, None, 0.01)
+    with pytest.raises(TypeError, match=r"controller must be a controller .* got ArmParams"):
+        twolink.simulate(Plant.build(p), p, 0.01)
+
+
+@pytest.mark.parametrize("name", ["desigend", "Paper"])
+def test_a_misspelt_rule_base_name_lists_the_known_names(name):
+    import twolink
+
+    with pytest.raises(FileNotFoundError) as caught:
+        twolink.load_rule_base(name)
+    said = str(caught.value)
+    assert said.startswith(f"no such file {name}: ") and "'paper', 'designed', 'default'" in said
+    from twolink.simulation.config import load_scenario
+
+    with pytest.raises(ConfigError, match="controller.rule_base: no such file .*'designed'"):
+        load_scenario("paper/theta1_step", {"controller": {"kind": "fcm_ctc", "rule_base": name}})

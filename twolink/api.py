@@ -29,9 +29,12 @@ def load_rule_base(name: str | Path = "designed") -> RuleBase:
     MATLAB ``.fis`` file; ``MamdaniEngine.with_rules`` (or
     ``twolink.controllers.fuzzy.default_fuzzy_pd().with_rules``) makes it an engine."""
     from twolink.controllers.fuzzy.fis.engine_files import read_rule_base
-    from twolink.controllers.fuzzy.rulebase import resolve_rule_base
+    from twolink.controllers.fuzzy.rulebase import missing_rule_base, resolve_rule_base
 
-    return read_rule_base(resolve_rule_base(str(name)))
+    path = resolve_rule_base(str(name))
+    if not path.exists():  # a misspelt name ("desigend") is no file either
+        raise FileNotFoundError(missing_rule_base(str(name), path))
+    return read_rule_base(path)
 
 
 def design_rule_base(

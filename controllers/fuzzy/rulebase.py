@@ -31,6 +31,16 @@ BUILTIN_RULE_BASES = {
 }
 
 
+def missing_rule_base(name: str, path: Path) -> str:
+    """What to say of a rule base ``name`` whose file ``path`` is not there: no such file,
+    and the shipped names it may have meant (``name``, misspelt, is read as a file)."""
+    known = ", ".join(repr(n) for n in BUILTIN_RULE_BASES)
+    return (
+        f"no such file {path}: a rule base is the name of a shipped one ({known}) or a "
+        "rule-base TOML or MATLAB .fis file"
+    )
+
+
 def resolve_rule_base(name: str, relative_to: str | os.PathLike[str] = ".") -> Path:
     """Path of a rule base: "paper", "designed", "default" or a TOML or ``.fis`` path
     (relative to the folder of the file ``relative_to``)."""

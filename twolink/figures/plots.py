@@ -106,6 +106,16 @@ def save_run_plots(out: str | Path, traj: Trajectory, title: str = "") -> list[P
     return paths
 
 
+def joint_index(joint: Any) -> int:
+    """The column of ``joint`` (1 or 2, as the paper numbers them) in a (N, 2) array;
+    ValueError for any other joint (0 would be read as the last column, joint 2)."""
+    if isinstance(joint, bool) or not isinstance(joint, int | np.integer) or joint not in (1, 2):
+        raise ValueError(
+            f"joint must be 1 or 2 (θ1 or θ2, as the paper numbers them), got {joint!r}"
+        )
+    return int(joint) - 1
+
+
 def response_figure(
     trajs: dict[str, Trajectory],
     joint: int,
@@ -121,7 +131,7 @@ def response_figure(
     that stay on that scale are drawn there too; those that leave it (a failing baseline's
     swings would flatten every other curve) get the right-hand panel, on their own scale,
     with a note."""
-    j = joint - 1
+    j = joint_index(joint)
     first = next(iter(trajs.values()))
     t_ref, ref = first.t, first.q_ref[:, j]
     angles = {n: tr.q[:, j] for n, tr in trajs.items()}
@@ -318,6 +328,8 @@ def comparison_figure(
     difference over the whole run (left out where the window is the whole run).
     ``qa``, ``qb``: (plants, time, 2); ``reference``: (time, 2)."""
     a, b = names
+    for j in joints:
+        joint_index(j)
     window = float(t[-1]) if window is None else min(window, float(t[-1]))
     whole = window >= float(t[-1])  # the transient panels already show the whole run
     rows, heights = (2, (2, 1.2)) if whole else (3, (2, 1.2, 1))

@@ -69,6 +69,7 @@ from twolink.arm.params import ArmParams, Flexibility
 # The rule bases by name and the fuzzy scaling rule live with the controllers that use them.
 from twolink.controllers.fuzzy.rulebase import BUILTIN_RULE_BASES as BUILTIN_RULE_BASES
 from twolink.controllers.fuzzy.rulebase import RULEBASE_DIR as RULEBASE_DIR
+from twolink.controllers.fuzzy.rulebase import missing_rule_base
 from twolink.controllers.fuzzy.rulebase import resolve_rule_base as resolve_rule_base
 from twolink.controllers.fuzzy_ctc import DEFAULT_SPAN as DEFAULT_SPAN
 from twolink.controllers.fuzzy_ctc import auto_fuzzy_scaling as auto_fuzzy_scaling
@@ -657,7 +658,7 @@ def _check_rule_base(top: TomlTable, s: Scenario) -> None:
         return
     path = resolve_rule_base(name, s.source)
     if not path.is_file():
-        top.fail("controller.rule_base", f"no such file {path}")
+        top.fail("controller.rule_base", missing_rule_base(name, path))
     from twolink.controllers.fuzzy.continuous import ContinuousEngine
     from twolink.controllers.fuzzy.fis.matlab import rule_base_engine
 

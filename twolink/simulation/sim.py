@@ -215,6 +215,16 @@ def simulate(
         sample where it did (its out-of-bounds torque, or NaN torque where the state left
         its bounds), so even one that diverges at once has one sample.
     """
+    if not isinstance(plant, Plant):  # an ArmParams (the arm, not yet a model), a model
+        raise TypeError(
+            f"simulate: plant must be a twolink.arm.plant.Plant (the MuJoCo arm: "
+            f"Plant.build(arm_params)), got {type(plant).__name__}"
+        )
+    if not callable(controller) or not callable(getattr(controller, "reset", None)):
+        raise TypeError(
+            "simulate: controller must be a controller (reset() and controller(t, q, qd) -> "
+            f"tau: twolink.controllers), got {type(controller).__name__}"
+        )
     n, substeps = control_steps(duration, control_dt, plant.dt)
     ask = _asking(plant, controller, n, control_dt, noise, sensor)
     plant.reset(q0, qd0, motor_q=motor_q0)
