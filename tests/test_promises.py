@@ -512,3 +512,129 @@ def test_a_misspelt_rule_base_name_lists_the_known_names(name):
 
     with pytest.raises(ConfigError, match="controller.rule_base: no such file .*'designed'"):
         load_scenario("paper/theta1_step", {"controller": {"kind": "fcm_ctc", "rule_base": name}})
+
+
+# ------------------------------------------- rules that only one test (or none) pinned
+
+
+def test_a_journals_temporary_is_removed_only_if_it_is_the_very_file_twolink_made(tmp_path):
+    # The journal of a killed command lists its temporary by name and inode. A user's file
+    # under that name since (another inode) is theirs: foreign, never removed.
+    from twolink.foundation.io import ForeignOutput, check_ownership
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / ".twolink.lock").write_bytes(b"")
+    made = out / ".table.csv.abcd1234.tmp"
+    made.write_text("half of what twolink wrote")
+    noted = made.stat().st_ino
+    (out / ".twolink-journal").write_text(f"command run\ntmp file {noted} {made.name}\n")
+    assert check_ownership(out, "run") == [made]  # the very file: the next command removes it
+    made.unlink()
+    other = tmp_path / "keep"
+    other.write_text("")  # holds the inode number a moment, so the user's file gets another
+    made.write_text("the user's notes")
+    assert made.stat().st_ino != noted
+    with pytest.raises(ForeignOutput, match=r"\.table\.csv\.abcd1234\.tmp"):
+        check_ownership(out, "run")
+    assert made.read_text() == "the user's notes"
+
+
+def test_an_owner_records_temporary_with_a_second_name_is_not_twolinks(tmp_path):
+    # A killed command's record temporary ("..twolink-owner.json.PID.tmp", empty or a
+    # record's beginning) is removed by the next command; one with a second name (a hard
+    # link: a user's file, or a snapshot) is not the file twolink made
+    from twolink.foundation.io import ForeignOutput, check_ownership
+
+    out = tmp_path / "out"
+    out.mkdir()
+    tmp = out / "..twolink-owner.json.4242.tmp"  # "." + the record's name + ".PID.tmp"
+    tmp.write_bytes(b'{\n "kind": "twolink owner')
+    assert check_ownership(out, "run") == [tmp]
+    os.link(tmp, tmp_path / "users_copy")
+    with pytest.raises(ForeignOutput, match=r"\.\.twolink-owner\.json\.4242\.tmp"):
+        check_ownership(out, "run")
+
+
+def test_a_slower_swing_under_twice_the_faster_one_is_not_the_reading():
+    # 1 mrad at 10 Hz riding 0.7 mrad at 4 Hz: the slow swing read between its extremes
+    # (1.55 mrad, the fast one's ride in it) is under twice the fast one's reading (0.81
+    # mrad), so the reading is the fast swing's (SLOWER_SHARE, docs/metrics.md)
+    import math
+
+    import numpy as np
+
+    from twolink.simulation import swings
+
+    t = np.arange(0.0, 10.0 + 5e-4, 1e-3)
+    x = 1e-3 * np.sin(2 * np.pi * 10 * t) + 0.7e-3 * np.sin(2 * np.pi * 4 * t)
+    idx = swings._turns(t, x, swings.SWING_FLOOR, -math.inf)
+    fast = swings._end_reading(t, x, 1.0, -math.inf, swings._swings(t, x, idx))[0]
+    (slow,) = swings._slower_swings(x[idx], float(x[-1]))
+    carried = swings._end_reading(t, x, 1.0, -math.inf, swings._swings(t, x, idx[slow]))[0]
+    assert fast < carried < 2.0 * fast  # the case the share decides
+    assert swings.SLOWER_SHARE == 2.0
+    assert swings.persisting_swing(t, x, 1.0) == fast == pytest.approx(0.813e-3, abs=0.01e-3)
+    x = 1e-3 * np.sin(2 * np.pi * 10 * t) + 1.2e-3 * np.sin(2 * np.pi * 4 * t)
+    assert swings.persisting_swing(t, x, 1.0) > 1.9e-3  # beyond twice: the slow swing is it
+
+
+def test_several_dropped_ctrl_cs_in_a_row_are_resent_once(monkeypatch):
+    # A KeyboardInterrupt dropped in a weakref callback is sent again, once for a row of
+    # drops: a resend each (4 of 15 trials) landed one in the handling of the first
+    from types import SimpleNamespace
+
+    from twolink.foundation import interrupts
+
+    started = []
+
+    class Timer:
+        def __init__(self, delay, fn):
+            self.fn, self.daemon = fn, False
+
+        def start(self):
+            started.append(self.fn)
+
+    monkeypatch.setattr(interrupts.threading, "Timer", Timer)
+    sent = []
+    monkeypatch.setattr(interrupts._thread, "interrupt_main", lambda signum: sent.append(signum))
+    interrupts.command_starting()
+    dropped = SimpleNamespace(exc_value=KeyboardInterrupt())
+    try:
+        for _ in range(3):
+            interrupts.resend_dropped_ctrl_c(dropped)
+        assert len(started) == 1
+        started[0]()  # the timer fires: one Ctrl-C sent again
+        assert sent == [signal.SIGINT]
+        interrupts.resend_dropped_ctrl_c(dropped)  # a later drop: sent again, once
+        assert len(started) == 2
+    finally:
+        interrupts._RESEND_PENDING.clear()
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["INT", "TERM"])
+def test_ctrl_c_and_sigterm_wait_while_mujoco_imports(monkeypatch, signum):
+    # MuJoCo's extension runs Python from C as it initialises: a signal handled there
+    # breaks the import; both stops are held to its end, then handled
+    import builtins
+    import sys
+
+    from twolink.foundation import interrupts
+
+    got = []
+    previous = signal.signal(signum, lambda s, frame: got.append(s))
+    real_import = builtins.__import__
+
+    def importing(name, *args, **kwargs):
+        if name == "mujoco":
+            signal.raise_signal(signum)  # lands in the import
+            got.append("imported")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", importing)
+    try:
+        module = interrupts.import_mujoco()
+    finally:
+        signal.signal(signum, previous)
+    assert module is sys.modules["mujoco"]
+    assert got == ["imported", signum]  # handled after the import, not inside it
