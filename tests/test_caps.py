@@ -15,7 +15,7 @@ from cli_inputs import invoke
 
 from twolink.controllers.fuzzy.fis.engine_files import MAX_FIS_BYTES, read_engine
 from twolink.foundation.io import MARK_LINE, RULE_BASE_TITLE, carries_mark
-from twolink.foundation.journal import MAX_JOURNAL_BYTES
+from twolink.foundation.journal import MAX_JOURNAL_BYTES, read_journal
 from twolink.foundation.ownership import (
     JOURNAL_NAME,
     OWNER_NAME,
@@ -32,7 +32,7 @@ from twolink.sweep.plan import load_sweep
 REPO = Path(__file__).resolve().parents[1]
 # The documented caps, written out: the files below are sized by these, never by the
 # constants under test (a cap mistyped as 16 GiB must fail here, not fill the disk).
-RECORD, JOURNAL, TOML, CHUNK, SEAL, MARK = 16 << 20, 64 << 20, 1 << 20, 1 << 30, 1 << 16, 64 << 20
+RECORD, JOURNAL, TOML, CHUNK, SEAL, MARK = 16 << 20, 16 << 20, 1 << 20, 1 << 30, 1 << 16, 64 << 20
 
 
 def padded(path: Path, head: bytes, size: int, pad: bytes = b" ") -> Path:
@@ -67,10 +67,11 @@ def test_an_owner_record_at_the_cap_is_read_and_one_byte_over_refused(tmp_path):
 
 def test_a_journal_at_the_cap_is_read_and_one_byte_over_refused(tmp_path):
     padded(tmp_path / JOURNAL_NAME, b"command demo\n", JOURNAL)
-    assert journal_command(tmp_path) == "demo"
-    sparse(tmp_path / JOURNAL_NAME, JOURNAL + 1)
+    assert journal_command(tmp_path) == "demo" and read_journal(tmp_path) == ({}, {})
+    padded(tmp_path / JOURNAL_NAME, b"command demo\n", JOURNAL + 1)
     with pytest.raises(PlantedFile, match=f"{tmp_path / JOURNAL_NAME}: larger than"):
-        journal_command(tmp_path)
+        read_journal(tmp_path)
+    assert journal_command(tmp_path) == "demo"  # its first line alone is read for that
 
 
 def test_a_chunk_seal_at_its_cap_is_read_and_a_chunk_over_its_cap_never(tmp_path):
