@@ -241,26 +241,30 @@ def _compiled() -> dict[str, Any]:
         _note_uncached(why)
         return _uncached()
     jit = _numba().njit(cache=True, nogil=True)
-    return {name: _guarded(name, jit(kernel)) for name, kernel in _KERNELS.items()}
+    return {name: _Guarded(name, jit(kernel)) for name, kernel in _KERNELS.items()}
 
 
-def _guarded(name: str, kernel: Any) -> Any:
-    """``kernel``, or where numba cannot write its cache (OSError: a full disk) its
-    uncached twin, from then on."""
-    state = {"kernel": kernel}
+class _Guarded:
+    """A cached kernel, or where numba cannot write its cache (OSError: a full disk) its
+    uncached twin, from then on; ``signatures`` are those of the one it calls."""
 
-    def call(*args: Any) -> Any:
+    def __init__(self, name: str, kernel: Any) -> None:
+        self.name, self.cached, self.kernel = name, kernel, kernel
+
+    def __call__(self, *args: Any) -> Any:
         try:
-            return state["kernel"](*args)
+            return self.kernel(*args)
         except OSError as exc:
-            if state["kernel"] is not kernel:
+            if self.kernel is not self.cached:
                 raise
-            _note_uncached(f"{exc.filename or os.environ.get('NUMBA_CACHE_DIR')}: "
-                           f"{exc.strerror or exc}")  # fmt: skip
-            state["kernel"] = _uncached()[name]
-            return state["kernel"](*args)
+            where = exc.filename or os.environ.get("NUMBA_CACHE_DIR")
+            _note_uncached(f"{where}: {exc.strerror or exc}")
+            self.kernel = _uncached()[self.name]
+            return self.kernel(*args)
 
-    return call
+    @property
+    def signatures(self) -> list:
+        return self.kernel.signatures
 
 
 def warm() -> None:
