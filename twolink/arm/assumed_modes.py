@@ -7,7 +7,8 @@ link 2's base turns with link 1's tip slope w_1'(L_1). The equations come from t
 virtual power of every mass point: M(q) q̈ + Σ m Jᵀ (J̇ q̇) + D q̇ + K δ = G + B τ,
 with q = (θ1, θ2, δ_1..., δ_2...). The mass integrals are Gauss-Legendre sums over
 each link; K_kk = E I ∫ φ_k''² dx; D = η K (Kelvin-Voigt, η = 2 ζ / ω_1, as
-:mod:`twolink.arm.links`). Hubs turn with their link's base; tip masses are points.
+:mod:`twolink.arm.links`). A hub's inertia spins with its joint's own rate (the motor's
+rotor through its gear); tip masses are points.
 """
 
 from __future__ import annotations
@@ -142,9 +143,8 @@ class AssumedModesArm:
         masses = np.concatenate([l1.w, l2.w, [l1.beam.tip_mass, l2.beam.tip_mass]])
         jac = np.concatenate([jac1, jac2, jt[None], jt2[None]])
         acc = np.concatenate([acc1, acc2, acct[None], acct2[None]])
-        g1 = np.zeros(self.size)
-        g1[0] = 1.0
-        hubs = ((l1.beam.hub_inertia, g1), (l2.beam.hub_inertia, ga))
+        e1, e2 = np.eye(self.size)[:2]  # the rotors spin with the hub joints' own rates
+        hubs = ((l1.beam.hub_inertia, e1), (l2.beam.hub_inertia, e2))
         return masses, jac, acc, hubs, jt2, r2 @ ut2 + r1 @ ut
 
     def mass_matrix(self, q) -> np.ndarray:

@@ -7,8 +7,10 @@ element, at x_j = (j - 1/2) ℓ, with stiffness k = E I / ℓ: the element's ben
 compliance ℓ / (E I), lumped at its centre. The rigid pieces run from one hinge to the
 next (length ℓ); the first and the last are half pieces (ℓ / 2). Each piece carries its
 own mass ρ A times its length, at its centre, with a slender rod's inertia m ℓ² / 12
-about that centre. The hub's inertia sits on the first half piece, which turns with the
-hub angle; the tip mass is a point mass at the end of the last half piece.
+about that centre. The hub's inertia is the motor's rotor reflected through its gear
+(n² J_r): MuJoCo's armature on the hub joint, kinetic energy ½ J θ̇_i² in the joint's
+own rate (for θ2, relative to link 1), as Spong's rotors. The tip mass is a point mass
+at the end of the last half piece.
 
 Damping is Kelvin-Voigt (a bending moment E I (κ + η κ̇)): each hinge gets the damping
 c = η k. The material's ratio ζ sets η = 2 ζ / ω₁, with ω₁ the link's first clamped-free
@@ -47,7 +49,8 @@ class LinkBeam:
     length : float
         Length L [m], > 0.
     hub_inertia : float
-        The hub's inertia about its axis [kg m²], >= 0: a motor's rotor and clamp.
+        The hub motor's rotor inertia reflected through its gear, n² J_r [kg m²], >= 0:
+        the hub joint's armature (it spins with the joint's own rate).
     tip_mass : float
         Point mass at the link's end [kg], >= 0: the next motor, or a payload.
     damping_ratio : float
@@ -113,6 +116,35 @@ class FlexibleLinks:
     @property
     def links(self) -> tuple[LinkBeam, LinkBeam]:
         return self.link1, self.link2
+
+    @classmethod
+    def from_arm(
+        cls,
+        p: ArmParams,
+        ei: tuple[float, float],
+        hub_inertia: tuple[float, float] = (0.0, 0.0),
+        tip_mass: tuple[float, float] = (0.0, 0.0),
+        damping_ratio: tuple[float, float] = (0.01, 0.01),
+        segments: int = 8,
+    ) -> FlexibleLinks:
+        """The links of the rigid arm ``p`` made to bend: ρ A = m / l and L = l per link,
+        with the given E I, hubs, tip masses and damping ratios (pairs, link 1 first)."""
+        beams = [
+            LinkBeam(ei[i], m / length, length, hub_inertia[i], tip_mass[i], damping_ratio[i])
+            for i, (m, length) in enumerate(((p.m1, p.l1), (p.m2, p.l2)))
+        ]
+        return cls(beams[0], beams[1], segments)
+
+    def with_arm(self, p: ArmParams) -> FlexibleLinks:
+        """These links on the rods of ``p`` (ρ A = m / l, L = l), the rest kept."""
+        return FlexibleLinks.from_arm(
+            p,
+            tuple(b.ei for b in self.links),
+            tuple(b.hub_inertia for b in self.links),
+            tuple(b.tip_mass for b in self.links),
+            tuple(b.damping_ratio for b in self.links),
+            self.segments,
+        )
 
     def rigid_params(self, g: float = 9.81) -> ArmParams:
         """The rigid arm of the same rods (m_i = ρ A L, l_i = L): what the paper's laws
@@ -186,16 +218,13 @@ def add_link(
         at = list(pos) if j == 0 else [start - x0, 0.0, 0.0]
         body = body.add_body(name=f"{prefix}link{index}_{j}", pos=at)
         last = j == segments
-        _piece_inertial(
-            body,
-            beam,
-            length,
-            beam.hub_inertia if j == 0 else 0.0,
-            beam.tip_mass if last else 0.0,
-        )
+        _piece_inertial(body, beam, length, 0.0, beam.tip_mass if last else 0.0)
         if j == 0 and hub_joint:
             body.add_joint(
-                name=f"{prefix}theta{index}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=HINGE_AXIS
+                name=f"{prefix}theta{index}",
+                type=mujoco.mjtJoint.mjJNT_HINGE,
+                axis=HINGE_AXIS,
+                armature=beam.hub_inertia,
             )
         elif j > 0:
             body.add_joint(
@@ -370,3 +399,70 @@ def static_tip_deflection(beam: LinkBeam, segments: int, force: float) -> float:
         q = q_new
     residual(q)
     return float(data.site_xpos[tip][2])
+
+
+@dataclass
+class LinkPlant:
+    """A flexible-link arm in MuJoCo and its state: hub angles ``q``, ``qd`` (the arm's
+    θ1, θ2), hinge angles ``bends`` (2, N), the tip. Torques drive the hubs."""
+
+    model: mujoco.MjModel
+    segments: int
+    data: mujoco.MjData = None  # type: ignore[assignment]
+
+    def __post_init__(self) -> None:
+        if self.data is None:
+            self.data = mujoco.MjData(self.model)
+        self.layout = LinkLayout(self.segments)
+        self.hubs = list(self.layout.hubs)
+        self.dt = float(self.model.opt.timestep)
+        self._tip = self.model.site("tip").id
+
+    @classmethod
+    def build(
+        cls,
+        links: FlexibleLinks,
+        g: float = 9.81,
+        payload: float = 0.0,
+        timestep: float | None = None,
+        visual: bool = False,
+    ) -> LinkPlant:
+        """The arm at ``timestep`` (default :func:`stable_timestep` at margin 0.5)."""
+        dt = stable_timestep(links) if timestep is None else timestep
+        model = build_links_model(links, g, payload, timestep=dt, visual=visual)
+        return cls(model, links.segments)
+
+    def reset(self, q=(0.0, 0.0), qd=(0.0, 0.0)) -> None:
+        """Time 0, the hubs at ``q``, ``qd``, the links straight and at rest."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[self.hubs] = q
+        self.data.qvel[self.hubs] = qd
+        mujoco.mj_forward(self.model, self.data)
+
+    def step(self, tau1: float, tau2: float) -> None:
+        self.data.ctrl[0] = tau1
+        self.data.ctrl[1] = tau2
+        mujoco.mj_step(self.model, self.data)
+
+    @property
+    def q(self) -> np.ndarray:
+        return self.data.qpos[self.hubs].copy()
+
+    @property
+    def qd(self) -> np.ndarray:
+        return self.data.qvel[self.hubs].copy()
+
+    @property
+    def bends(self) -> np.ndarray:
+        return np.stack([self.data.qpos[b] for b in self.layout.bends])
+
+    @property
+    def bend_rates(self) -> np.ndarray:
+        return np.stack([self.data.qvel[b] for b in self.layout.bends])
+
+    @property
+    def tip(self) -> np.ndarray:
+        """The tip in the paper's plane (x, y) [m] at the current state."""
+        mujoco.mj_kinematics(self.model, self.data)
+        p = self.data.site_xpos[self._tip]
+        return np.array([p[0], p[2]])

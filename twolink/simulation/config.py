@@ -22,6 +22,9 @@ Schema (all keys optional except the reference)::
     cutoff_hz = 50.0         # velocity = "filtered": the low-pass's cut-off
     [arm]                    # the nominal arm = the controller's model
     m1 = 1.0  m2 = 1.0  l1 = 1.0  l2 = 1.0  g = 9.81
+    [arm.links]              # present = links that bend (docs/flexible_links.md); the
+    ei = [100, 100]          # laws still model [arm]'s rigid rods. E I in N m^2
+    hub_inertia = [0, 0]  tip_mass = [0, 0]  damping_ratio = 0.01  segments = 8
     [plant]                  # the simulated arm: the nominal one, maybe perturbed
     scale = { m1 = 1.2, g = 1.1 }   # uncertainty as factors on [arm]; k, j: on the
                              # joints' stiffness and rotor inertia (flexible plants)
@@ -64,6 +67,7 @@ from pathlib import Path
 from typing import Any
 
 from twolink.arm.disturbance import Disturbance
+from twolink.arm.links import FlexibleLinks
 from twolink.arm.params import ArmParams, Flexibility
 
 # The rule bases by name and the fuzzy scaling rule live with the controllers that use them.
@@ -81,6 +85,7 @@ from twolink.foundation.overrides import set_nested
 from twolink.foundation.overrides import strip_replace as strip_replace
 from twolink.foundation.references import ArmReference, make_reference, reference_params
 from twolink.foundation.shipped import locate, locate_beside, shipped_hint
+from twolink.simulation.links_config import check_links, links_dict, read_links
 from twolink.simulation.plant_table import ARM_SCALE_KEYS as ARM_SCALE_KEYS
 from twolink.simulation.plant_table import JOINT_SCALE_KEYS as JOINT_SCALE_KEYS
 from twolink.simulation.plant_table import SPRING_STARTS as SPRING_STARTS
@@ -173,6 +178,13 @@ class Scenario:
     source: str = ""
     sensor: Sensor = Sensor()
     disturbance: Disturbance | None = None  # torques on the links the controllers don't know
+    links: FlexibleLinks | None = None  # [arm.links]: the nominal arm's links bend
+
+    @property
+    def plant_links(self) -> FlexibleLinks | None:
+        """The simulated arm's bending links: ``[arm.links]`` on the rods of
+        :attr:`plant_params` (ρ A = m / l, L = l); None where the links are rigid."""
+        return None if self.links is None else self.links.with_arm(self.plant_params)
 
     @property
     def plant_params(self) -> ArmParams:
@@ -217,7 +229,7 @@ class Scenario:
             "control_dt": self.control_dt,
             "timestep": self.timestep,
             "seed": self.seed,
-            "arm": asdict(self.arm),
+            "arm": asdict(self.arm) | ({"links": links_dict(self.links)} if self.links else {}),
             "plant": plant,
             "controller": ctrl,
             "reference": {
@@ -459,7 +471,7 @@ class TomlTable:
             self.fail(unknown[0], f"unknown key (known here: {sorted(self.read)})")
 
 
-def _arm(t: TomlTable) -> ArmParams:
+def _arm(t: TomlTable) -> tuple[ArmParams, FlexibleLinks | None]:
     d = ArmParams()
     arm = ArmParams(
         m1=t.number("m1", d.m1, positive=True),
@@ -468,8 +480,9 @@ def _arm(t: TomlTable) -> ArmParams:
         l2=t.number("l2", d.l2, positive=True),
         g=t.number("g", d.g),
     )
+    links = read_links(t.table("links"), arm) if "links" in t.data else None
     t.done()
-    return arm
+    return arm, links
 
 
 def _sensor(t: TomlTable) -> Sensor:
@@ -590,7 +603,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     if "reference" not in data:
         top.fail("reference", "missing: a scenario needs [reference.joint1] and .joint2")
     initial = top.table("initial")
-    arm = _arm(top.table("arm"))
+    arm, links = _arm(top.table("arm"))
     scenario = Scenario(
         name=top.string("name", Path(source).stem),
         arm=arm,
@@ -606,6 +619,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         source=source,
         sensor=_sensor(top.table("sensor")),
         disturbance=read_disturbance(top.table("disturbance")) if "disturbance" in data else None,
+        links=links,
     )
     initial.done()
     top.done()
@@ -631,12 +645,8 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     except ValueError as exc:
         top.fail("plant.scale", str(exc))
     _check_rule_base(top, scenario)
-    if scenario.controller.kind in FLEXIBLE_KINDS and scenario.plant.flexibility is None:
-        top.fail(
-            "controller.kind",
-            f"{scenario.controller.kind!r} reads the motors of flexible joints and models them "
-            "with [plant.flexibility], which this scenario lacks (a rigid arm)",
-        )
+    if links is not None:
+        check_links(top, scenario, FLEXIBLE_KINDS)
     return scenario
 
 
