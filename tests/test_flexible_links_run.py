@@ -101,3 +101,46 @@ def test_tip_metrics_on_a_known_decaying_vibration():
     # Still swinging past the band at the end: not settled.
     still = tip_metrics(_synthetic(0.01 * np.cos(2 * np.pi * 5 * t), t), ArmParams(), 1.0)
     assert math.isnan(still.vibration_settling_time)
+
+
+def test_recording_draws_the_bent_links(tmp_path):
+    """The 3D view's strip ``arm/bent`` holds, per kept sample, the hubs, hinges and tip
+    as MuJoCo placed them, in the paper's plane (x, y) drawn as (x, z)."""
+    from rerun.chunk import RrdReader
+
+    from twolink.tracing import write_recording
+
+    s = scenario_from_dict(_data() | {"duration": 0.3})
+    run = run_links(s, build_controller(s))
+    assert run.points.shape == (len(run.trajectory.t), 2 * 4 + 3, 2)
+    assert np.allclose(run.points[:, -1], run.tip)  # its last point is the tip
+    assert np.allclose(run.points[:, 0], 0.0)  # its first the base
+    path = write_recording(
+        tmp_path / "r.rrd", [("", run.trajectory, s.arm, {"bent": run.points})], every=50
+    )
+    strips = []
+    for chunk in RrdReader(path).store().stream():
+        if chunk.entity_path.strip("/") == "arm/bent" and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            name = next(n for n in batch.schema.names if n.endswith(":strips"))
+            strips += batch.column(name).to_pylist()
+    kept = np.arange(0, len(run.trajectory.t), 50)
+    assert len(strips) == len(kept)
+    first = np.array(strips[-1][0])
+    expected = run.points[kept[-1]]
+    assert np.allclose(first[:, [0, 2]], expected, atol=1e-6) and np.allclose(first[:, 1], 0)
+    with pytest.raises(ValueError, match="bent"):
+        write_recording(tmp_path / "x.rrd", [("", run.trajectory, s.arm, {"bent": run.points[1:]})])
+
+
+@pytest.mark.slow
+def test_shipped_soft_links_bend_as_the_docs_say():
+    """docs/flexible_links.md: the screenshot's moment, 0.34 m of bending at 0.198 s."""
+    from twolink.simulation.config import load_scenario
+
+    s = load_scenario("flexible_links/ctc_soft")
+    assert s.links.link1.ei == 100.0 and s.links.segments == 8
+    run = run_links(s, build_controller(s))
+    bend = np.linalg.norm(run.tip - run.rigid_tip(s.arm), axis=1)
+    assert run.trajectory.t[bend.argmax()] == pytest.approx(0.198)
+    assert bend.max() == pytest.approx(0.344, abs=5e-4)

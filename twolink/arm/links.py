@@ -461,6 +461,13 @@ class LinkPlant:
         return np.stack([self.data.qvel[b] for b in self.layout.bends])
 
     @property
+    def points(self) -> np.ndarray:
+        """The hubs, every hinge and the tip in the paper's plane (x, y) [m]: (2 N + 3, 2),
+        link 1's hub first, after :attr:`tip` (which runs the kinematics)."""
+        p = np.concatenate([self.data.xpos[1:], self.data.site_xpos[self._tip][None]])
+        return p[:, [0, 2]]
+
+    @property
     def tip(self) -> np.ndarray:
         """The tip in the paper's plane (x, y) [m] at the current state."""
         mujoco.mj_kinematics(self.model, self.data)

@@ -34,11 +34,13 @@ from twolink.simulation.sim import (
 @dataclass(frozen=True, eq=False)
 class LinkRun:
     """A run of the flexible-link arm: the hub trajectory and, at the same instants, the
-    tip (N, 2) [m] and each link's hinge angles (N, 2, segments) [rad]."""
+    tip (N, 2) [m], each link's hinge angles (N, 2, segments) [rad] and the points of the
+    bent arm (N, 2 segments + 3, 2) [m]: hubs, hinges and tip (:attr:`LinkPlant.points`)."""
 
     trajectory: Trajectory
     tip: np.ndarray
     bends: np.ndarray
+    points: np.ndarray | None = None
 
     def rigid_tip(self, p: ArmParams) -> np.ndarray:
         """Where the rigid arm ``p``'s tip would be at the recorded hub angles."""
@@ -65,7 +67,13 @@ def simulate_links(
     plant.reset(q0, qd0)
     controller.reset()
     links_aware = bool(getattr(controller, "needs_links", False))
-    rows, tips, bends = [], [], []
+    rows, tips, bends, points = [], [], [], []
+
+    def keep() -> None:
+        tips.append(plant.tip)
+        bends.append(plant.bends)
+        points.append(plant.points)
+
     status, message = STATUS_OK, ""
     for k in range(n + 1):
         t = k * control_dt
@@ -74,8 +82,7 @@ def simulate_links(
             status, message = STATUS_DIVERGED, state_message(t, q1, q2, w1, w2)
             if not rows:
                 rows.append((t, q1, q2, w1, w2, math.nan, math.nan))
-                tips.append(plant.tip)
-                bends.append(plant.bends)
+                keep()
             break
         if links_aware:
             tau = controller(t, (q1, q2), (w1, w2), plant.bends, plant.bend_rates)
@@ -83,8 +90,7 @@ def simulate_links(
             tau = controller(t, (q1, q2), (w1, w2))
         tau1, tau2 = float(tau[0]), float(tau[1])
         rows.append((t, q1, q2, w1, w2, tau1, tau2))
-        tips.append(plant.tip)
-        bends.append(plant.bends)
+        keep()
         if not (abs(tau1) < bounds.torque and abs(tau2) < bounds.torque):
             status, message = STATUS_DIVERGED, torque_message(t, tau1, tau2)
             break
@@ -93,7 +99,7 @@ def simulate_links(
         for _ in range(substeps):
             plant.step(tau1, tau2)
     traj = _trajectory(rows, [], status, message, controller)
-    return LinkRun(traj, np.array(tips).reshape(-1, 2), np.array(bends))
+    return LinkRun(traj, np.array(tips).reshape(-1, 2), np.array(bends), np.array(points))
 
 
 def control_timestep(links: FlexibleLinks, control_dt: float, margin: float = 0.5) -> float:
