@@ -97,6 +97,11 @@ def test_tip_metrics_on_a_known_decaying_vibration():
     assert m.tip_error == pytest.approx(0.01)
     assert m.residual_vibration == pytest.approx(0.01 * math.exp(-1.0), rel=1e-3)
     assert math.log(10) - 0.1 < m.vibration_settling_time <= math.log(10)
+    # The first sample from which every swing stays in the band, and none before it.
+    tail = t >= t[-1] - 0.5
+    swing = np.abs(run.tip[:, 1] - run.tip[tail, 1].mean())
+    i = int(np.searchsorted(t, m.vibration_settling_time))
+    assert np.all(swing[i:] <= 1e-3) and swing[i - 1] > 1e-3
     assert m.final_tip_error == pytest.approx(abs(run.tip[-1, 1]))
     # Still swinging past the band at the end: not settled.
     still = tip_metrics(_synthetic(0.01 * np.cos(2 * np.pi * 5 * t), t), ArmParams(), 1.0)
