@@ -337,24 +337,26 @@ def rigid_tip(p: ArmParams, q) -> np.ndarray:
     return np.stack([p.l1 * np.cos(a) + p.l2 * np.cos(b), p.l1 * np.sin(a) + p.l2 * np.sin(b)], -1)
 
 
-def linear_modes(model: mujoco.MjModel, data: mujoco.MjData | None = None):
+def linear_modes(model: mujoco.MjModel, data: mujoco.MjData | None = None, feedback=None):
     """The model's oscillating modes at its state in ``data`` (default: at rest at
     ``qpos0``), from MuJoCo's own linearisation (``mjd_transitionFD``, centred
     differences) of one semi-implicit Euler step with explicit damping: its velocity rows
-    are [dt ∂a/∂q, I + dt ∂a/∂v], which give the continuous system's matrix
-    [[0, I], [∂a/∂q, ∂a/∂v]] exactly. (MuJoCo does not differentiate RK4 steps; the
-    integrator is switched for the call and restored.) Returns (ω_n [rad/s], ζ) of its
-    eigenvalues s with Im s > 0, sorted by ω_n = |s|, ζ = -Re s / |s|."""
+    are [dt ∂a/∂q, I + dt ∂a/∂v] and [dt ∂a/∂u], which give the continuous system's
+    matrices exactly. (MuJoCo does not differentiate RK4 steps; the integrator is
+    switched for the call and restored.) ``feedback`` (nu, 2 nv) closes the loop
+    ``ctrl = feedback @ (δqpos, qvel)``. Returns (ω_n [rad/s], ζ) of the eigenvalues s
+    with Im s > 0, sorted by ω_n = |s|, ζ = -Re s / |s|."""
     if data is None:
         data = mujoco.MjData(model)
         mujoco.mj_forward(model, data)
-    nv = model.nv
+    nv, nu = model.nv, model.nu
     a = np.zeros((2 * nv, 2 * nv))
+    b = np.zeros((2 * nv, nu))
     integrator, flags = model.opt.integrator, model.opt.disableflags
     model.opt.integrator = mujoco.mjtIntegrator.mjINT_EULER
     model.opt.disableflags = flags | mujoco.mjtDisableBit.mjDSBL_EULERDAMP
     try:
-        mujoco.mjd_transitionFD(model, data, 1e-6, 1, a, None, None, None)
+        mujoco.mjd_transitionFD(model, data, 1e-6, 1, a, b if nu else None, None, None)
     finally:
         model.opt.integrator, model.opt.disableflags = integrator, flags
     dt = model.opt.timestep
@@ -362,6 +364,8 @@ def linear_modes(model: mujoco.MjModel, data: mujoco.MjData | None = None):
     system[:nv, nv:] = np.eye(nv)
     system[nv:, :nv] = a[nv:, :nv] / dt
     system[nv:, nv:] = (a[nv:, nv:] - np.eye(nv)) / dt
+    if feedback is not None:
+        system[nv:] += b[nv:] / dt @ np.asarray(feedback, dtype=float)
     s = np.linalg.eigvals(system)
     s = s[s.imag > 1e-9 * np.abs(s).max()]
     order = np.argsort(np.abs(s))
