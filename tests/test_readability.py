@@ -72,19 +72,7 @@ def test_the_median_and_the_90th_percentile(tmp_path):
     assert m.ok is True
 
 
-# Pages not yet rewritten: each fails the limits or holds history. strict: a page that
-# passes while listed fails here, so the list only shrinks.
-PENDING = {"reproduction.md"}
-
-
-def _pending(page: Path):
-    mark = pytest.mark.xfail(strict=True, reason="not yet rewritten")
-    return pytest.param(page, marks=mark) if page.name in PENDING else page
-
-
-@pytest.mark.parametrize(
-    "page", [_pending(p) for p in pages(ROOT)], ids=lambda p: str(p.relative_to(ROOT))
-)
+@pytest.mark.parametrize("page", pages(ROOT), ids=lambda p: str(p.relative_to(ROOT)))
 def test_each_page_is_within_the_limits(page):
     m = measure(page)
     assert m.median <= MEDIAN_LIMIT and m.p90 <= P90_LIMIT, m
@@ -136,8 +124,6 @@ def test_the_history_patterns_catch_history_and_miss_the_manual():
     assert [t for t in missed if history(t)] == []
 
 
-@pytest.mark.parametrize(
-    "page", [_pending(p) for p in sorted((ROOT / "docs").glob("*.md"))], ids=lambda p: p.name
-)
+@pytest.mark.parametrize("page", sorted((ROOT / "docs").glob("*.md")), ids=lambda p: p.name)
 def test_the_manual_has_no_history(page):
     assert history(page.read_text(encoding="utf-8")) == []
