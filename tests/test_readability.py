@@ -83,7 +83,7 @@ def test_each_page_is_within_the_limits(page):
 # a digit (a rule base's 16-digit digest is a content address, not a commit), a date only in
 # full ISO form.
 HISTORY = {
-    "an issue number": r"\bissues? #?\d+|(?<!\]\()(?<![\w&/#])#\d+\b(?!-)",
+    "an issue number": r"\bissues? #?\d+|(?<![\w&/#])#\d+\b(?!-)",
     "a commit": r"\bcommits? [0-9a-f]{7}|\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*\d)[0-9a-f]{7,12}\b",
     "a date": r"\b20\d\d-\d\d-\d\d\b|\bmeasured (on |in )?20\d\d\b",
     "a was/before aside": r"\((was|formerly|previously|before)\b[ ,:]",
