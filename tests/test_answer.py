@@ -2,6 +2,8 @@
 summary's words on cases where each word would be wrong, and the answer figure drawn from
 the tables' own columns and verdict words."""
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -353,3 +355,41 @@ def test_the_scoreboard_ranks_by_median_iae_and_names_a_best_only_where_it_is_cl
     assert best_in(clear) == "fast"
     fig = scoreboard_figure([("quintic moves", board)])
     assert len(fig.axes) == 6 and "best: none clear" in fig.axes[0].get_title()
+
+
+def test_the_first_line_says_what_off_target_counts_and_whether_it_is_expected():
+    """ "is expected here" would be wrong where the proposed controller or its baseline
+    misses its target on the plain rigid arm; "which the laws model as rigid" where a
+    flexible-joint law is among the off-target runs."""
+    from twolink.studies.reproduction.manifest import load_manifest
+    from twolink.studies.reproduction.plain import runs_line
+
+    m = load_manifest()
+    rows = [
+        {"variant": "rigid", "controller": "fuzzy-PD", "outcome": "off target", "status": "ok"},
+        {"variant": "rigid", "controller": "CTC", "outcome": "met spec", "status": "ok"},
+        {"variant": "raw", "controller": "CTC", "outcome": "off target", "status": "ok"},
+        {"variant": "flexible", "controller": "FCM-CTC", "outcome": "off target", "status": "ok"},
+    ]
+    line = runs_line(rows, m, "out/summary.md")
+    assert line.startswith("4 runs: 1 met the spec, 3 off target, 0 diverged. Off target ")
+    assert "(outside 2 % of the target at the end, growing, or overshooting 20 %)" in line
+    assert " is expected here: 1 of weak baselines on the rigid arm (fuzzy-PD 1); " in line
+    assert "1 on the rigid arm, the paper's raw steps" in line
+    assert (
+        "1 on the flexible joints (Spong, k = 500 N·m/rad), which the laws model as rigid" in line
+    )
+    assert line.endswith("The answer: out/summary.md")
+    bad = [*rows, {"variant": "rigid", "controller": "FCM-CTC", "outcome": "off target",
+                   "status": "ok"}]  # fmt: skip
+    line = runs_line(bad, m, "out/summary.md")
+    assert "expected here" not in line and "unexpected: FCM-CTC 1 on the rigid arm" in line
+    flexible = dataclasses.replace(
+        m, controllers={**m.controllers, "FCM-CTC": {"kind": "flexible_fl"}}
+    )
+    assert "model as rigid" not in runs_line(rows, flexible, "s.md")
+    clean = [r for r in rows if r["outcome"] == "met spec"]
+    assert (
+        runs_line(clean, m, "s.md")
+        == "1 run: 1 met the spec, 0 off target, 0 diverged. The answer: s.md"
+    )

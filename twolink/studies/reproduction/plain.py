@@ -283,3 +283,67 @@ def claim_line(regimes: Sequence[Regime]) -> str:
         answers.setdefault(said, []).append(o)
     parts = [f"Against {_names(os)} it holds {said}." for said, os in answers.items()]
     return f"**The paper's claim** ({proposed} lowers the step metrics). " + " ".join(parts)
+
+
+def _flexible(variant) -> bool:
+    return "flexibility" in variant.overrides.get("plant", {})
+
+
+def runs_line(rows: Sequence[Mapping], manifest, summary_path: str) -> str:
+    """The main job's first line: the runs by outcome, what "off target" counts, where the
+    off-target runs are and whether each group is expected, and where the answer is.
+
+    Expected: on a variant with flexible joints (the paper's laws model a rigid arm),
+    with the paper's raw steps (a slow loop on raw steps), and, on the other variants, of
+    controllers that are neither the proposed one nor its baseline (the weak baselines
+    kept to show where they fail). Off target runs of the proposed controller or its
+    baseline there are said as "unexpected"."""
+    from twolink.simulation.config import FLEXIBLE_KINDS
+    from twolink.simulation.outcome import SuccessSpec
+
+    rigid_laws = {n for n, c in manifest.controllers.items() if c.get("kind") not in FLEXIBLE_KINDS}
+
+    count = {o: sum(r["outcome"] == o for r in rows) for o in ("met spec", "off target")}
+    diverged = sum(r["status"] != "ok" for r in rows)
+    off = [r for r in rows if r["outcome"] == "off target"]
+    groups, weak, claim = [], {}, {}
+    for v in manifest.variants:
+        mine = [r for r in off if r["variant"] == v.name]
+        if not mine:
+            continue
+        if _flexible(v):
+            laws = {r["controller"] for r in mine}
+            said = ", which the laws model as rigid" if laws <= rigid_laws else ""
+            groups.append(f"{len(mine)} on the {v.title}{said}")
+            continue
+        if v.raw_steps:
+            groups.append(f"{len(mine)} on the {v.title} (a slow loop on raw steps)")
+            continue
+        for r in mine:
+            two = r["controller"] in (manifest.proposed, manifest.baseline)
+            side = claim if two else weak
+            side[r["controller"]] = side.get(r["controller"], 0) + 1
+        where = v.title
+        if weak:
+            names = ", ".join(f"{c} {n}" for c, n in sorted(weak.items(), key=lambda x: -x[1]))
+            groups.append(f"{sum(weak.values())} of weak baselines on the {where} ({names})")
+        if claim:
+            names = ", ".join(f"{c} {n}" for c, n in claim.items())
+            groups.append(f"unexpected: {names} on the {where}")
+        weak, claim = {}, {}
+    spec = SuccessSpec()
+    band = f"{100 * spec.final_error:g} %"
+    head = (
+        f"{len(rows)} run{'s' * (len(rows) != 1)}: {count['met spec']} met the spec, {count['off target']} off "
+        f"target, {diverged} diverged."
+    )
+    why = ""
+    if off:
+        unexpected = any(g.startswith("unexpected") for g in groups)
+        why = (
+            f" Off target (outside {band} of the target at the end, growing, or overshooting "
+            f"{spec.max_overshoot_pct:g} %){'' if unexpected else ' is expected here'}: "
+            + "; ".join(groups)
+            + "."
+        )
+    return f"{head}{why} The answer: {summary_path}"
