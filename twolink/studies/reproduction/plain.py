@@ -333,9 +333,10 @@ def runs_line(rows: Sequence[Mapping], manifest, summary_path: str) -> str:
         weak, claim = {}, {}
     spec = SuccessSpec()
     band = f"{100 * spec.final_error:g} %"
+    runs = f"{len(rows)} run{'s' * (len(rows) != 1)}"
     head = (
-        f"{len(rows)} run{'s' * (len(rows) != 1)}: {count['met spec']} met the spec, {count['off target']} off "
-        f"target, {diverged} diverged."
+        f"{runs}: {count['met spec']} met the spec, {count['off target']} off target, "
+        f"{diverged} diverged."
     )
     why = ""
     if off:
