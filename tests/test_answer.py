@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from twolink.studies.reproduction.plain import (
+from twolink.studies.judgments.plain import (
     Regime,
     claim_line,
     effort_words,
@@ -361,8 +361,8 @@ def test_the_first_line_says_what_off_target_counts_and_whether_it_is_expected()
     """ "is expected here" would be wrong where the proposed controller or its baseline
     misses its target on the plain rigid arm; "which the laws model as rigid" where a
     flexible-joint law is among the off-target runs."""
+    from twolink.studies.judgments.plain import runs_line
     from twolink.studies.reproduction.manifest import load_manifest
-    from twolink.studies.reproduction.plain import runs_line
 
     m = load_manifest()
     rows = [

@@ -484,8 +484,8 @@ def reproduce(
         _fail_input(str(exc))
     except KeyboardInterrupt:
         interrupted_exit()
+    from twolink.studies.judgments.plain import runs_line
     from twolink.studies.reproduction.manifest import load_manifest
-    from twolink.studies.reproduction.plain import runs_line
 
     failed = [r for r in result.rows if r["status"] != "ok"]
     plan = load_manifest(manifest or DEFAULT_MANIFEST)

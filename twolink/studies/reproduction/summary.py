@@ -1,5 +1,5 @@
 """``summary.md``: the question, the answer in plain sentences
-(:mod:`twolink.studies.reproduction.plain`), the scoreboard and answer figures, the terms,
+(:mod:`twolink.studies.judgments.plain`), the scoreboard and answer figures, the terms,
 the verdicts counted, and where each number comes from. Written from the claims tables by
 code (the report's first section and the README's answer block).
 
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from twolink.studies.reproduction.plain import Regime, claim_line, regime_sentences
+from twolink.studies.judgments.plain import Regime, claim_line, regime_sentences
 
 __all__ = [
     "ANSWER_FIGURE",
@@ -109,8 +109,8 @@ def sentence(study: Judged, sized: int = SIZED) -> str:
 
 def answer(studies: Sequence[Judged]) -> list[str]:
     """The answer's paragraphs: one per regime, in the tables' order, who wins and by how
-    much (:func:`~twolink.studies.reproduction.plain.regime_sentences`), then whether the
-    paper's claim holds (:func:`~twolink.studies.reproduction.plain.claim_line`)."""
+    much (:func:`~twolink.studies.judgments.plain.regime_sentences`), then whether the
+    paper's claim holds (:func:`~twolink.studies.judgments.plain.claim_line`)."""
     out = []
     for s in studies:
         name = s.name or s.label

@@ -155,21 +155,23 @@ def effort_words(rows: pd.DataFrame, winner_is_proposed: bool) -> str:
 
 def pair_sentences(
     table: pd.DataFrame, proposed: str, opponent: str, plants: int,
-    effort_rows: pd.DataFrame | None = None, called: str = "",
+    effort_rows: pd.DataFrame | None = None, called: str = "", what: str = "step metrics",
 ) -> list[str]:  # fmt: skip
-    """Who wins between ``proposed`` and ``opponent`` on one claims table, in one or two
-    short sentences (the rules of this module's docstring). ``effort_rows``: the pair's effort
-    rows where the table has none; ``called``: what the opponent is, after its name."""
+    """Who wins between ``proposed`` and ``opponent`` on one claims table, in short
+    sentences (the rules of this module's docstring). ``effort_rows``: the pair's effort
+    rows where the table has none; ``called``: a sentence said first (what the opponent
+    is); ``what``: what the table's rows other than the effort are."""
     p, o = proposed, opponent
     lead = [called] if called else []
     rows = _has(table)
     if same_controller(table):
         reach = rows[["difference_min", "difference_max"]].abs().max(axis=1)
         r = list(rows.itertuples())[int(np.argmax((reach / rows["tolerance"]).to_numpy()))]
+        most = float(reach.loc[r.Index])
+        size = f"at most {_amount(r.metric, most)}, {_name(r)}" if most else "every difference 0"
         return lead + [
             f"{p} and {o} are the same controller: no metric differs by more than its "
-            f"tolerance on any of {plants} plants (at most "
-            f"{_amount(r.metric, float(reach.loc[r.Index]))}, {_name(r)})."
+            f"tolerance on any of {plants} plants ({size})."
         ]
     step = _step(rows)
     judged = step[~step["typical"].isin(NONE)]
@@ -180,25 +182,25 @@ def pair_sentences(
     m = len(judged)
     if len(better) and not len(worse):
         return lead + [
-            f"{p} beats {o} on {len(better)} of {m} step metrics and loses on none"
+            f"{p} beats {o} on {len(better)} of {m} {what} and loses on none"
             f"{effort_words(efforts, True)}.",
             f"{p}'s {how_much(_largest(better), True, plants)}.",
         ]
     if len(worse) and not len(better):
         return lead + [
-            f"{o} beats {p} on {len(worse)} of {m} step metrics and loses on none"
+            f"{o} beats {p} on {len(worse)} of {m} {what} and loses on none"
             f"{effort_words(efforts, False)}.",
             f"{o}'s {how_much(_largest(worse), False, plants)}.",
         ]
     if len(better) and len(worse):
         return lead + [
             f"{p} and {o} trade: {p} is better on {len(better)} and worse on "
-            f"{len(worse)} of {m} step metrics.",
+            f"{len(worse)} of {m} {what}.",
             f"{p}'s {how_much(_largest(better), True, plants)}; {opponent}'s "
             f"{how_much(_largest(worse), False, plants)}.",
         ]
     equal = int(judged["typical"].isin(EQUAL).sum())
-    same = f"{equal} of {m} step metrics within their tolerance"
+    same = f"{equal} of {m} {what} within their tolerance"
     if equal < m:
         same += f", {m - equal} undecided"
     said = [f"{p} and {o} do not differ on the typical plant ({same})."]
