@@ -393,3 +393,26 @@ def test_the_first_line_says_what_off_target_counts_and_whether_it_is_expected()
         runs_line(clean, m, "s.md")
         == "1 run: 1 met the spec, 0 off target, 0 diverged. The answer: s.md"
     )
+
+
+def test_the_readme_is_a_front_door():
+    """At most 120 lines; the two commands as .ci/run runs the test one; one library
+    block; the answer block and its two pictures; links to the docs that exist."""
+    import re
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    readme = (repo / "README.md").read_text()
+    assert len(readme.splitlines()) <= 120
+    venv = "python3 -m venv .venv && .venv/bin/pip install -q -e"
+    tests = f'{venv} ".[test]" && .venv/bin/python -m pytest'
+    assert readme.count("```bash") == 2 and tests in readme
+    assert f"\n{tests}\n" in (repo / ".ci" / "run").read_text()
+    assert (
+        "python3 -m venv .venv && .venv/bin/pip install -q -e . && .venv/bin/twolink reproduce"
+        in readme
+    )
+    assert readme.count("```python") == 1
+    assert readme.index("<!-- answer: start -->") < readme.index("docs/images/scoreboard.png")
+    for link in re.findall(r"\]\((docs/[^)#]+)", readme):
+        assert (repo / link).is_file(), link
