@@ -81,9 +81,14 @@ def question(manifest: Manifest) -> str:
     return f"the paper's step metrics ({symbols}, on each joint)"
 
 
+# the report's first section ends here: the rest of summary.md is a pointer away
+POINTER = "**Terms, the verdicts counted, and where the numbers come from:** `summary.md`."
+
+
 def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> list[str]:
-    """summary.md in ``out``; returns its lines for the report's first section, where the
-    sources paragraph is a pointer to summary.md (the first table then comes early)."""
+    """summary.md in ``out``; returns its lines for the report's first section: the
+    question, the answer and the figures, then :data:`POINTER` (the first table then
+    comes early)."""
     from twolink.foundation.io import atomic_write_text
     from twolink.studies.designs.frontier import OPPONENT
 
@@ -96,12 +101,9 @@ def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> l
     opponents = {n: what.get(n, "an opponent of the manifest") for n in names}
     text = summary(studies, opponents, question(manifest))
     atomic_write_text(out / "summary.md", text)
-    sources = "**Where the numbers come from.**"
-    return [
-        "**Where the numbers come from:** `summary.md`, file and column." if s.startswith(sources)
-        else s
-        for s in text.splitlines()
-    ]  # fmt: skip
+    lines = text.splitlines()
+    terms = next(k for k, s in enumerate(lines) if s.startswith("**Terms.**"))
+    return [*lines[:terms], POINTER]
 
 
 def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:
