@@ -104,14 +104,13 @@ def _count(r: Any, side: str) -> int:
 
 def _shares_said(r: Any) -> list[str]:
     """'θ2 Tr better on 33 of 200' for each share the reading names (shown, or the side
-    that makes a split): plants beyond the row's tolerance that way (its size is the
-    table's; "better" here is a plant's difference, not a verdict)."""
-    from twolink.studies.judgments.claims_words import SPLIT, SPLIT_SHARE
+    that makes a row partly one way or split): plants beyond the row's tolerance that way
+    (its size is the table's; "better" here is a plant's difference, not a verdict)."""
+    from twolink.studies.judgments.claims_words import named_side
 
     said = []
     for side in ("better", "worse"):
-        split = r.verdict == SPLIT and _count(r, side) > SPLIT_SHARE * r.plants
-        if getattr(r, f"share_{side}_shown") or split:
+        if named_side(r, side):
             alone = " or alone in reaching it" if getattr(r, f"unreached_{side}") else ""
             said.append(f"{_name(r)} {side}{alone} on {_count(r, side)} of {r.plants}")
     return said
@@ -125,10 +124,17 @@ def describe(table: pd.DataFrame) -> str:
     """A claims table in one clause, in the verdict words of the table
     (:data:`~twolink.studies.judgments.claims_words.VERDICT_WORDS`): better and worse with
     their estimates (over :data:`LISTED` rows: counted, the largest in tolerances named);
-    split with the plants beyond the tolerance each way; equivalent counted, with the
-    shares shown beside it; inconclusive counted and named (its shares are the table's);
-    the rest counted. Short on purpose: the tables hold the intervals and shares."""
-    from twolink.studies.judgments.claims_words import SPLIT
+    partly better, partly worse and split with the plants beyond the tolerance; equal and
+    equivalent counted (equivalent with the shares shown beside it); undecided counted
+    and named (its shares are the table's); not judged counted. Short on purpose: the
+    tables hold the intervals and shares."""
+    from twolink.studies.judgments.claims_words import (
+        EQUAL,
+        NOT_JUDGED,
+        PARTLY,
+        SPLIT,
+        UNDECIDED,
+    )
 
     parts = []
     for verdict in ("better", "worse"):
@@ -139,23 +145,25 @@ def describe(table: pd.DataFrame) -> str:
             parts.append(f"{verdict} on {len(rows)}, the largest {named}")
         elif rows:
             parts.append(f"{verdict} on {', '.join(_sized(r) for r in rows)}")
-    split = _rows(table, SPLIT)
-    if split:  # equivalent on the typical plant, more than a tenth beyond the tolerance
-        shares = ", ".join(x for r in split for x in _shares_said(r))
-        parts.append(f"{SPLIT} on {len(split)} ({shares} beyond the tolerance)")
+    for verdict in (PARTLY["better"], PARTLY["worse"], SPLIT):
+        rows = _rows(table, verdict)
+        if rows:  # a share of the plants beyond the tolerance, the typical plant not
+            shares = ", ".join(x for r in rows for x in _shares_said(r))
+            parts.append(f"{verdict} on {len(rows)} ({shares} beyond the tolerance)")
+    equal = _rows(table, EQUAL)
+    if equal:
+        parts.append(f"{EQUAL} on {len(equal)}")
     equivalent = _rows(table, "equivalent")
     if equivalent:
         shares = [x for r in equivalent for x in _shares_said(r)]
         more = f", but {', '.join(shares)} beyond the tolerance" if shares else ""
         parts.append(f"equivalent on {len(equivalent)}{more}")
-    inconclusive = _rows(table, "inconclusive")
-    if inconclusive:
-        parts.append(
-            f"inconclusive on {len(inconclusive)} ({', '.join(_name(r) for r in inconclusive)})"
-        )
-    by_reference = len(_rows(table, "set by the reference"))
-    if by_reference:
-        parts.append(f"{by_reference} set by the reference")
+    undecided = _rows(table, UNDECIDED)
+    if undecided:
+        parts.append(f"{UNDECIDED} on {len(undecided)} ({', '.join(_name(r) for r in undecided)})")
+    not_judged = len(_rows(table, NOT_JUDGED))
+    if not_judged:
+        parts.append(f"{not_judged} {NOT_JUDGED}")
     return "; ".join(parts) or "nothing judged"
 
 
