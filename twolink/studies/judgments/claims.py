@@ -4,34 +4,31 @@ rests on the *paired* differences d = metric(A) − metric(B), plant by plant (l
 better for every metric judged here). Per metric (docs/statistics.md has the rule, its
 sources and its choices):
 
-- **better / worse / equal**: plants where A is lower than B by more than the metric's
-  practical tolerance δ (:data:`TOLERANCES`), higher by more, or within ±δ (a difference
-  of exactly δ is equal);
+- **better / worse / equal** (the counts): plants where A is lower than B by more than the
+  metric's practical tolerance δ (:data:`TOLERANCES`), higher by more, or within ±δ (a
+  difference of exactly δ is equal);
 - **the typical plant**: the Hodges-Lehmann estimate of the shift (the median of the
   Walsh averages) with its distribution-free interval (``ci_low``, ``ci_high``) at
-  ``ci_level`` = 1 − 5 %/m (Bonferroni over the family's m judged rows): better, worse or
-  equivalent where that printed interval lies wholly below −δ, above +δ or within ±δ;
-  judged only where both have the metric on at least half the plants both ran (``runs``).
-  The signed-rank tests against the margins (``margin_p``, ``tost_p``, Holm-corrected)
-  stay as evidence;
+  ``ci_level`` = 1 − 5 %/m, m the rows of the family whose typical plant is judged (both
+  have the metric on at least half the plants both ran, ``runs``): better, worse or
+  equivalent where that printed interval lies wholly below −δ, above +δ or within ±δ,
+  else undecided; ``typical`` says it, "not judged" where the quorum fails. The
+  signed-rank tests against the margins (``margin_p``, ``tost_p``, Holm-corrected) stay
+  as evidence;
 - **the shares**: the shares of plants practically better and practically worse (beyond
   ±δ, with the plants that only one controller reaches, below), each with its exact
   (Clopper-Pearson) 95 % interval, and exact binomial tests that a share exceeds
   :data:`MIN_SHARE` (Holm across the family) or stays below it;
-- **the verdict** (one of :data:`VERDICTS`, claims_words.VERDICT_WORDS): better / worse /
-  equivalent from the typical plant, "split" where it is equivalent but more than 10 % of
-  the plants lie beyond ±δ on a side; where the typical plant decides nothing, better or
-  worse from the shares (one share shown, the other shown negligible, the estimate not on
-  the other side of 0); else inconclusive. It never points against its own estimate.
-  Td, Tr and Tp on a moving reference are judged by their distance to the reference's own
-  (``reference``; docs/metrics.md). ``reading`` says it in words, with every share shown
-  ("equivalent on the typical plant; worse by more than 1 mrad on 29 of 200").
-  ``set by the reference``: a metric both controllers take from the reference (Td and Tr
-  of a smooth move); ``undefined``: no plant compares.
+- **the verdict**: one of claims_words.VERDICT_WORDS, by the first that holds (not judged,
+  equal, better/worse, equivalent, partly better/worse, split, undecided; :func:`_verdict`).
+  It never points against its own estimate. The times of :data:`TIMES_OF_THE_MOVE` on a
+  moving reference are judged by their distance to the move's own (:func:`move_distances`;
+  docs/metrics.md). ``reading`` says it in words, with every share shown ("equivalent on
+  the typical plant; worse by more than 1 mrad on 29 of 200 (10-20 %)").
 - **the sign test** of better against worse (``p_value``, Holm ``p_adjusted``) stays in
-  the tables as a count's evidence; the verdict no longer follows it.
+  the tables as a count's evidence; the verdict does not follow it.
 
-Undefined values: a time that one controller reaches and the other never does
+Missing values: a time that one controller reaches and the other never does
 (:data:`REACHED`: Td, Tr, Ts, Ts→θd never reached) counts against the second
 (``unreached_better``, ``unreached_worse``, apart from the numeric comparison, inside the
 shares). Elsewhere a plant counts only where both controllers have a value.
@@ -675,9 +672,10 @@ def paired_claims(
     metrics, joints
         What to judge: the table's family, Holm-corrected together.
     reference_values : mapping, optional
-        ``(joint, metric) -> value`` of the reference itself (e.g. Td of the quintic move):
-        where both controllers have it on the typical plant, the verdict is "set by the
-        reference".
+        ``(joint, metric) -> value`` of the reference itself (e.g. Td of the quintic move,
+        :func:`~twolink.studies.judgments.claims_plans.reference_values`): a time of
+        :data:`TIMES_OF_THE_MOVE` whose own value is above 0 is judged by its distance to
+        it (:func:`move_distances`; Tr needs Td of its joint in ``results``).
     tolerances : mapping, optional
         Practical tolerance per metric (default :data:`TOLERANCES`).
 
@@ -686,7 +684,7 @@ def paired_claims(
     DataFrame
         One row per (joint, metric): ``n``, ``better``, ``worse``, ``equal``,
         ``tolerance``, the two medians, ``estimate`` (Hodges-Lehmann) with ``ci_low`` and
-        ``ci_high`` (95 %), the shares (``share_better``, ``share_worse`` with their
+        ``ci_high`` (at ``ci_level``), the shares (``share_better``, ``share_worse`` with their
         ``_low``/``_high`` 95 % bounds, of ``plants``), ``unreached_better`` and
         ``unreached_worse``, the p-values (sign test ``p_value``, TOST ``tost_p``,
         margins ``margin_p``, each with its Holm ``_adjusted``), ``typical``, the

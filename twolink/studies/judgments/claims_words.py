@@ -131,7 +131,7 @@ def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
     parts = []
     if r.verdict == EQUAL:
         parts.append(f"equal on all {r.plants}: none differs by more than {tol}")
-    if r.typical in (BETTER, WORSE, EQUIVALENT):
+    if r.typical in (BETTER, WORSE) or (r.typical == EQUIVALENT and r.verdict != EQUAL):
         parts.append(f"{r.typical} on the typical plant")
     elif r.typical == NOT_JUDGED and r.n > 0:
         parts.append(f"the typical plant not judged: both have it on only {r.n} of {r.runs}")
