@@ -84,34 +84,19 @@ def _study(tables):
     return Judged("quintic moves", 200, "FCM-CTC", {n: (f"{n}.csv", t) for n, t in tables.items()})
 
 
-def test_equivalent_rows_say_how_equal_and_only_an_all_zero_interval_is_exactly_0():
-    """ "exactly 0" would be wrong where an interval is not 0 (1e-7 of a tolerance here);
-    "within" would be wrong for rows beyond the band (they state their shift)."""
-    zero = _table(["equivalent"] * 12, [0.0] * 12, [0.0] * 12, [0.0] * 12)
-    assert "(12 rows), 12 equivalent (exactly 0)" in sentence(_study({"CTC": zero}))
-    tiny = _table(["equivalent"] * 12, [0.0] * 12, [-1e-9] * 12, [0.0] * 12)
-    said = sentence(_study({"CTC": tiny}))
-    assert "exactly 0" not in said and "12 equivalent (within 1e-07 tolerance)" in said
-    worse = _table(["worse"] * 3 + ["equivalent"] * 9, [0.05, 0.2, 0.3] + [0.001] * 9,
-                   [0.02, 0.1, 0.2] + [-0.004] * 9, [0.1, 0.3, 0.4] + [0.005] * 9)  # fmt: skip
-    said = sentence(_study({"CTC-best": worse}))
-    assert said.startswith("Quintic moves (200 plants): against CTC-best (12 rows), 9 equivalent")
-    assert "3 worse (+5 to +30 tolerances)" in said
-    assert "9 equivalent (within 0.5 tolerance)" in said
+def test_the_verdicts_counted_are_the_conclusions_words_per_opponent_in_order():
+    """Below the terms, per regime and opponent, the table's verdict words counted
+    (conclusions.describe: sizes in the metric's unit, never in tolerances)."""
+    from twolink.studies.judgments.conclusions import describe
 
-
-def test_the_verdict_words_are_the_tables_own_a_new_word_is_its_own_group():
-    """Another engineer's vocabulary ("equivalent except a subset") counts as it comes;
-    "undefined" and "set by the reference" count together as "not judged"."""
-    words = ["equivalent except on a subset"] * 2 + ["better"] * 10
-    t = _table(words, [0.0] * 2 + [-0.05] * 10, [-0.001] * 2 + [-0.06] * 10,
-               [0.001] * 2 + [-0.04] * 10)  # fmt: skip
-    said = sentence(_study({"CTC": t}))
-    assert "10 better (-5 tolerances)" in said
-    assert "and 2 equivalent except on a subset (within 0.1 tolerance)" in said
-    undefined = _table([np.nan] * 11 + ["set by the reference"], [np.nan] * 11 + [0.0],
-                       [np.nan] * 11 + [0.0], [np.nan] * 11 + [0.0])  # fmt: skip
-    assert sentence(_study({"CTC": undefined})).endswith("(12 rows), 12 not judged.")
+    t = _plain_table(["better"] + ["equal"] * 11, [-0.05] + [0.0] * 11)
+    b = _plain_table(["worse"] * 2 + ["equal"] * 10, [0.02, 0.003] + [0.0] * 10)
+    said = sentence(_study({"CTC": t, "CTC-best": b}))
+    assert said == (
+        f"Quintic moves (200 plants): against CTC (12 rows), {describe(t)}; against CTC-best "
+        f"(12 rows), {describe(b)}."
+    )
+    assert "better on θ1 Tp (−50 ms)" in said and "tolerance" not in said
 
 
 def test_the_summary_opens_with_the_plain_answer_and_defines_each_word_it_uses():
@@ -140,8 +125,7 @@ def test_the_summary_opens_with_the_plain_answer_and_defines_each_word_it_uses()
                "*IAE1 + IAE2*", "*Less effort*")  # fmt: skip
     for word in defined:
         assert word in terms, word
-    assert "tolerances)" in text[text.index("counted.**") :]  # the sizes moved below
-    assert "tolerances" not in text[: text.index("**Terms.**")]
+    assert "tolerances" not in text  # sizes in the metrics' own units
     assert "`CTC-best.csv` (CTC-best)" in text
 
 

@@ -117,11 +117,11 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     # with the same statistics, in both regimes
     fair = pd.read_csv(reproduction.out / "claims_matched.csv")
     # against the fair opponent the effort is judged too (issue 48: equal where judged)
+    from twolink.studies.designs.effort import EFFORT_KEYS
     from twolink.studies.judgments.claims import CLAIM_METRICS
-    from twolink.studies.judgments.claims_studies import EFFORT_METRICS
 
     again = paired_claims(
-        results, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_METRICS), joints=(1, 2),
+        results, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_KEYS), joints=(1, 2),
         reference_values=refs,
     )  # fmt: skip
     pd.testing.assert_frame_equal(fair, again, check_dtype=False)
@@ -143,7 +143,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     )
     refs_raw = reference_values(plan_raw.nominal_scenario(), plan_raw.joints)
     again = paired_claims(
-        raw, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_METRICS), joints=(1, 2),
+        raw, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_KEYS), joints=(1, 2),
         reference_values=refs_raw,
     )  # fmt: skip
     pd.testing.assert_frame_equal(fair_raw, again, check_dtype=False)

@@ -40,6 +40,7 @@ __all__ = [
     "variant_sentence",
 ]
 
+LISTED = 3  # better or worse rows named in a clause; beyond, counted and the largest named
 MOST = 9  # sentences: 8, and one for the lab arm (issue 47)
 
 
@@ -102,6 +103,75 @@ def _rows(table: pd.DataFrame, verdict: str) -> list[Any]:
 def _typical(table: pd.DataFrame, side: str) -> list[Any]:
     """The rows better (or worse) on the typical plant: their interval beyond the tolerance."""
     return [r for r in table.itertuples() if r.typical == side]
+
+
+def _count(r: Any, side: str) -> int:
+    return getattr(r, side) + getattr(r, f"unreached_{side}")
+
+
+def _shares_said(r: Any) -> list[str]:
+    """'θ2 Tr better on 33 of 200' for each share the reading names (shown, or the side
+    that makes a row partly one way or split): plants beyond the row's tolerance that way
+    (its size is the table's; "better" here is a plant's difference, not a verdict)."""
+    from twolink.studies.judgments.claims_words import named_side
+
+    said = []
+    for side in ("better", "worse"):
+        if named_side(r, side):
+            alone = " or alone in reaching it" if getattr(r, f"unreached_{side}") else ""
+            said.append(f"{_name(r)} {side}{alone} on {_count(r, side)} of {r.plants}")
+    return said
+
+
+def _sized(r: Any) -> str:
+    return f"{_name(r)} ({_signed(r.metric, r.estimate)})"
+
+
+def describe(table: pd.DataFrame) -> str:
+    """A claims table in one clause, in the verdict words of the table
+    (:data:`~twolink.studies.judgments.claims_words.VERDICT_WORDS`): better and worse with
+    their estimates (over :data:`LISTED` rows: counted, the largest in tolerances named);
+    partly better, partly worse and split with the plants beyond the tolerance; equal and
+    equivalent counted (equivalent with the shares shown beside it); undecided counted
+    and named (its shares are the table's); not judged counted. Short on purpose: the
+    tables hold the intervals and shares."""
+    from twolink.studies.judgments.claims_words import (
+        EQUAL,
+        NOT_JUDGED,
+        PARTLY,
+        SPLIT,
+        UNDECIDED,
+    )
+
+    parts = []
+    for verdict in ("better", "worse"):
+        rows = _rows(table, verdict)
+        if len(rows) > LISTED:  # counted, and the largest (in tolerances) named
+            rows = sorted(rows, key=lambda r: -abs(r.estimate) / r.tolerance)
+            named = ", ".join(_sized(r) for r in rows[:LISTED])
+            parts.append(f"{verdict} on {len(rows)}, the largest {named}")
+        elif rows:
+            parts.append(f"{verdict} on {', '.join(_sized(r) for r in rows)}")
+    for verdict in (PARTLY["better"], PARTLY["worse"], SPLIT):
+        rows = _rows(table, verdict)
+        if rows:  # a share of the plants beyond the tolerance, the typical plant not
+            shares = ", ".join(x for r in rows for x in _shares_said(r))
+            parts.append(f"{verdict} on {len(rows)} ({shares} beyond the tolerance)")
+    equal = _rows(table, EQUAL)
+    if equal:
+        parts.append(f"{EQUAL} on {len(equal)}")
+    equivalent = _rows(table, "equivalent")
+    if equivalent:
+        shares = [x for r in equivalent for x in _shares_said(r)]
+        more = f", but {', '.join(shares)} beyond the tolerance" if shares else ""
+        parts.append(f"equivalent on {len(equivalent)}{more}")
+    undecided = _rows(table, UNDECIDED)
+    if undecided:
+        parts.append(f"{UNDECIDED} on {len(undecided)} ({', '.join(_name(r) for r in undecided)})")
+    not_judged = len(_rows(table, NOT_JUDGED))
+    if not_judged:
+        parts.append(f"{not_judged} {NOT_JUDGED}")
+    return "; ".join(parts) or "nothing judged"
 
 
 def study_sentence(study: ClaimsStudy, first: bool = True) -> str:

@@ -28,8 +28,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from twolink.studies.designs.effort import EFFORT_KEYS
+
 __all__ = [
-    "EFFORT_KEYS",
     "Regime",
     "claim_line",
     "effort_words",
@@ -38,8 +39,6 @@ __all__ = [
     "regime_sentences",
     "same_controller",
 ]
-
-EFFORT_KEYS = ("torque_peak_Nm", "torque_variation_Nm")
 
 
 # the typical plant's words (``typical``), as the tables spell them

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from twolink.simulation.vocabulary import CLAIMED_BETTER, metric
-from twolink.studies.judgments.plain import EFFORT_KEYS
+from twolink.studies.designs.effort import EFFORT_KEYS
 from twolink.studies.reproduction.manifest import Manifest
 from twolink.studies.reproduction.summary import (
     ANSWER_FIGURE,

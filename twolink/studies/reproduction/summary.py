@@ -3,8 +3,7 @@
 the verdicts counted, and where each number comes from. Written from the claims tables by
 code (the report's first section and the README's answer block).
 
-In the count, verdicts are the tables' own words (``verdict`` column), counted as they
-come: a new word in the tables is a new group there, not an error.
+The verdicts counted below the terms are the tables' own words (``verdict`` column).
 """
 
 from __future__ import annotations
@@ -12,7 +11,6 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
-import numpy as np
 import pandas as pd
 
 from twolink.studies.judgments.plain import Regime, claim_line, regime_sentences
@@ -56,51 +54,14 @@ class Judged:
         return Regime(name, self.plants, self.proposed, tables, self.iae, self.effort)
 
 
-def _number(x: float) -> str:
-    return f"{x:+.2g}" if abs(x) < 10 else f"{x:+.0f}"
+def sentence(study: Judged) -> str:
+    """The verdicts counted, per regime: its plants, and per opponent the verdict words of
+    its rows (:func:`~twolink.studies.judgments.conclusions.describe`: each word counted,
+    better and worse with their shifts in the metric's unit), in the tables' order."""
+    from twolink.studies.judgments.conclusions import describe
 
-
-def _size(rows: pd.DataFrame) -> str:
-    """A verdict's size, in tolerances: its typical shift, "+1.6 to +7.7 tolerances"; rows
-    inside the band say how equal instead, their intervals' largest bound, "within 0.4
-    tolerance" ("exactly 0" only where every bound is 0); "" where no row has an estimate."""
-    shift = (rows["estimate"] / rows["tolerance"]).to_numpy(float)
-    bound = (rows[["ci_low", "ci_high"]].abs().max(axis=1) / rows["tolerance"]).to_numpy(float)
-    if not np.isfinite(shift).any():
-        return ""
-    lo, hi = np.nanmin(shift), np.nanmax(shift)
-    reach = np.nanmax(bound) if np.isfinite(bound).any() else np.inf  # none: no bound known
-    if reach == 0:
-        return "exactly 0"
-    if np.nanmax(np.abs(shift)) <= 1 and np.isfinite(reach):  # inside the band: how far
-        return f"within {reach:.2g} tolerance"
-    return f"{_number(lo) if lo == hi else f'{_number(lo)} to {_number(hi)}'} tolerances"
-
-
-SIZED = 2  # verdicts per clause given with their size, at most (the rest: the figure)
-NOT_JUDGED = ("undefined", "set by the reference")  # counted together as "not judged"
-
-
-def clause(table: pd.DataFrame, sized: int = SIZED) -> str:
-    """Every verdict of a table with its count, the most frequent first ("undefined" and
-    "set by the reference" together as "not judged"); the ``sized`` most frequent that
-    have an estimate also with their size (:func:`_size`)."""
-    words = table["verdict"].map(lambda v: v if isinstance(v, str) else "undefined")
-    words = words.where(~words.isin(NOT_JUDGED), "not judged")
-    groups = sorted(table.groupby(words, sort=False), key=lambda g: -len(g[1]))
-    parts, done = [], 0
-    for verdict, rows in groups:
-        size = _size(rows) if done < sized and verdict != "not judged" else ""
-        done += bool(size)
-        parts.append(f"{len(rows)} {verdict}" + (f" ({size})" if size else ""))
-    return ", ".join(parts[:-1]) + (" and " if len(parts) > 1 else "") + parts[-1]
-
-
-def sentence(study: Judged, sized: int = SIZED) -> str:
-    """The verdicts counted, per regime: its plants, and per opponent the verdicts of its
-    rows (:func:`clause`), in the tables' order."""
     against = "; ".join(
-        f"against {opp} ({len(table)} rows), {clause(table, sized)}"
+        f"against {opp} ({len(table)} rows), {describe(table)}"
         for opp, (_, table) in study.tables.items()
     )
     name = study.name or study.label
@@ -169,8 +130,7 @@ def summary(studies: Sequence[Judged], opponents: Mapping[str, str], metrics: st
         terms(proposed, opponents, studies),
         "",
         "**The verdicts, counted.** Per table, each verdict word of docs/statistics.md with "
-        "its rows. Brackets: the typical shift in tolerances, or how far inside the band "
-        "equal rows reach.",
+        "its rows. Brackets: the typical plant's shift, or the plants beyond the tolerance.",
         "",
         *(f"- {sentence(s)}" for s in studies),
         "",
