@@ -548,7 +548,9 @@ class ArmReference:
 
 
 def _reference_classes() -> dict[str, type]:
-    return {cls.kind: cls for cls in (Step, Ramp, Sine, Quintic, Septic)}
+    from twolink.foundation.trajectories import FIELD_REFERENCES  # it builds on this module
+
+    return {cls.kind: cls for cls in (Step, Ramp, Sine, Quintic, Septic, *FIELD_REFERENCES)}
 
 
 def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic | Septic:
@@ -556,8 +558,8 @@ def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic | S
 
     Parameters
     ----------
-    kind : {"step", "ramp", "sine", "quintic", "septic"}
-        Which reference.
+    kind : {"step", "ramp", "sine", "quintic", "septic", "multisine", "circle"}
+        Which reference (the last two: :mod:`twolink.foundation.trajectories`).
     **params
         The class's fields, e.g. ``make_reference("ramp", initial=0, final=1, duration=5)``.
 
