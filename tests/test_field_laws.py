@@ -8,6 +8,7 @@ Each check names the mutant it kills in its docstring (docs/control.md lists the
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -306,19 +307,29 @@ def test_sliding_mode_reaches_the_layer_in_time_and_keeps_the_error_within_phi_o
     assert np.all(e[settled:] <= phi / lam), (e[settled:].max(0), phi / lam)
 
 
-def test_the_gain_bound_covers_the_model_error_of_every_corner():
-    """K - η is at least |Δ_i| of each corner of the ranges at random states of the
-    envelope (the bound is a maximum over them). Kills: the friction left out of F."""
-    k, f = sliding_gain(MODEL, 0.0, 1.5, 3.0)
+def test_the_gain_bound_is_the_largest_model_error_of_its_envelope():
+    """F is the largest |Δ_i| + the friction bound over the ranges' corners, the pose grid
+    and the envelope's corners (Δ through the regressor here, an independent path), and
+    random states of the envelope stay within it. Kills: the friction left out of F."""
+    k, f = sliding_gain(MODEL, 0.0, 1.5, 3.0, grid=12)
     assert k == tuple(f)
+    angles = np.linspace(-math.pi, math.pi, 12, endpoint=False)
+    q = np.stack(np.meshgrid(angles, angles, indexing="ij"), -1).reshape(-1, 1, 2)
+    corners = np.array(list(itertools.product((-1.0, 1.0), repeat=6)))  # w, r, b signs
+    w, r, b = corners[:, 0:2] * 1.5, corners[:, 2:4] * 1.5, corners[:, 4:6] * 3.0
+    worst = np.zeros(2)
     rng = np.random.default_rng(5)
-    for p, payload in DEFAULT_UNCERTAINTY.corners(MODEL)[::7]:
-        a, a_hat = parameters(p, payload), parameters(MODEL)
-        q = rng.uniform(-math.pi, math.pi, (500, 2))
-        w, r = rng.uniform(-1.5, 1.5, (2, 500, 2))
-        b = rng.uniform(-3.0, 3.0, (500, 2))
-        delta = regressor(q, w, r, b) @ (a - a_hat)
-        assert np.all(np.abs(delta) + DEFAULT_UNCERTAINTY.friction <= f * (1 + 1e-9))
+    a_hat = parameters(MODEL)
+    for p, payload in DEFAULT_UNCERTAINTY.corners(MODEL):
+        delta = regressor(q, w, r, b) @ (parameters(p, payload) - a_hat)
+        worst = np.maximum(worst, np.abs(delta).max(axis=(0, 1)))
+        x = rng.uniform(-1, 1, (4, 300, 2))
+        qr = rng.uniform(-math.pi, math.pi, (300, 2))
+        inside = regressor(qr, 1.5 * x[0], 1.5 * x[1], 3.0 * x[2]) @ (
+            parameters(p, payload) - a_hat
+        )
+        assert np.all(np.abs(inside) + DEFAULT_UNCERTAINTY.friction <= f * (1 + 1e-12))
+    np.testing.assert_allclose(f, worst + DEFAULT_UNCERTAINTY.friction, rtol=1e-12)
 
 
 # -------------------------------------------------------------- disturbance observer
