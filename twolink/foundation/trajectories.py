@@ -95,6 +95,26 @@ class MultiSine:
             a = a + self.amplitude * w * w * c
         return np.stack([q, v, a])
 
+    def derivatives(self, t: float, n: int) -> tuple[float, ...]:
+        """Position and its first ``n`` derivatives at ``t`` (n <= 4)."""
+        return tuple(float(x) for x in self.sample_derivatives(np.array(float(t)), n))
+
+    def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
+        """Vectorised :meth:`derivatives`: shape (n + 1, *t.shape). The k-th derivative
+        of ``1 - cos(w t)`` is ``-w^k cos(w t + k pi / 2)``."""
+        from twolink.foundation.references import _check_order
+
+        _check_order(n)
+        t = np.asarray(t, dtype=float)
+        out = np.zeros((n + 1, *t.shape))
+        out[0] = self.offset
+        for k in range(1, int(self.harmonics) + 1):
+            w = 2.0 * math.pi * k * self.frequency_hz
+            out[0] += self.amplitude * (1.0 - np.cos(w * t))
+            for order in range(1, n + 1):
+                out[order] -= self.amplitude * w**order * np.cos(w * t + order * math.pi / 2)
+        return out
+
 
 def forward_kinematics(q1, q2, l1: float, l2: float):
     """The tip ``(x, y)`` of the arm at ``(q1, q2)`` (θ1 from the horizontal, θ2 relative)."""
