@@ -19,7 +19,7 @@ from twolink.arm.disturbance import Disturbance, TorqueStep
 from twolink.arm.params import ArmParams
 from twolink.arm.plant import Plant
 from twolink.arm.regressor import parameter_box, parameters, regressor
-from twolink.controllers.adaptive import DEFAULT_GAMMA, AdaptiveComputedTorque
+from twolink.controllers.adaptive import DEFAULT_GAMMA, AdaptiveComputedTorque, lyapunov
 from twolink.controllers.observer import DisturbanceObserverCTC
 from twolink.controllers.sliding import SlidingMode
 from twolink.controllers.uncertainty import DEFAULT_UNCERTAINTY, Uncertainty, sliding_gain
@@ -127,19 +127,15 @@ def adaptive_run(reference, gamma, dt=1e-3, duration=10.0, sign=1.0, limit=math.
         model=MODEL, reference=reference, gamma=gamma, control_dt=dt, torque_limit=limit
     )
     a = parameters(PLANT, PAYLOAD)
-    g, lam, k_d = np.array(c.gamma), np.array(c.lam), np.array(c.k_d)
     out = {k: [] for k in ("V", "D", "a_hat", "e", "tau")}
     for k in range(round(duration / dt) + 1):
         t = k * dt
         q, qd = plant.q.copy(), plant.qd.copy()
-        r, v, _ = reference(t)
-        e = np.subtract(r, q)
-        s = np.subtract(v, qd) + lam * e
-        a_err = np.array(c.a_hat) - a
-        out["V"].append(0.5 * s @ plant.mass_matrix() @ s + 0.5 * np.sum(a_err**2 / g))
-        out["D"].append(s @ (k_d * s))
+        v, d = lyapunov(c, t, q, qd, plant.mass_matrix(), a)
+        out["V"].append(v)
+        out["D"].append(d)
         out["a_hat"].append(c.a_hat)
-        out["e"].append(e)
+        out["e"].append(np.subtract(reference(t)[0], q))
         tau = c(t, tuple(q), tuple(qd))
         out["tau"].append(tau)
         plant.step(*tau)
