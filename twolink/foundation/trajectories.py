@@ -15,15 +15,11 @@ from typing import ClassVar
 
 import numpy as np
 
+from twolink.foundation.reference_fields import _check_order, _validate_fields
+
 __all__ = ["Circle", "MultiSine", "circle_point", "forward_kinematics"]
 
 MAX_HARMONICS = 64
-
-
-def _floats(obj: object, positive: tuple[str, ...] = ()) -> None:
-    from twolink.foundation.references import _validate_fields
-
-    _validate_fields(obj, positive)
 
 
 def _whole(obj: object, name: str, allowed: tuple[int, ...] | None, low: int = 1) -> None:
@@ -64,7 +60,7 @@ class MultiSine:
     offset: float = 0.0
 
     def __post_init__(self) -> None:
-        _floats(self, positive=("frequency_hz",))
+        _validate_fields(self, positive=("frequency_hz",))
         _whole(self, "harmonics", None)
 
     @property
@@ -102,8 +98,6 @@ class MultiSine:
     def sample_derivatives(self, t: np.ndarray, n: int) -> np.ndarray:
         """Vectorised :meth:`derivatives`: shape (n + 1, *t.shape). The k-th derivative
         of ``1 - cos(w t)`` is ``-w^k cos(w t + k pi / 2)``."""
-        from twolink.foundation.references import _check_order
-
         _check_order(n)
         t = np.asarray(t, dtype=float)
         out = np.zeros((n + 1, *t.shape))
@@ -164,7 +158,7 @@ class Circle:
     l2: float = 1.0
 
     def __post_init__(self) -> None:
-        _floats(self, positive=("radius", "period", "l1", "l2"))
+        _validate_fields(self, positive=("radius", "period", "l1", "l2"))
         _whole(self, "joint", (1, 2))
         _whole(self, "elbow", (-1, 1))
         reach = math.hypot(self.centre_x, self.centre_y)
