@@ -455,3 +455,28 @@ def test_uncertainty_refuses_bad_ranges():
         Uncertainty(factors={"m1": (1.1, 0.9)})
     with pytest.raises(ValueError, match="payload"):
         Uncertainty(payload=(0.2, 0.1))
+
+
+def test_the_stability_check_linearises_each_law_with_its_own_state():
+    """Each law's loop linearised at its rest state, alone and in the batch search, to
+    the bit: ACTC with its five estimates (a neutral mode: three of them do not act at
+    rest, so σ = 0, not the rounding's sign), CTC-DOB with its observer. Kills: the
+    neutral rule removed (σ of ±1e-8)."""
+    from twolink.simulation.experiment import build_controller, build_plant
+    from twolink.simulation.stability import linearise
+    from twolink.simulation.stability_batch import linearise_many
+
+    over = {
+        "reference": {"joint2": {"kind": "quintic", "final": 0.5, "duration": 2.0}},
+        "plant": {"scale": {"m1": 1.2, "m2": 1.25, "g": 1.05}, "payload": 0.1},
+    }
+    items = []
+    for kind in ("adaptive_ctc", "sliding_mode", "ctc_dob"):
+        s = load_scenario("runs/paper/theta1_step.toml", {**over, "controller": {"kind": kind}})
+        items.append((s, build_controller(s), None))
+    for (s, c, _), many in zip(items, linearise_many(items), strict=True):
+        alone = linearise(s, build_plant(s), c)
+        assert many == alone, (s.controller.kind, many, alone)
+    adaptive, sliding, observer = (linearise(s, build_plant(s), c) for s, c, _ in items)
+    assert adaptive.sigma == 0.0 and "neutral" in adaptive.note
+    assert sliding.sigma < -1 and observer.sigma < -1
