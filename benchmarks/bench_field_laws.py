@@ -18,8 +18,9 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_batch import drawn_arms  # the robustness sweep's plants, as that benchmark's
 
-from twolink.simulation.batch import Arm, BatchPlant, simulate_batch
+from twolink.simulation.batch import BatchPlant, simulate_batch
 from twolink.simulation.config import load_scenario
 from twolink.simulation.experiment import build_controller
 
@@ -35,28 +36,11 @@ QUINTIC = {
 ARM_STEPS = 40_000  # per measurement
 
 
-def drawn_arms(n: int, arm) -> list[Arm]:
-    rng = np.random.default_rng(n)
-    return [
-        Arm(
-            arm.scaled(
-                m1=rng.uniform(0.7, 1.3),
-                m2=rng.uniform(0.7, 1.3),
-                l1=rng.uniform(0.9, 1.1),
-                l2=rng.uniform(0.9, 1.1),
-                g=float(np.clip(rng.normal(1.0, 0.02), 0.9, 1.1)),
-            ),
-            payload=rng.uniform(0.0, 0.2),
-        )
-        for _ in range(n)
-    ]
-
-
 def step_us(n: int, kind: str) -> float:
     """simulate_batch's time per arm and control step [µs] under ``kind``."""
     s = load_scenario(ROOT / "runs/paper/base.toml", {**QUINTIC, "controller": {"kind": kind}})
     steps = max(50, ARM_STEPS // n)
-    plant = BatchPlant(drawn_arms(n, s.arm), s.timestep)
+    plant = BatchPlant(drawn_arms(n, np.random.default_rng(n), s.arm), s.timestep)
     controllers = [build_controller(s) for _ in range(n)]
     start = time.perf_counter()
     run = simulate_batch(plant, controllers, [steps * s.control_dt] * n, s.control_dt)
@@ -80,7 +64,7 @@ def main() -> None:
                 times[name].append(step_us(n, LAWS[name]))
         ctc = statistics.median(times["CTC"])
         ratios = [statistics.median(times[name]) / ctc for name in names[1:]]
-        print(f"{n:>6} {ctc:>8.2f} " + " ".join(f"{r:>8.2f}" for r in ratios))
+        print(f"{n:>6} {ctc:>8.2f} " + " ".join(f"{r:>8.2f}" for r in ratios), flush=True)
 
 
 if __name__ == "__main__":
