@@ -439,29 +439,31 @@ def test_the_readme_says_what_the_current_reproduction_concludes(reproduction):
     block = readme[readme.index("<!-- answer: start -->") : readme.index("<!-- answer: end -->")]
     assert block.removeprefix("<!-- answer: start -->").strip() == _answer(summary)
     report = (reproduction.out / "report.md").read_text()
-    # the report's first section is summary.md, its sources a pointer to summary.md
+    # the report's first section is summary.md up to its terms, then a pointer to it
+    from twolink.studies.reproduction.answer import POINTER
+
     lines = summary.strip().splitlines()
-    sources = "**Where the numbers come from.**"
-    assert lines[-1].startswith(sources)
-    opening = "\n".join(lines[:-1]).strip()
-    assert opening in report and report.index(opening) < report.index("\n|")
-    assert "**Where the numbers come from:** `summary.md`" in report
+    assert lines[-1].startswith("**Where the numbers come from.**")
+    opening = "\n".join(lines[: lines.index(next(x for x in lines if "**Terms.**" in x))])
+    assert opening.strip() in report and report.index(opening.strip()) < report.index("\n|")
+    assert POINTER in report and "**Terms.**" not in report
     # and the README claims nothing the report contradicts (the claims of old)
     assert "removes most of CTC's overshoot" not in readme
 
 
 def test_the_answer_is_read_in_a_minute_and_the_first_table_comes_early(reproduction):
-    """Issue 46: at most 150 words of answer, the report's first table within 400 words,
-    the answer figure drawn from the claims tables (two regimes x 12 rows)."""
+    """At most MAX_WORDS words of answer, the report's first table within 100 words more, the
+    answer, scoreboard and profile figures drawn."""
     from twolink.studies.reproduction.summary import MAX_WORDS
 
     summary = (reproduction.out / "summary.md").read_text()
     assert len(_answer(summary).split()) <= MAX_WORDS
     report = (reproduction.out / "report.md").read_text()
-    before_table = report[: report.index("\n|")]
-    assert len(before_table.split()) <= 400, len(before_table.split())
-    for name in ("answer.png", "profiles.png"):
+    before_table = report[: report.index("\n|")]  # the answer, its title and question
+    assert len(before_table.split()) <= MAX_WORDS + 100, len(before_table.split())
+    for name in ("answer.png", "profiles.png", "scoreboard.png"):
         assert (reproduction.out / "figures" / name).stat().st_size > 20_000
+    assert "](figures/scoreboard.png)" in summary
     # every number of the answer comes from a file the summary names, which exists
     for file in ("claims.csv", "claims_matched.csv", "claims_raw.csv", "claims_matched_raw.csv"):
         assert f"`{file}`" in summary and (reproduction.out / file).is_file()

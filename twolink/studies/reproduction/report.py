@@ -269,7 +269,8 @@ def render(
     out = [
         "# Reproduction of Devi, Ravi Kumar & Pydi: CTC vs FCM-CTC",
         "",
-        "By `twolink reproduce`: the answer, the paper's tables, the rest.",
+        "By `twolink reproduce`. First the answer in plain words (also `summary.md`). Then "
+        "the paper's tables beside its numbers, the conclusions, and the claims in full.",
         "",
         *summary,
         *paper_tables(rows, manifest, figures, controllers, calibrated),
