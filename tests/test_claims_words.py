@@ -318,3 +318,15 @@ def test_the_figure_prints_the_tables_words_and_marks_rows_of_few_plants():
     assert filled.get_markerfacecolor() != "none" and hollow.get_markerfacecolor() == "none"
     legend = [t.get_text() for t in fig.legends[0].get_texts()]
     assert FEW_NOTE in legend
+
+
+def test_tr_on_a_step_is_its_own_length_and_says_so():
+    # a step's own times are 0: Tr is judged as it is, without Td, and the reading says
+    # the distance to 0, not "the rise ... Td beside"
+    rng = np.random.default_rng(14)
+    base = rng.uniform(0.2, 0.3, 50)
+    t = sweep({"joint1_rise_time_s": (base, base + 0.05)})
+    refs = {(1, "rise_time_s"): 0.0}
+    row = paired_claims(t, "FCM-CTC", "CTC", ["rise_time_s"], [1], reference_values=refs).iloc[0]
+    assert row["verdict"] == "worse" and row["estimate"] == pytest.approx(0.05)
+    assert row["reading"].endswith("judged by the distance to the reference's own 0 ms")
