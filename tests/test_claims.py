@@ -175,3 +175,20 @@ def test_unknown_names_refused():
     table = sweep(rng.uniform(0, 1, 100), rng.uniform(0, 1, 100))
     with pytest.raises(ValueError, match="no controller 'PID'"):
         paired_claims(table, "PID", "CTC")
+
+
+def test_the_docs_tolerance_table_is_the_one_home_of_the_tolerances():
+    import re
+    from pathlib import Path
+
+    from twolink.studies.judgments.claims import TOLERANCES
+
+    text = (Path(__file__).parents[1] / "docs" / "statistics.md").read_text()
+    section = text[text.index("## Practical tolerances") : text.index("## Operating")]
+    documented = {}
+    for line in section.splitlines():
+        if line.startswith("| `"):
+            keys, delta = line.split("|")[1:3]
+            value = float(re.match(r"\s*([0-9.e+-]+)", delta).group(1))
+            documented |= dict.fromkeys(re.findall(r"`([A-Za-z0-9_]+)`", keys), value)
+    assert documented == TOLERANCES

@@ -59,18 +59,21 @@ from twolink.studies.judgments.claims_words import (
     VERDICT_WORDS,
     WORSE,
 )
+from twolink.studies.judgments.move_times import TIMES_OF_THE_MOVE, move_distances
 from twolink.studies.judgments.shift import _hodges_lehmann_rows, hodges_lehmann
 
 __all__ = [
     "CLAIM_METRICS",
     "MIN_SHARE",
     "REACHED",
+    "TIMES_OF_THE_MOVE",
     "TOLERANCES",
     "VERDICTS",
     "count_wins",
     "hodges_lehmann",
     "holm",
     "judge",
+    "move_distances",
     "paired_claims",
     "paired_claims_many",
     "proportion_interval",
@@ -88,17 +91,6 @@ MOST = 0.5
 # Times a response may never reach (NaN): a plant where one controller reaches it and the
 # other does not counts against the second. Tp is not one: no peak is no failure.
 REACHED = ("delay_time_s", "rise_time_s", "settling_time_s", "settling_time_target_s")
-# Times a moving reference has itself (claims_plans.reference_values): on such a move a
-# loop is judged by how far its time lies from the move's own, either way. Tr, a length
-# of time, is judged with Td beside it (:func:`move_distances`): a pure lag moves Td, not Tr.
-TIMES_OF_THE_MOVE = (
-    "delay_time_s",
-    "rise_time_s",
-    "peak_time_s",
-    "settling_time_s",
-    "settling_time_target_s",
-)
-
 # Practical tolerance per metric: a difference smaller than this is no difference a user
 # of the arm would act on. Times: 10 control periods; overshoot: 1 percentage point;
 # angles: 1 mrad (0.1 % of the 1 rad moves; an encoder of 17 bits resolves 0.05 mrad);
@@ -555,33 +547,6 @@ def _dense(
     return values, ran, keys
 
 
-def move_distances(
-    values: Mapping[tuple[int, str], np.ndarray], own: Mapping[tuple[int, str], float]
-) -> dict[tuple[int, str], np.ndarray]:
-    """The times of :data:`TIMES_OF_THE_MOVE` on a move with its own (``own`` > 0) as the
-    distances the claims judge (docs/metrics.md: shorter than the move's is lag, not
-    speed): |T − T_ref| for Td, Tp, Ts and Ts→θd; for Tr, the distance of the rise to the
-    move's own, |Td − Td_ref| + |Tr − Tr_ref| / 2 (the farther end of a rise window
-    centred on Td: a pure lag L gives L, a rise longer by s with the same centre s/2).
-    ``values``: (joint, metric) -> the controllers' values (any shape, the same for all);
-    the other entries are returned as they are. Tr needs Td of its joint and its own."""
-    out = dict(values)
-    for (j, key), v in values.items():
-        ref = own.get((j, key), math.nan)
-        if key not in TIMES_OF_THE_MOVE or not ref > 0:  # a step's own times are 0
-            continue
-        out[(j, key)] = np.abs(v - ref)
-        if key == "rise_time_s":
-            td, td_own = values.get((j, "delay_time_s")), own.get((j, "delay_time_s"), math.nan)
-            if td is None or not td_own > 0:
-                raise ValueError(
-                    f"θ{j} Tr on a moving reference is judged with Td beside it: "
-                    f"joint{j}_delay_time_s and the move's own Td are needed"
-                )
-            out[(j, key)] = np.abs(td - td_own) + out[(j, key)] / 2.0
-    return out
-
-
 def paired_claims_many(
     results: pd.DataFrame,
     pairs: Sequence[tuple[str, str]],
@@ -606,7 +571,8 @@ def paired_claims_many(
     columns = [f"joint{j}_{key}" for j, key in read]
     missing = [c for c in columns if c not in results.columns]
     if missing:
-        raise ValueError(f"the results have no column {', '.join(missing)}")
+        why = " (Tr on a moving reference is judged with Td beside it)" if beside else ""
+        raise ValueError(f"the results have no column {', '.join(missing)}{why}")
     values, ran, groups = _dense(results, names, columns, by)
     where = {name: k for k, name in enumerate(names)}
     blocks = []  # (group, proposed, opponent) families in output order

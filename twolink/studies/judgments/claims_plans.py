@@ -13,6 +13,7 @@ import numpy as np
 
 from twolink.simulation.config import Scenario, read_toml
 from twolink.simulation.vocabulary import metric
+from twolink.studies.judgments.move_times import TIMES_OF_THE_MOVE
 from twolink.studies.reproduction.manifest import Manifest
 
 __all__ = ["SMOOTH_KINDS", "raw_steps", "reference_values", "regime_plan"]
@@ -37,9 +38,8 @@ def reference_values(scenario: Scenario, joints: Any) -> dict[tuple[int, str], f
     """The step metrics of the reference itself, per moving joint: the move's own Td, Tr,
     Tp, Ts and Ts→θd (its own 2 % band settling time: it ends on its target, so both Ts
     are one), which the claims judge a loop's times by their distance to
-    (:data:`~twolink.studies.judgments.claims.TIMES_OF_THE_MOVE`)."""
+    (:data:`~twolink.studies.judgments.move_times.TIMES_OF_THE_MOVE`)."""
     from twolink.simulation.metrics import step_metrics
-    from twolink.studies.judgments.claims import TIMES_OF_THE_MOVE
 
     t = np.arange(0.0, scenario.duration + 1e-12, scenario.control_dt)
     q_ref = scenario.reference.sample(t)[0]  # (N, 2)

@@ -152,7 +152,7 @@ def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
     reference = getattr(r, "reference", math.nan)
     if reference == reference:  # a time on a moving reference: judged by its distance
         own = amount(r.metric, reference)
-        if r.metric == "rise_time_s":
+        if r.metric == "rise_time_s" and reference > 0:  # Td beside it (move_times)
             parts.append(f"judged by the distance of the rise to the move's own ({own}, Td beside)")
         else:
             parts.append(f"judged by the distance to the reference's own {own}")
