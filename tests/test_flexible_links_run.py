@@ -10,7 +10,7 @@ import pytest
 from twolink.arm.params import ArmParams
 from twolink.simulation.config import ConfigError, scenario_from_dict
 from twolink.simulation.experiment import build_controller, build_plant, run_scenario
-from twolink.simulation.links_sim import LinkRun, run_links, tip_metrics
+from twolink.simulation.links_sim import LinkRun, plant_links, run_links, tip_metrics
 from twolink.simulation.sim import Trajectory, simulate
 
 
@@ -35,7 +35,7 @@ def test_arm_links_are_read_and_written_back():
     assert again.links == s.links
     # The plant's links are on the plant's rods: a heavier link 2 is a heavier beam.
     heavier = scenario_from_dict(_data() | {"plant": {"scale": {"m2": 1.5}}})
-    assert heavier.plant_links.link2.rho_a == 1.5 and heavier.links.link2.rho_a == 1.0
+    assert plant_links(heavier).link2.rho_a == 1.5 and heavier.links.link2.rho_a == 1.0
     assert "links" not in scenario_from_dict(_data() | {"arm": {}}).to_dict()["arm"]
 
 

@@ -1,5 +1,5 @@
-"""The closed loop on an arm whose links bend (:mod:`twolink.arm.links`), and the
-measures at its tip.
+"""Links that bend (:mod:`twolink.arm.links`) in a scenario: its ``[arm.links]`` table,
+the closed loop on them, and the measures at the tip.
 
 The loop is :func:`twolink.simulation.sim.simulate`'s: zero-order hold at
 ``control_dt``, the same divergence bounds. A controller reads the hub angles θ1, θ2
@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from twolink.arm.links import FlexibleLinks, LinkPlant, rigid_tip
+from twolink.arm.links import MAX_SEGMENTS, FlexibleLinks, LinkPlant, rigid_tip
 from twolink.arm.params import ArmParams
 from twolink.controllers.base import Controller
-from twolink.simulation.config import Scenario
 from twolink.simulation.sim import (
     STATUS_DIVERGED,
     STATUS_OK,
@@ -29,6 +29,9 @@ from twolink.simulation.sim import (
     state_message,
     torque_message,
 )
+
+if TYPE_CHECKING:
+    from twolink.simulation.config import Scenario
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,12 +163,74 @@ def tip_metrics(
 
 
 def run_links(s: Scenario, controller: Controller) -> LinkRun:
-    """A scenario with ``[arm.links]``: its plant's links (:attr:`Scenario.plant_links`,
+    """A scenario with ``[arm.links]``: its plant's links (:func:`plant_links`,
     its gravity and payload) from straight and at rest at ``q0``, ``qd0``, a physics step
     that divides ``control_dt`` (:func:`control_timestep`, at most ``timestep``)."""
-    links = s.plant_links
+    links = plant_links(s)
     dt = control_timestep(links, s.control_dt)
     if dt > s.timestep:
         dt = s.control_dt / math.ceil(s.control_dt / s.timestep - 1e-9)
     plant = LinkPlant.build(links, s.plant_params.g, s.plant.payload, timestep=dt)
     return simulate_links(plant, controller, s.duration, s.control_dt, s.q0, s.qd0)
+
+
+# ----------------------------------------------------------------------------- [arm.links]
+
+
+def read_links(arm_table, arm: ArmParams) -> FlexibleLinks | None:
+    """``[arm]``'s sub-table ``links`` (None where it has none), then ``[arm]`` done: the
+    bending links of ``arm``'s rods (their ρ A = m / l, L = l)."""
+    if "links" not in arm_table.data:
+        arm_table.done()
+        return None
+    links = _links(arm_table.table("links"), arm)
+    arm_table.done()
+    return links
+
+
+def _links(t, arm: ArmParams) -> FlexibleLinks:
+    segments = t.integer("segments", 8)
+    if not 1 <= segments <= MAX_SEGMENTS:
+        t.fail("segments", f"must be in 1..{MAX_SEGMENTS}, got {segments}")
+    links = FlexibleLinks.from_arm(
+        arm,
+        ei=t.pair("ei", (100.0, 100.0), positive=True),
+        hub_inertia=t.pair("hub_inertia", (0.0, 0.0), minimum=0.0),
+        tip_mass=t.pair("tip_mass", (0.0, 0.0), minimum=0.0),
+        damping_ratio=t.pair("damping_ratio", (0.01, 0.01), minimum=0.0),
+        segments=segments,
+    )
+    t.done()
+    return links
+
+
+def links_dict(links: FlexibleLinks) -> dict[str, Any]:
+    """``[arm.links]`` as plain data (its keys; ρ A and L are ``[arm]``'s)."""
+    names = ("ei", "hub_inertia", "tip_mass", "damping_ratio")
+    return {"segments": links.segments} | {
+        name: [getattr(b, name) for b in links.links] for name in names
+    }
+
+
+def check_links(top, scenario, flexible_kinds: tuple[str, ...]):
+    """``scenario`` back, where its bending links (if any) are runnable; else the error that
+    names the key: such a run starts straight, sees the truth, with a law of the hub angles."""
+    if scenario.links is None:
+        return scenario
+    for key, there in (
+        ("plant.flexibility", scenario.plant.flexibility is not None),
+        ("plant.friction", scenario.plant.friction is not None),
+        ("disturbance", scenario.disturbance is not None),
+        ("sensor", not scenario.sensor.ideal),
+    ):
+        if there:
+            top.fail("arm.links", f"links that bend run without [{key}]")
+    if scenario.controller.kind in flexible_kinds:
+        top.fail("controller.kind", "links that bend: a law of the hub angles")
+    return scenario
+
+
+def plant_links(s) -> FlexibleLinks | None:
+    """The simulated arm's bending links: ``[arm.links]`` on the rods of the scenario's
+    ``plant_params`` (ρ A = m / l, L = l); None where the links are rigid."""
+    return None if s.links is None else s.links.with_arm(s.plant_params)
