@@ -53,31 +53,9 @@ VERDICTS = ("better", "worse", "equivalent", "inconclusive", "set by the referen
 ALPHA = 0.05
 SET_BY_REFERENCE = "set by the reference"
 
-# Practical tolerance per metric: a difference smaller than this is no difference a user
-# of the arm would act on. Times: 10 control periods; overshoot: 1 percentage point;
-# angles: 1 mrad (0.1 % of the 1 rad moves; an encoder of 17 bits resolves 0.05 mrad);
-# integrals of |e|: 1 mrad over 1 s; torques: 0.5 N·m (under 1 % of the 60 N·m limit);
-# torque variation: 1 N·m summed over the run; growth: 0.05.
-TOLERANCES: dict[str, float] = {
-    "peak_time_s": 0.01,
-    "delay_time_s": 0.01,
-    "rise_time_s": 0.01,
-    "settling_time_s": 0.01,
-    "settling_time_target_s": 0.01,
-    "overshoot_pct": 1.0,
-    "steady_state_error_rad": 1e-3,
-    "final_error_rad": 1e-3,
-    "tail_error_rad": 1e-3,
-    "oscillation_rad": 1e-3,
-    "max_error_rad": 1e-3,
-    "iae_rad_s": 1e-3,
-    "ise_rad2_s": 1e-6,
-    "itae_rad_s2": 1e-3,
-    "torque_rms_Nm": 0.5,
-    "torque_peak_Nm": 0.5,
-    "torque_variation_Nm": 1.0,
-    "tail_growth": 0.05,
-}
+# The practical tolerances are the claims' own (one home: claims.TOLERANCES): the rule of
+# before is judged against the same δ.
+from twolink.studies.judgments.claims import TOLERANCES  # noqa: E402
 
 
 def count_wins(a: np.ndarray, b: np.ndarray, tolerance: float) -> tuple[int, int, int]:

@@ -93,13 +93,13 @@ def verdict_rates(n: int, reps: int) -> None:
     """Share of simulated sweeps per verdict, and how often a worse share is said."""
     print()
     print(f"verdict rule, tolerance {MARGIN}, n = {n}, {reps} sweeps per row (each its own family)")
-    head = ("better", "worse", "equivalent", "inconclusive")
+    head = ("better", "worse", "equivalent", "partly worse", "split", "undecided")
     print(f"{'differences':32s} " + " ".join(f"{h:>12s}" for h in head) + f" {'worse said':>11s}")
     for k, (name, draw) in enumerate(CASES.items()):
         rng = np.random.default_rng(10 + k)
         d = np.stack([draw(rng, n) for _ in range(reps)])
-        out = judge_rows(d, np.zeros_like(d), np.full(reps, MARGIN), np.full(reps, np.nan),
-                         np.arange(reps), np.zeros(reps, bool))  # fmt: skip
+        out = judge_rows(d, np.zeros_like(d), np.full(reps, MARGIN), np.arange(reps),
+                         np.zeros(reps, bool))  # fmt: skip
         shares = [np.mean(out["verdict"] == h) for h in head]
         said = np.mean(out["share_worse_shown"])
         print(f"{name:32s} " + " ".join(f"{x:12.3f}" for x in shares) + f" {said:11.3f}")

@@ -2,11 +2,26 @@
 summary's words on cases where each word would be wrong, and the answer figure drawn from
 the tables' own columns and verdict words."""
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 import pytest
 
-from twolink.studies.reproduction.profiles import costs, performance_profile
+from twolink.studies.judgments.plain import (
+    Regime,
+    claim_line,
+    effort_words,
+    pair_sentences,
+    regime_sentences,
+    same_controller,
+)
+from twolink.studies.reproduction.profiles import (
+    costs,
+    median_interval,
+    performance_profile,
+    scoreboard,
+)
 from twolink.studies.reproduction.summary import MAX_WORDS, Judged, answer, sentence, summary
 
 KEYS = ("peak_time_s", "delay_time_s", "settling_time_s", "rise_time_s", "overshoot_pct",
@@ -69,59 +84,48 @@ def _study(tables):
     return Judged("quintic moves", 200, "FCM-CTC", {n: (f"{n}.csv", t) for n, t in tables.items()})
 
 
-def test_equivalent_rows_say_how_equal_and_only_an_all_zero_interval_is_exactly_0():
-    """ "exactly 0" would be wrong where an interval is not 0 (1e-7 of a tolerance here);
-    "within" would be wrong for rows beyond the band (they state their shift)."""
-    zero = _table(["equivalent"] * 12, [0.0] * 12, [0.0] * 12, [0.0] * 12)
-    assert "(12 rows), 12 equivalent (exactly 0)" in sentence(_study({"CTC": zero}))
-    tiny = _table(["equivalent"] * 12, [0.0] * 12, [-1e-9] * 12, [0.0] * 12)
-    said = sentence(_study({"CTC": tiny}))
-    assert "exactly 0" not in said and "12 equivalent (within 1e-07 tolerance)" in said
-    worse = _table(["worse"] * 3 + ["equivalent"] * 9, [0.05, 0.2, 0.3] + [0.001] * 9,
-                   [0.02, 0.1, 0.2] + [-0.004] * 9, [0.1, 0.3, 0.4] + [0.005] * 9)  # fmt: skip
-    said = sentence(_study({"CTC-best": worse}))
-    assert said.startswith("Quintic moves (200 plants): against CTC-best (12 rows), 9 equivalent")
-    assert "3 worse (+5 to +30 tolerances)" in said
-    assert "9 equivalent (within 0.5 tolerance)" in said
+def test_the_verdicts_counted_are_the_conclusions_words_per_opponent_in_order():
+    """Below the terms, per regime and opponent, the table's verdict words counted
+    (conclusions.describe: sizes in the metric's unit, never in tolerances)."""
+    from twolink.studies.judgments.conclusions import describe
+
+    t = _plain_table(["better"] + ["equal"] * 11, [-0.05] + [0.0] * 11)
+    b = _plain_table(["worse"] * 2 + ["equal"] * 10, [0.02, 0.003] + [0.0] * 10)
+    said = sentence(_study({"CTC": t, "CTC-best": b}))
+    assert said == (
+        f"Quintic moves (200 plants): against CTC (12 rows), {describe(t)}; against CTC-best "
+        f"(12 rows), {describe(b)}."
+    )
+    assert "better on θ1 Tp (−50 ms)" in said and "tolerance" not in said
 
 
-def test_the_verdict_words_are_the_tables_own_a_new_word_is_its_own_group():
-    """Another engineer's vocabulary ("equivalent except a subset") counts as it comes;
-    "undefined" and "set by the reference" count together as "not judged"."""
-    words = ["equivalent except on a subset"] * 2 + ["better"] * 10
-    t = _table(words, [0.0] * 2 + [-0.05] * 10, [-0.001] * 2 + [-0.06] * 10,
-               [0.001] * 2 + [-0.04] * 10)  # fmt: skip
-    said = sentence(_study({"CTC": t}))
-    assert "10 better (-5 tolerances)" in said
-    assert "and 2 equivalent except on a subset (within 0.1 tolerance)" in said
-    undefined = _table([np.nan] * 11 + ["set by the reference"], [np.nan] * 11 + [0.0],
-                       [np.nan] * 11 + [0.0], [np.nan] * 11 + [0.0])  # fmt: skip
-    assert sentence(_study({"CTC": undefined})).endswith("(12 rows), 12 not judged.")
-
-
-def test_the_answer_stays_within_its_words_with_every_verdict_in_every_table():
-    """The worst case: three regimes, two opponents each, every verdict in every table:
-    sizes give way (the figure keeps them) before the answer passes its words; the real
-    tables keep theirs where they fit (both cases below)."""
+def test_the_summary_opens_with_the_plain_answer_and_defines_each_word_it_uses():
+    """The answer first (one paragraph per regime, then the claim), within its words for
+    three regimes of two opponents each; then the terms, defining every word the answer
+    uses; the verdicts counted below, in tolerances."""
     words = ["better", "worse", "equivalent", "split", "inconclusive", "set by the reference"]
     words = words * 2
     est = [-0.05, 0.05, 0.0, 0.002, 0.02, 0.0] * 2
-    t = _table(words, est, [e - 0.01 for e in est], [e + 0.01 for e in est])
+    t = _plain_table(
+        typical=["better", "worse", "equivalent", "equivalent", "undecided", "none"] * 2,
+        estimate=est,
+        verdict=words,
+    )
     long = "rigid arm, the paper's raw steps at ωn = 3 rad/s"  # a regime without a short name
     tables = {n: (f"{n}.csv", t) for n in ("CTC", "CTC-best")}
     studies = [Judged(long, 200, "FCM-CTC", tables)] * 3
     said = answer(studies)
-    assert len(said) == 3
+    assert len(said) == 4 and said[-1].startswith("**The paper's claim**")
     assert sum(len(s.split()) for s in said) <= MAX_WORDS
-    assert sum(len(s.split()) for s in (sentence(x) for x in studies)) > MAX_WORDS  # it bit
-    one = answer(studies[:1])  # one regime fits with its sizes
-    assert one == [sentence(studies[0])] and "tolerances)" in one[0]
     text = summary(studies, {"CTC": "the baseline", "CTC-best": "the fair one"}, "its metrics")
-    # every term is defined before the answer uses it
-    terms = text.index("**Terms.**")
-    for word in ("*row*", "*tolerance*", "*typical shift*", "*equivalent*", "*split*",
-                 "*not judged*", "*CTC-best*"):  # fmt: skip
-        assert terms < text.index(word) < text.index("**The answer.**"), word
+    assert text.index("**The answer.**") < text.index("**Terms.**") < text.index("counted.**")
+    terms = text[text.index("**Terms.**") :]
+    defined = ("*tolerance*", "*typical plant*", "*Beats*", "*Trade*", "*Undecided*",
+               "*Do not differ on the typical plant*", "*The same controller*", "*CTC-best*",
+               "*IAE1 + IAE2*", "*Less effort*")  # fmt: skip
+    for word in defined:
+        assert word in terms, word
+    assert "tolerances" not in text  # sizes in the metrics' own units
     assert "`CTC-best.csv` (CTC-best)" in text
 
 
@@ -141,3 +145,258 @@ def test_the_answer_figure_draws_the_tables_columns_and_prints_their_verdicts():
     assert labels[0] == "θ1 Tp" and labels[-1] == "θ2 ess"
     rho = performance_profile(pd.DataFrame({"A": [1.0, 2.0], "B": [2.0, 1.0]}))
     assert len(profiles_figure([("IAE", rho)]).axes) == 1
+
+
+STEP = ("peak_time_s", "delay_time_s", "settling_time_s", "rise_time_s", "overshoot_pct",
+        "steady_state_error_rad")  # fmt: skip
+TOL = {"overshoot_pct": 1.0, "steady_state_error_rad": 0.001, "torque_peak_Nm": 0.5,
+       "torque_variation_Nm": 1.0}  # fmt: skip
+
+
+def _plain_table(typical, estimate=None, metrics=STEP, **columns):
+    """A claims table (docs/statistics.md's columns) of len(typical) rows over ``metrics``
+    per joint, every plant equal unless a column says otherwise."""
+    n = len(typical)
+    keys = [(1 + i // len(metrics), metrics[i % len(metrics)]) for i in range(n)]
+    tol = [TOL.get(k, 0.01) for _, k in keys]
+    est = np.asarray(estimate if estimate is not None else [0.0] * n, float)
+    t = pd.DataFrame({
+        "joint": [j for j, _ in keys], "metric": [k for _, k in keys], "n": 200, "plants": 200,
+        "tolerance": tol, "typical": typical, "estimate": est, "ci_low": est - 0.1 * np.abs(est),
+        "ci_high": est + 0.1 * np.abs(est), "difference_min": -0.5 * np.array(tol),
+        "difference_max": 0.5 * np.array(tol), "better": 0, "worse": 0, "unreached_better": 0,
+        "unreached_worse": 0, "share_better_shown": False, "share_worse_shown": False,
+        "reference": np.nan, "verdict": typical,
+    })  # fmt: skip
+    for name, value in columns.items():
+        t[name] = value
+    return t
+
+
+def test_the_same_controller_only_where_every_plant_is_within_every_tolerance():
+    """ "the same controller" would be wrong with one plant beyond one row's tolerance, or
+    one time that only one side reaches."""
+    t = _plain_table(["equivalent"] * 12)
+    said = " ".join(pair_sentences(t, "FCM-CTC", "CTC", 200))
+    assert said.startswith(
+        "FCM-CTC and CTC are the same controller: no metric differs by more than its "
+        "tolerance on any of 200 plants (at most 5 ms"
+    )
+    assert same_controller(t)
+    one = t.copy()
+    one.loc[11, "difference_max"] = 0.0011  # one plant 1.1 mrad off, past 1 mrad
+    assert not same_controller(one)
+    assert "same controller" not in " ".join(pair_sentences(one, "FCM-CTC", "CTC", 200))
+    alone = t.copy()
+    alone.loc[3, "unreached_worse"] = 1
+    assert not same_controller(alone)
+    assert not same_controller(t.assign(n=0))  # nothing compared: nothing the same
+
+
+def test_beats_needs_the_typical_plant_beyond_the_tolerance_and_no_loss():
+    """ "beats" would be wrong where the typical plant's interval crosses zero (a verdict
+    carried by a share), and where the winner also loses a metric ("trade")."""
+    typical = ["equivalent"] * 12
+    typical[9] = "better"  # θ2 Tr: 80 ms lower on the typical plant
+    est = [0.0] * 12
+    est[9] = -0.08
+    t = _plain_table(typical, est, better=[0] * 9 + [188] + [0] * 2,
+                     difference_min=[-0.005] * 9 + [-0.2] + [-0.0005] * 2)  # fmt: skip
+    said = pair_sentences(t, "FCM-CTC", "CTC", 200)
+    assert said[0] == "FCM-CTC beats CTC on 1 of 12 step metrics and loses on none."
+    assert said[1] == ("FCM-CTC's θ2 Tr is 80 ms lower on the typical plant, and lower by "
+                       "more than 10 ms on 188 of 200 plants.")  # fmt: skip
+    # the same row called "better" by its share, its typical plant undecided (crossing 0)
+    shares = t.copy()
+    crossing = ["undecided", "better", -0.1, 0.02]
+    shares.loc[9, ["typical", "verdict", "ci_low", "ci_high"]] = crossing
+    shares.loc[9, "share_better_shown"] = True
+    said = " ".join(pair_sentences(shares, "FCM-CTC", "CTC", 200))
+    assert "beats" not in said
+    assert said.startswith(
+        "FCM-CTC and CTC do not differ on the typical plant (11 of 12 step metrics within "
+        "their tolerance, 1 undecided)."
+    )
+    assert "FCM-CTC is ahead by more than 10 ms on up to 188 of 200 plants (θ2 Tr)." in said
+    lost = t.copy()
+    lost.loc[11, ["typical", "estimate", "worse"]] = ["worse", 0.004, 150]
+    said = " ".join(pair_sentences(lost, "FCM-CTC", "CTC", 200))
+    assert "beats" not in said
+    assert said.startswith(
+        "FCM-CTC and CTC trade: FCM-CTC is better on 1 and worse on 1 of 12 step metrics."
+    )
+    assert (
+        "CTC's θ2 ess is 4 mrad lower on the typical plant, and lower by more than 1 mrad on 150"
+        in said
+    )
+    flipped = t.assign(typical=["worse" if x == "better" else x for x in t["typical"]],
+                       estimate=-t["estimate"], worse=t["better"], better=0)  # fmt: skip
+    said = pair_sentences(flipped, "FCM-CTC", "CTC-best", 200)
+    assert said[0] == "CTC-best beats FCM-CTC on 1 of 12 step metrics and loses on none."
+    assert "on 188 of 200 plants" in said[1]
+
+
+def test_a_time_judged_against_the_move_is_closer_to_it_not_lower():
+    typical = ["equivalent"] * 12
+    typical[1] = "better"
+    t = _plain_table(typical, [0.0, -0.03] + [0.0] * 10, better=[0, 120] + [0] * 10,
+                     reference=[np.nan, 1.0] + [np.nan] * 10,
+                     difference_min=[-0.005, -0.05] + [-0.0005] * 10)  # fmt: skip
+    said = pair_sentences(t, "FCM-CTC", "CTC", 200)[1]
+    assert "θ1 Td is 30 ms closer to the move's own on the typical plant" in said
+    assert "lower" not in said
+
+
+def test_effort_is_less_more_the_same_or_unsaid_by_its_typical_plant():
+    """From the winner's side; "the same" would be wrong with one undecided row, "less"
+    with one row worse."""
+    effort = ("torque_peak_Nm", "torque_variation_Nm")
+    rows = _plain_table(["equivalent", "better", "equivalent", "equivalent"],
+                        [0.0, -24.0, 0.0, 0.0], metrics=effort)  # fmt: skip
+    assert effort_words(rows, True) == ", at less effort (θ1 Σ|Δτ| 24 N·m lower)"
+    assert effort_words(rows, False) == ", at more effort (θ1 Σ|Δτ| 24 N·m higher)"
+    assert effort_words(rows.assign(typical="equivalent"), True) == ", at the same effort"
+    undecided = rows.assign(typical=["equivalent", "equivalent", "undecided", "equivalent"])
+    assert effort_words(undecided, True) == ""
+    mixed = rows.assign(typical=["worse", "better", "equivalent", "equivalent"])
+    assert effort_words(mixed, True) == ""
+    assert effort_words(_plain_table(["equivalent"] * 12), True) == ""  # no effort rows
+
+
+def _regime(name, tables, iae=None):
+    return Regime(name, 200, "FCM-CTC", tables, iae or {})
+
+
+def test_the_strongest_opponent_is_the_tables_lowest_median_iae_and_only_an_opponent():
+    """Named by median IAE1 + IAE2 among the tables' opponents: a controller of the sweep
+    that is no opponent (CTC-I here, lower still) is not named, nor the proposed one."""
+    t = _plain_table(["equivalent"] * 12)
+    tables = {"CTC": t, "CTC-best": t, "SMC": t}
+    iae = {"CTC": 0.08, "CTC-best": 0.019, "SMC": 0.03, "CTC-I": 0.01, "FCM-CTC": 0.081}
+    said = regime_sentences(_regime("quintic moves", tables, iae))
+    named = [s for s in said if "strongest" in s]
+    assert named == ["CTC-best is the strongest opponent: median IAE1 + IAE2 19 mrad·s "
+                     "against FCM-CTC's 81 mrad·s."]  # fmt: skip
+    assert not any("SMC" in s for s in said)  # the baseline and the strongest only
+    # unknown medians: every opponent is said
+    assert sum("same controller" in s for s in regime_sentences(_regime("x", tables))) == 3
+
+
+def test_the_claim_holds_where_it_beats_the_opponent_and_says_where():
+    """ "holds" would be wrong where the proposed loses a metric (a trade) or wins none."""
+    win = _plain_table(["better"] + ["equivalent"] * 11, [-0.05] + [0.0] * 11)
+    trade = win.assign(typical=["better"] + ["equivalent"] * 10 + ["worse"])
+    none = _plain_table(["equivalent"] * 12)
+    regimes = [
+        _regime("quintic moves", {"CTC": none, "CTC-best": trade}),
+        _regime("raw steps", {"CTC": win, "CTC-best": trade}),
+        _regime("lab arm", {"CTC": none, "CTC-best": none}),
+    ]
+    assert claim_line(regimes) == (
+        "**The paper's claim** (FCM-CTC lowers the step metrics). Against CTC it holds on "
+        "raw steps only. Against CTC-best it holds in no regime."
+    )
+    every = [_regime(n, {"CTC": win, "SMC": win}) for n in ("a", "b")]
+    assert claim_line(every).endswith("Against CTC and SMC it holds in every regime.")
+
+
+def test_the_medians_interval_is_the_order_statistics_binomial_interval():
+    """Against its definition: [x_(j), x_(n−j+1)] with P(Bin(n, ½) < j) ≤ 2.5 %; n = 200
+    gives j = 86 (Conover's table: the 86th and 115th values); its coverage checked on
+    draws from a known median."""
+    from scipy.stats import binom
+
+    x = np.arange(1.0, 201.0)
+    median, low, high = median_interval(x[::-1])
+    assert (median, low, high) == (100.5, 86.0, 115.0)
+    assert binom.cdf(85, 200, 0.5) <= 0.025 < binom.cdf(86, 200, 0.5)
+    rng = np.random.default_rng(5)
+    bounds = [median_interval(rng.normal(size=60))[1:] for _ in range(4000)]
+    covered = np.mean([lo <= 0 <= hi for lo, hi in bounds])
+    j = int(binom.ppf(0.025, 60, 0.5))
+    exact = 1 - 2 * binom.cdf(j - 1, 60, 0.5)  # the coverage of [x_(j), x_(n−j+1)]
+    assert 0.95 <= exact < 0.98 and abs(covered - exact) < 0.01
+    assert np.isnan(median_interval(np.ones(4))[1])  # too few values for a 95 % interval
+
+
+def test_the_scoreboard_ranks_by_median_iae_and_names_a_best_only_where_it_is_clear():
+    from twolink.figures.scoreboard import best_in, scoreboard_figure
+
+    rng = np.random.default_rng(2)
+    rows = []
+    keys = [f"joint{j}_{k}" for j in (1, 2) for k in ("iae_rad_s", "torque_peak_Nm",
+                                                      "torque_variation_Nm")]  # fmt: skip
+    for name, scale in (("slow", 3.0), ("fast", 1.0), ("same", 1.02)):
+        for sample in range(100):
+            values = {k: scale * rng.lognormal() for k in keys}
+            rows.append({"sample": sample, "controller": name, "status": "ok", **values})
+    board = scoreboard(pd.DataFrame(rows))
+    order = list(dict.fromkeys(board["controller"]))
+    assert order[2] == "slow" and set(order[:2]) == {"fast", "same"}
+    panel = board[(board["metric"] == "iae_rad_s") & (board["joint"] == 1)]
+    assert best_in(panel) is None  # "fast" and "same" overlap: no clear best
+    clear = panel[panel["controller"] != "same"]
+    assert best_in(clear) == "fast"
+    fig = scoreboard_figure([("quintic moves", board)])
+    assert len(fig.axes) == 6 and "best: none clear" in fig.axes[0].get_title()
+
+
+def test_the_first_line_says_what_off_target_counts_and_whether_it_is_expected():
+    """ "is expected here" would be wrong where the proposed controller or its baseline
+    misses its target on the plain rigid arm; "which the laws model as rigid" where a
+    flexible-joint law is among the off-target runs."""
+    from twolink.studies.judgments.plain import runs_line
+    from twolink.studies.reproduction.manifest import load_manifest
+
+    m = load_manifest()
+    rows = [
+        {"variant": "rigid", "controller": "fuzzy-PD", "outcome": "off target", "status": "ok"},
+        {"variant": "rigid", "controller": "CTC", "outcome": "met spec", "status": "ok"},
+        {"variant": "raw", "controller": "CTC", "outcome": "off target", "status": "ok"},
+        {"variant": "flexible", "controller": "FCM-CTC", "outcome": "off target", "status": "ok"},
+    ]
+    line = runs_line(rows, m, "out/summary.md")
+    assert line.startswith("4 runs: 1 met the spec, 3 off target, 0 diverged. Off target ")
+    assert "(outside 2 % of the target at the end, growing, or overshooting 20 %)" in line
+    assert " is expected here: 1 of weak baselines on the rigid arm (fuzzy-PD 1); " in line
+    assert "1 on the rigid arm, the paper's raw steps" in line
+    assert (
+        "1 on the flexible joints (Spong, k = 500 N·m/rad), which the laws model as rigid" in line
+    )
+    assert line.endswith("The answer: out/summary.md")
+    bad = [*rows, {"variant": "rigid", "controller": "FCM-CTC", "outcome": "off target",
+                   "status": "ok"}]  # fmt: skip
+    line = runs_line(bad, m, "out/summary.md")
+    assert "expected here" not in line and "unexpected: FCM-CTC 1 on the rigid arm" in line
+    flexible = dataclasses.replace(
+        m, controllers={**m.controllers, "FCM-CTC": {"kind": "flexible_fl"}}
+    )
+    assert "model as rigid" not in runs_line(rows, flexible, "s.md")
+    clean = [r for r in rows if r["outcome"] == "met spec"]
+    assert (
+        runs_line(clean, m, "s.md")
+        == "1 run: 1 met the spec, 0 off target, 0 diverged. The answer: s.md"
+    )
+
+
+def test_the_readme_is_a_front_door():
+    """At most 120 lines; the two commands as .ci/run runs the test one; one library
+    block; the answer block and its two pictures; links to the docs that exist."""
+    import re
+    from pathlib import Path
+
+    repo = Path(__file__).resolve().parents[1]
+    readme = (repo / "README.md").read_text()
+    assert len(readme.splitlines()) <= 120
+    venv = "python3 -m venv .venv && .venv/bin/pip install -q -e"
+    tests = f'{venv} ".[test]" && .venv/bin/python -m pytest'
+    assert readme.count("```bash") == 2 and tests in readme
+    assert f"\n{tests}\n" in (repo / ".ci" / "run").read_text()
+    assert (
+        "python3 -m venv .venv && .venv/bin/pip install -q -e . && .venv/bin/twolink reproduce"
+        in readme
+    )
+    assert readme.count("```python") == 1
+    assert readme.index("<!-- answer: start -->") < readme.index("docs/images/scoreboard.png")
+    for link in re.findall(r"\]\((docs/[^)#]+)", readme):
+        assert (repo / link).is_file(), link

@@ -65,33 +65,47 @@ def test_a_real_improvement_is_better_and_its_interval_holds_the_true_shift():
     assert row["ci_low"] < -3.0 < row["ci_high"] < 0
 
 
-def test_no_effect_is_inconclusive_or_equivalent_never_a_win():
+def test_no_effect_is_split_or_equivalent_never_a_win():
     rng = np.random.default_rng(3)
     base = rng.uniform(5, 15, 300)
-    row = judge(sweep(base, base + rng.normal(0, 10.0, 300)))  # noisy: ±1 % not shown
-    assert row["verdict"] == "inconclusive" and row["ci_low"] < 0 < row["ci_high"]
-    row = judge(sweep(base, base + rng.normal(0, 0.3, 300)))  # tight: within ±1 % of Mp
-    assert row["verdict"] == "equivalent"
+    row = judge(sweep(base, base + rng.normal(0, 10.0, 300)))  # noisy: ±1 % either way
+    assert row["verdict"] == "split" and row["ci_low"] < 0 < row["ci_high"]
+    assert row["share_better_shown"] and row["share_worse_shown"]
+    d = rng.normal(0, 0.3, 300)
+    row = judge(sweep(base, base + d))  # tight: within ±1 % of Mp on every plant: equal
+    assert row["verdict"] == "equal" and row["typical"] == "equivalent"
+    d[:5] = 1.5  # 5 of 300 beyond: equivalent
+    row = judge(sweep(base, base + d))
+    assert row["verdict"] == "equivalent" and (row["better"], row["worse"]) == (0, 5)
 
 
-def test_identical_metrics_are_equivalent_with_no_wins():
+def test_identical_metrics_are_equal_with_no_wins():
     zeros = np.zeros(200)
     row = judge(sweep(zeros, zeros))
     assert (row["better"], row["worse"], row["equal"]) == (0, 0, 200)
-    assert row["verdict"] == "equivalent" and row["estimate"] == 0
+    assert row["verdict"] == "equal" and row["typical"] == "equivalent" and row["estimate"] == 0
 
 
-def test_a_value_set_by_the_reference_gets_no_verdict():
+def test_a_value_both_take_from_the_reference_is_judged_by_its_distance():
     td = np.full(100, 1.0)  # both controllers' delay time is the quintic move's own
     row = judge(sweep(td, td + 1e-4, "delay_time_s"), "delay_time_s",
                 reference_values={(1, "delay_time_s"): 1.0})  # fmt: skip
-    assert row["verdict"] == "set by the reference" and np.isnan(row["p_adjusted"])
+    assert row["verdict"] == "equal" and row["reference"] == 1.0
+    assert row["proposed_median"] == pytest.approx(1e-4) and row["baseline_median"] == 0
+    # the move's own value on the typical plant hides no share: 48 of 200 farther by 20 ms
+    td = np.full(200, 1.0)
+    late = td.copy()
+    late[:48] += 0.02
+    row = judge(sweep(td, late, "delay_time_s"), "delay_time_s",
+                reference_values={(1, "delay_time_s"): 1.0})  # fmt: skip
+    assert row["verdict"] == "partly worse" and row["typical"] != "worse"
+    assert "worse by more than 10 ms on 48 of 200" in row["reading"]
 
 
-def test_a_metric_no_plant_has_is_undefined_not_inconclusive():
+def test_a_metric_no_plant_has_is_not_judged():
     nan = np.full(50, np.nan)
     row = judge(sweep(nan, nan, "peak_time_s"), "peak_time_s")
-    assert row["n"] == 0 and row["verdict"] == "undefined"
+    assert row["n"] == 0 and row["verdict"] == "not judged" and row["typical"] == "not judged"
 
 
 def test_holm_against_statsmodels_formula_and_across_a_family():
@@ -161,3 +175,20 @@ def test_unknown_names_refused():
     table = sweep(rng.uniform(0, 1, 100), rng.uniform(0, 1, 100))
     with pytest.raises(ValueError, match="no controller 'PID'"):
         paired_claims(table, "PID", "CTC")
+
+
+def test_the_docs_tolerance_table_is_the_one_home_of_the_tolerances():
+    import re
+    from pathlib import Path
+
+    from twolink.studies.judgments.claims import TOLERANCES
+
+    text = (Path(__file__).parents[1] / "docs" / "statistics.md").read_text()
+    section = text[text.index("## Practical tolerances") : text.index("## Operating")]
+    documented = {}
+    for line in section.splitlines():
+        if line.startswith("| `"):
+            keys, delta = line.split("|")[1:3]
+            value = float(re.match(r"\s*([0-9.e+-]+)", delta).group(1))
+            documented |= dict.fromkeys(re.findall(r"`([A-Za-z0-9_]+)`", keys), value)
+    assert documented == TOLERANCES

@@ -21,6 +21,7 @@ from twolink.studies.judgments.claims import (
     paired_claims_many,
     proportion_interval,
 )
+from twolink.studies.judgments.claims import judge as claims_judge
 
 MRAD = 1e-3  # the tolerance of the angles
 
@@ -56,8 +57,9 @@ def test_half_the_plants_worse_by_twice_the_tolerance_reads_worse():
     d = np.zeros(200)
     d[::2] = 2 * MRAD
     row = judge(d)
-    assert row["verdict"] == "worse" and row["estimate"] > 0
-    assert row["share_worse"] == 0.5 and row["share_worse_shown"]
+    # the typical plant on the margin (undecided); half the plants is not most of them
+    assert row["typical"] == "undecided" and row["verdict"] == "partly worse"
+    assert row["estimate"] > 0 and row["share_worse"] == 0.5 and row["share_worse_shown"]
     assert "worse by more than 1 mrad on 100 of 200" in row["reading"]
 
 
@@ -67,9 +69,9 @@ def test_a_limit_cycle_on_15_percent_of_plants_is_said_as_a_share():
     cycle = rng.choice(200, 30, replace=False)
     d[cycle] = rng.uniform(2, 6.5, 30) * MRAD  # oscillation, up to 6.5 mrad
     row = judge(d, "oscillation_rad")
-    # issue 48: "equivalent" said 15 % of the plants oscillate; that is a split
+    # 15 % of the plants oscillate, none the other way: one-sided, not a split
     assert row["typical"] == "equivalent" and row["estimate"] == pytest.approx(0, abs=1e-4)
-    assert row["verdict"] == "split"
+    assert row["verdict"] == "partly worse"
     assert row["reading"].startswith(
         "equivalent on the typical plant; worse by more than 1 mrad on 30 of 200"
     )
@@ -96,10 +98,15 @@ def test_a_count_against_the_estimate_never_makes_the_verdict():
         "worse by more than 0.5 N·m on 20 of 200 (6-15 %)"
     )
     # a quarter worse: the typical plant (the interval reaches the quarter) undecided,
-    # both shares said, no word
+    # both shares said; three quarters better is most plants: better
     d = np.r_[np.full(150, -1.5), np.full(50, 2.0)]
     row = judge(d, "torque_peak_Nm", base=np.full(200, 20.0))
-    assert row["verdict"] == "inconclusive" and "on 50 of 200" in row["reading"]
+    assert row["typical"] == "undecided" and row["verdict"] == "better"
+    assert "on 150 of 200" in row["reading"] and "on 50 of 200" in row["reading"]
+    # half better, a third worse: neither most nor one way: split
+    d = np.r_[np.full(100, -1.5), np.full(66, 2.0), np.zeros(34)]
+    row = judge(d, "torque_peak_Nm", base=np.full(200, 20.0))
+    assert row["typical"] == "undecided" and row["verdict"] == "split"
 
 
 def test_no_verdict_points_against_its_estimate_on_random_mixtures():
@@ -116,11 +123,11 @@ def test_no_verdict_points_against_its_estimate_on_random_mixtures():
             assert not row["estimate"] < 0
 
 
-def test_twelve_plants_are_inconclusive():
+def test_twelve_plants_are_undecided():
     rng = np.random.default_rng(4)
     d = rng.normal(1.5, 1.5, 12) * MRAD
     row = judge(d)
-    assert row["n"] == 12 and row["worse"] >= 6 and row["verdict"] == "inconclusive"
+    assert row["n"] == 12 and row["worse"] >= 6 and row["verdict"] == "undecided"
     assert row["ci_low"] < MRAD < row["ci_high"]
 
 
@@ -134,9 +141,8 @@ def test_a_difference_of_exactly_the_tolerance_is_equal():
     row = paired_claims(sweep(base + 1.0, base, "overshoot_pct"), "FCM-CTC", "CTC",
                         ["overshoot_pct"], [1]).iloc[0]  # fmt: skip
     assert (row["better"], row["worse"], row["equal"]) == (0, 0, 200)
-    # on the margin itself the typical plant is no practical difference shown either way
-    # (two one-sided tests cannot reject a shift of exactly δ): never "worse"
-    assert row["share_worse"] == 0 and row["verdict"] == "inconclusive"
+    # on the margin itself no plant differs by more than δ: equal, never "worse"
+    assert row["share_worse"] == 0 and row["verdict"] == "equal"
 
 
 def test_a_time_only_one_controller_reaches_counts_against_the_other():
@@ -229,3 +235,138 @@ def test_the_sign_test_of_arrays_is_binomtest_to_the_bit():
     k, n = np.array(pairs).T
     expected = [stats.binomtest(a, b, 0.5).pvalue if b else 1.0 for a, b in pairs]
     assert np.array_equal(_sign_ps(k, n - k), np.array(expected))
+
+
+# The verdict rules no other unit test held (each on a case where its mutant changes the
+# answer): the Bonferroni m, the half-of-plants quorum at exactly half, the distance to
+# the move's own on the baseline's side and for Tp and Ts, Tr with Td beside (a pure lag),
+# and claims.judge on the tables' own path.
+
+
+def _family(columns: dict[str, tuple[np.ndarray, np.ndarray]]) -> pd.DataFrame:
+    """One table of several metrics of joint 1: ``columns`` metric -> (CTC's, FCM-CTC's)."""
+    rows = []
+    for c, name in enumerate(("CTC", "FCM-CTC")):
+        n = len(next(iter(columns.values()))[0])
+        rows += [{"sample": i, "controller": name}
+                 | {f"joint1_{k}": float(v[c][i]) for k, v in columns.items()}
+                 for i in range(n)]  # fmt: skip
+    return pd.DataFrame(rows)
+
+
+def test_the_bonferroni_m_counts_the_rows_whose_typical_plant_is_judged():
+    # Row A: 200 plants shifted so that the interval at 95 % (m = 1) clears +1 mrad and
+    # the one at 97.5 % (m = 2) does not. Row B: a pair on 40 of the 200 plants only, its
+    # typical plant not judged: it reads no interval and spends no α, so m = 1 and A is
+    # worse. Counting every row with a plant (m = 2), A would be undecided.
+    noise = stats.norm.ppf((np.arange(200) + 0.5) / 200) * 1.4 * MRAD
+    low95, low975 = hodges_lehmann(noise, 0.95)[1], hodges_lehmann(noise, 0.975)[1]
+    shift = MRAD - (low95 + low975) / 2
+    d = shift + noise
+    assert hodges_lehmann(d, 0.95)[1] > MRAD > hodges_lehmann(d, 0.975)[1]  # a real case
+    few = np.full(200, np.nan)
+    few[:40] = 0.01
+    t = _family({"steady_state_error_rad": (np.full(200, 0.01), 0.01 + d),
+                 "final_error_rad": (few, few + 2 * MRAD)})  # fmt: skip
+    table = paired_claims(t, "FCM-CTC", "CTC", ["steady_state_error_rad", "final_error_rad"], [1])
+    a, b = table.iloc[0], table.iloc[1]
+    assert b["n"] == 40 and b["runs"] == 200 and b["typical"] == "not judged"
+    assert a["ci_level"] == pytest.approx(0.95) and b["ci_level"] == pytest.approx(0.95)
+    assert a["typical"] == "worse" and a["verdict"] == "worse"
+    # with B judged (its pair on 100 of 200, exactly half), m = 2 and A is undecided
+    few[:100] = 0.01
+    t = _family({"steady_state_error_rad": (np.full(200, 0.01), 0.01 + d),
+                 "final_error_rad": (few, few + 2 * MRAD)})  # fmt: skip
+    table = paired_claims(t, "FCM-CTC", "CTC", ["steady_state_error_rad", "final_error_rad"], [1])
+    assert table.iloc[0]["ci_level"] == pytest.approx(1 - 0.05 / 2)
+    assert table.iloc[0]["typical"] == "undecided"
+
+
+def test_the_typical_plant_is_judged_at_exactly_half_the_plants_not_below():
+    for both, typical in ((100, "better"), (99, "not judged")):
+        a, b = np.full(200, np.nan), np.full(200, np.nan)
+        a[:both], b[:both] = 1.0, 1.5  # Ts→θd reached by both on `both` of 200, by neither else
+        row = judge(a - b, "settling_time_target_s", base=b)
+        assert row["n"] == both and row["runs"] == 200 and row["typical"] == typical
+    assert row["verdict"] != "better"  # 99 of 200 better is not most plants
+
+
+def _own(key: str, own: float, proposed: np.ndarray, baseline: np.ndarray) -> pd.Series:
+    t = sweep(baseline, proposed, key)
+    return paired_claims(t, "FCM-CTC", "CTC", [key], [1], reference_values={(1, key): own}).iloc[0]
+
+
+def test_the_distance_to_the_moves_own_is_taken_on_the_baselines_side_too():
+    # the move's own Td is 1 s: FCM-CTC 20 ms late, CTC 20 ms early: as far from the move
+    # (equal); the baseline's raw Td against FCM-CTC's distance would read "better"
+    rng = np.random.default_rng(6)
+    jitter = rng.uniform(-2e-3, 2e-3, 200)
+    row = _own("delay_time_s", 1.0, 1.02 + jitter, 0.98 - jitter)
+    assert row["verdict"] == "equal" and row["baseline_median"] == pytest.approx(0.02, abs=3e-3)
+    # on the move's own beside 50 ms early: better
+    assert _own("delay_time_s", 1.0, 1.0 + jitter, 0.95 + jitter)["verdict"] == "better"
+
+
+@pytest.mark.parametrize("key", ["peak_time_s", "settling_time_s", "settling_time_target_s"])
+def test_an_early_time_on_a_moving_reference_is_worse_not_better(key):
+    # Tp: FCM-CTC peaks 50 ms before the move's own 2 s, CTC on it. Ts: FCM-CTC "settles"
+    # 21 ms before the quintic's own 1.73 s because it ends short of the target, CTC at it
+    rng = np.random.default_rng(7)
+    own, early = (2.0, 0.05) if key == "peak_time_s" else (1.73, 0.021)
+    jitter = rng.uniform(-2e-3, 2e-3, 200)
+    row = _own(key, own, own - early + jitter, own + jitter)
+    assert row["verdict"] == "worse" and row["estimate"] == pytest.approx(early, abs=3e-3)
+    assert row["reference"] == own
+    assert f"judged by the distance to the reference's own {own:g} s" in row["reading"]
+
+
+def _quintic_move(t: np.ndarray, start: float = 0.0, duration: float = 2.0) -> np.ndarray:
+    s = np.clip((t - start) / duration, 0.0, 1.0)
+    return 10 * s**3 - 15 * s**4 + 6 * s**5
+
+
+def test_a_pure_lag_is_worse_on_tr_not_equal():
+    # A 2 s quintic move 0 -> 1 rad; FCM-CTC follows it 100 ms late (a pure lag), CTC on
+    # it. The lag leaves the length of the rise as it is (|ΔTr| = 0: "equal" by the
+    # distance of Tr alone); the rise, Td beside it, is 100 ms from the move's own.
+    from twolink.simulation.metrics import step_metrics
+
+    t = np.arange(0.0, 4.0, 1e-3)
+    own = step_metrics(t, _quintic_move(t), 1.0)
+    rng = np.random.default_rng(8)
+    lagged, on = [], []
+    for _ in range(40):
+        lagged.append(step_metrics(t, _quintic_move(t, 0.1 + rng.uniform(0, 2e-3)), 1.0))
+        on.append(step_metrics(t, _quintic_move(t, rng.uniform(0, 2e-3)), 1.0))
+    tr = np.array([m.rise_time for m in lagged]), np.array([m.rise_time for m in on])
+    td = np.array([m.delay_time for m in lagged]), np.array([m.delay_time for m in on])
+    assert np.abs(tr[0] - own.rise_time).max() <= 2e-3  # the lag keeps Tr
+    assert np.all(td[0] - own.delay_time > 0.099)
+    t_ = pd.DataFrame(
+        [{"sample": i, "controller": name, "joint1_rise_time_s": r[i], "joint1_delay_time_s": d[i]}
+         for name, r, d in (("FCM-CTC", tr[0], td[0]), ("CTC", tr[1], td[1]))
+         for i in range(40)]
+    )  # fmt: skip
+    refs = {(1, "rise_time_s"): own.rise_time, (1, "delay_time_s"): own.delay_time}
+    row = paired_claims(t_, "FCM-CTC", "CTC", ["rise_time_s"], [1], reference_values=refs).iloc[0]
+    assert row["verdict"] == "worse" and row["estimate"] == pytest.approx(0.1, abs=3e-3)
+    assert "judged by the distance of the rise to the move's own" in row["reading"]
+    # the same by claims.judge, the tables' own path
+    one = claims_judge(tr[0], tr[1], "rise_time_s", own.rise_time,
+                       delay=(td[0], td[1], own.delay_time))  # fmt: skip
+    assert one["verdict"] == "worse" and one["estimate"] == row["estimate"]
+    # Tr on a moving reference without Td is refused, not judged by |ΔTr|
+    with pytest.raises(ValueError, match="is judged with Td beside it"):
+        claims_judge(tr[0], tr[1], "rise_time_s", own.rise_time)
+
+
+def test_claims_judge_applies_the_distance_rule_the_tables_apply():
+    rng = np.random.default_rng(9)
+    jitter = rng.uniform(-2e-3, 2e-3, 200)
+    early, on = 1.95 + jitter, 2.0 + jitter  # an early peak against one on the move's own 2 s
+    one = claims_judge(early, on, "peak_time_s", reference=2.0)
+    row = _own("peak_time_s", 2.0, early, on)
+    assert one["verdict"] == row["verdict"] == "worse"
+    assert one["estimate"] == row["estimate"] and one["reference"] == 2.0
+    # without the move's own, the raw times: earlier is lower
+    assert claims_judge(early, on, "peak_time_s")["verdict"] == "better"

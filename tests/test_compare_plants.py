@@ -10,24 +10,24 @@ from twolink.studies.judgments.compare import minimum_plants, too_few
 
 
 def _verdicts(d: np.ndarray, rows: int) -> set:
-    """The judge's verdicts on ``rows`` equal rows of differences ``d`` (tolerance 1)."""
+    """The judge's typical plants on ``rows`` equal rows of differences ``d`` (tolerance 1)."""
     n = len(d)
     a = np.tile(np.asarray(d, float), (rows, 1))
-    out = judge_rows(a, np.zeros((rows, n)), np.ones(rows), np.full(rows, np.nan),
-                     np.zeros(rows), np.zeros(rows, bool))  # fmt: skip
-    return set(out["verdict"])
+    out = judge_rows(a, np.zeros((rows, n)), np.ones(rows), np.zeros(rows),
+                     np.zeros(rows, bool))  # fmt: skip
+    return set(out["typical"])
 
 
 @pytest.mark.parametrize("rows", [1, 12, 24])
 def test_the_minimum_is_where_the_judge_first_says_equivalent_and_better(rows):
     """Identical plants (every difference 0): one plant fewer than the minimum is
-    "inconclusive", the minimum "equivalent"; plants all far better: one fewer is
-    "inconclusive", the minimum "better". Bonferroni over ``rows`` rows raises both."""
+    "undecided" on the typical plant, the minimum "equivalent"; plants all far better: one
+    fewer is "undecided", the minimum "better". Bonferroni over ``rows`` rows raises both."""
     equivalent, differ = minimum_plants(rows)
-    assert _verdicts(np.zeros(equivalent - 1), rows) == {"inconclusive"}
+    assert _verdicts(np.zeros(equivalent - 1), rows) == {"undecided"}
     assert _verdicts(np.zeros(equivalent), rows) == {"equivalent"}
     far = -2.0 - np.arange(differ) / differ
-    assert _verdicts(far[:-1], rows) == {"inconclusive"}
+    assert _verdicts(far[:-1], rows) == {"undecided"}
     assert _verdicts(far, rows) == {"better"}
     assert minimum_plants(24) > minimum_plants(1)
 

@@ -75,12 +75,11 @@ def test_a_trajectory_converts_to_a_dataframe_and_plots_itself():
 
 
 def readme_one_call_block() -> str:
-    readme = (REPO / "README.md").read_text()
-    section = readme.split("Every command is one call too", 1)[1]
-    return re.search(r"```python\n(.*?)```", section, re.S).group(1)
+    page = (REPO / "docs" / "library.md").read_text()  # the README links it
+    return re.search(r"```python\n(.*?)```", page, re.S).group(1)
 
 
-def test_the_readme_one_call_block_runs_from_any_folder_and_writes_only_there(tmp_path):
+def test_the_library_pages_one_call_block_runs_from_any_folder_and_writes_only_there(tmp_path):
     code = readme_one_call_block()  # as it stands: the sweep by its shipped name
     before = clone_files()
     result = subprocess.run(

@@ -117,11 +117,11 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     # with the same statistics, in both regimes
     fair = pd.read_csv(reproduction.out / "claims_matched.csv")
     # against the fair opponent the effort is judged too (issue 48: equal where judged)
+    from twolink.studies.designs.effort import EFFORT_KEYS
     from twolink.studies.judgments.claims import CLAIM_METRICS
-    from twolink.studies.judgments.claims_studies import EFFORT_METRICS
 
     again = paired_claims(
-        results, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_METRICS), joints=(1, 2),
+        results, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_KEYS), joints=(1, 2),
         reference_values=refs,
     )  # fmt: skip
     pd.testing.assert_frame_equal(fair, again, check_dtype=False)
@@ -143,7 +143,7 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     )
     refs_raw = reference_values(plan_raw.nominal_scenario(), plan_raw.joints)
     again = paired_claims(
-        raw, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_METRICS), joints=(1, 2),
+        raw, "FCM-CTC", "CTC-best", metrics=(*CLAIM_METRICS, *EFFORT_KEYS), joints=(1, 2),
         reference_values=refs_raw,
     )  # fmt: skip
     pd.testing.assert_frame_equal(fair_raw, again, check_dtype=False)
@@ -439,29 +439,31 @@ def test_the_readme_says_what_the_current_reproduction_concludes(reproduction):
     block = readme[readme.index("<!-- answer: start -->") : readme.index("<!-- answer: end -->")]
     assert block.removeprefix("<!-- answer: start -->").strip() == _answer(summary)
     report = (reproduction.out / "report.md").read_text()
-    # the report's first section is summary.md, its sources a pointer to summary.md
+    # the report's first section is summary.md up to its terms, then a pointer to it
+    from twolink.studies.reproduction.answer import POINTER
+
     lines = summary.strip().splitlines()
-    sources = "**Where the numbers come from.**"
-    assert lines[-1].startswith(sources)
-    opening = "\n".join(lines[:-1]).strip()
-    assert opening in report and report.index(opening) < report.index("\n|")
-    assert "**Where the numbers come from:** `summary.md`" in report
+    assert lines[-1].startswith("**Where the numbers come from.**")
+    opening = "\n".join(lines[: lines.index(next(x for x in lines if "**Terms.**" in x))])
+    assert opening.strip() in report and report.index(opening.strip()) < report.index("\n|")
+    assert POINTER in report and "**Terms.**" not in report
     # and the README claims nothing the report contradicts (the claims of old)
     assert "removes most of CTC's overshoot" not in readme
 
 
 def test_the_answer_is_read_in_a_minute_and_the_first_table_comes_early(reproduction):
-    """Issue 46: at most 150 words of answer, the report's first table within 400 words,
-    the answer figure drawn from the claims tables (two regimes x 12 rows)."""
+    """At most MAX_WORDS words of answer, the report's first table within 100 words more, the
+    answer, scoreboard and profile figures drawn."""
     from twolink.studies.reproduction.summary import MAX_WORDS
 
     summary = (reproduction.out / "summary.md").read_text()
     assert len(_answer(summary).split()) <= MAX_WORDS
     report = (reproduction.out / "report.md").read_text()
-    before_table = report[: report.index("\n|")]
-    assert len(before_table.split()) <= 400, len(before_table.split())
-    for name in ("answer.png", "profiles.png"):
+    before_table = report[: report.index("\n|")]  # the answer, its title and question
+    assert len(before_table.split()) <= MAX_WORDS + 100, len(before_table.split())
+    for name in ("answer.png", "profiles.png", "scoreboard.png"):
         assert (reproduction.out / "figures" / name).stat().st_size > 20_000
+    assert "](figures/scoreboard.png)" in summary
     # every number of the answer comes from a file the summary names, which exists
     for file in ("claims.csv", "claims_matched.csv", "claims_raw.csv", "claims_matched_raw.csv"):
         assert f"`{file}`" in summary and (reproduction.out / file).is_file()

@@ -145,7 +145,7 @@ def test_the_wheel_reproduces_and_runs_the_readme_from_a_temporary_folder(wheel_
     before = clone_files()
     done = in_venv(wheel_venv, ["twolink", "reproduce", "--no-trace"], tmp_path, timeout=1800)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
-    assert re.search(r"^\d+ runs \(\d+ met the spec", done.stdout, re.M), done.stdout[-2000:]
+    assert re.search(r"^\d+ runs: \d+ met the spec", done.stdout, re.M), done.stdout[-2000:]
     report = (tmp_path / "results" / "reproduce" / "report.md").read_text()
     assert "Table 2" in report
     python = str(wheel_venv / "bin" / "python")

@@ -23,6 +23,8 @@ __all__ = ["answer_figure", "profiles_figure"]
 
 OFFSET = 0.36  # the opponents' rows of one joint and metric, spread over this height
 BAND_COLOUR = "0.88"  # the ±tolerance band
+FEW = "not judged"  # the ``typical`` of a row whose typical plant is of too few plants
+FEW_NOTE = "hollow, pale: the typical plant not judged (fewer than half the plants compare)"
 
 
 def _row_label(joint: int, key: str) -> str:
@@ -36,7 +38,9 @@ def answer_figure(
     joint and metric's typical shift (Hodges-Lehmann estimate, ``proposed`` − opponent)
     with its printed interval (at 1 − 5 %/m over a table's m rows), in tolerances, against
     the ±1 tolerance band; middle, the shares of plants practically better (left) and
-    worse (right) with their intervals; right, each opponent's verdict."""
+    worse (right) with their intervals; right, each opponent's verdict, the table's word.
+    A row whose typical plant is not judged (``typical`` "not judged": fewer than half the
+    plants both ran compare) is drawn hollow and pale, its word in italics."""
     rows = max(len(_rows(tables)) for _, tables in studies)
     fig, axes = plt.subplots(
         len(studies), 3, figsize=(8.2, 1.15 + len(studies) * (0.62 + 0.27 * rows)),
@@ -50,8 +54,10 @@ def answer_figure(
         plt.Line2D([], [], color=styles[n][0], marker="o", ls="-", label=f"{proposed} − {n}")
         for n in dict.fromkeys(names)
     ]
-    fig.legend(handles=handles, loc="upper center", ncol=len(handles), frameon=False, fontsize=9,
-               bbox_to_anchor=(0.5, 1 - 0.32 / fig.get_figheight()))  # fmt: skip
+    handles.append(plt.Line2D([], [], color="0.4", marker="o", mfc="none", ls="-", alpha=0.5,
+                              label=FEW_NOTE))  # fmt: skip
+    fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 4), frameon=False,
+               fontsize=8, bbox_to_anchor=(0.5, 1 - 0.32 / fig.get_figheight()))  # fmt: skip
     if question:
         fig.suptitle(question, fontsize=10, y=1 - 0.05 / fig.get_figheight(), va="top")
     fig.tight_layout(rect=(0, 0, 1, 1 - 0.62 / fig.get_figheight()))
@@ -79,14 +85,22 @@ def _study_row(label, tables, styles, shift, shares, words, proposed) -> None:
         y = y0 + (OFFSET / 2 - i * OFFSET / max(k - 1, 1) if k > 1 else 0.0)
         tol = t["tolerance"].to_numpy(float)
         est, lo, hi = (t[c].to_numpy(float) / tol for c in ("estimate", "ci_low", "ci_high"))
-        shift.errorbar(est, y, xerr=[est - lo, hi - est], fmt="o", ms=4, color=colour, lw=1.4)
+        few = (t["typical"] == FEW).to_numpy() if "typical" in t else np.zeros(len(t), bool)
+        for mask, face, alpha in ((~few, colour, 1.0), (few, "none", 0.45)):
+            e, a, b = est[mask], lo[mask], hi[mask]
+            shift.errorbar(e, y[mask], xerr=[e - a, b - e], fmt="o", ms=4, color=colour,
+                           mfc=face, lw=1.4, alpha=alpha)  # fmt: skip
         for sign, col in ((-1, "share_better"), (1, "share_worse")):
             s = t[col].to_numpy(float)
             err = [s - t[f"{col}_low"].to_numpy(float), t[f"{col}_high"].to_numpy(float) - s]
-            shares.barh(y, sign * s, height=OFFSET / k * 1.6, color=colour, alpha=0.75)
+            for mask, alpha in ((~few, 0.75), (few, 0.25)):
+                shares.barh(y[mask], sign * s[mask], height=OFFSET / k * 1.6, color=colour,
+                            alpha=alpha)  # fmt: skip
             shares.errorbar(sign * s, y, xerr=err, fmt="none", ecolor="0.2", lw=0.8)
-        for yy, verdict in zip(y, t["verdict"].fillna("—"), strict=True):
-            words.text(0.02, yy, str(verdict), color=colour, va="center", fontsize=7.5)
+        for yy, verdict, pale in zip(y, t["verdict"], few, strict=True):
+            if isinstance(verdict, str):  # no row: the opponent is not judged on it
+                look = {"style": "italic", "alpha": 0.6} if pale else {}
+                words.text(0.02, yy, verdict, color=colour, va="center", fontsize=7.5, **look)
     shift.set_xscale("symlog", linthresh=1, linscale=1.5)
     reach = max(1.0, *np.abs(shift.get_xlim()))  # ticks at ±1, ±10, ... within the data
     ticks = [s * 10**e for e in range(int(np.log10(reach)) + 1) for s in (-1, 1)] + [0]

@@ -484,13 +484,13 @@ def reproduce(
         _fail_input(str(exc))
     except KeyboardInterrupt:
         interrupted_exit()
+    from twolink.studies.judgments.plain import runs_line
+    from twolink.studies.reproduction.manifest import load_manifest
+
     failed = [r for r in result.rows if r["status"] != "ok"]
-    counts = {o: sum(r["outcome"] == o for r in result.rows) for o in ("met spec", "off target")}
-    click.echo(
-        f"{len(result.rows)} runs ({counts['met spec']} met the spec, {counts['off target']} "
-        f"off target, {len(failed)} diverged); "
-        f"{'designed' if result.designed else 'reused'} rule base {result.rule_base}"
-    )
+    plan = load_manifest(manifest or DEFAULT_MANIFEST)
+    click.echo(runs_line(result.rows, plan, str(out / "summary.md")))
+    click.echo(f"{'designed' if result.designed else 'reused'} rule base {result.rule_base}")
     click.echo(f"report:     {out / 'report.md'}")
     click.echo(f"metrics:    {out / 'metrics.csv'}, {out / 'metrics.json'}")
     click.echo(f"figures:    {out / 'figures'}")

@@ -21,7 +21,7 @@ Schema (all keys optional except the reference)::
     velocity = "exact"       # or "difference", "filtered" (2nd-order Butterworth)
     cutoff_hz = 50.0         # velocity = "filtered": the low-pass's cut-off
     [arm]                    # the nominal arm = the controller's model
-    m1 = 1.0  m2 = 1.0  l1 = 1.0  l2 = 1.0  g = 9.81
+    m1 = 1.0  m2 = 1.0  l1 = 1.0  l2 = 1.0  g = 9.81   # [arm.links]: bending (docs/scenarios.md)
     [plant]                  # the simulated arm: the nominal one, maybe perturbed
     scale = { m1 = 1.2, g = 1.1 }   # uncertainty as factors on [arm]; k, j: on the
                              # joints' stiffness and rotor inertia (flexible plants)
@@ -41,6 +41,11 @@ Schema (all keys optional except the reference)::
                              # "flexible_fl_kalman" (that, from encoder angles only)
     kp = [4, 4]  kd = [2.4, 2.4]  torque_limit = 1e3
     ki = [2, 2]              # ctc_integral: integral gain, 1/s^3
+                             # the field's laws: "adaptive_ctc" (Slotine-Li), "sliding_mode"
+                             # (boundary layer), "ctc_dob" (CTC with a disturbance observer)
+    gamma = [30, 10, 10, 300, 100]  # adaptive_ctc: adaptation gains, per parameter
+    eta = [1.0, 0.5]  phi = "auto"     # sliding_mode: margin N m, layer half width rad/s
+    observer_time = 0.013    # ctc_dob: the observer's time constant, s
     rule_base = "paper"      # fcm_ctc, fuzzy_pd: "paper", "designed", "default" or a path
     [controller.fuzzy]       # u = ku f(ke e, kde de); "auto": tied to the gains (docs/fuzzy.md)
     ke = "auto"  kde = "auto"  ku = "auto"  span = "auto"  authority = 1.0  mode = "add"
@@ -59,7 +64,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -82,6 +87,14 @@ from twolink.foundation.overrides import set_nested
 from twolink.foundation.overrides import strip_replace as strip_replace
 from twolink.foundation.references import ArmReference, make_reference, reference_params
 from twolink.foundation.shipped import locate, locate_beside, shipped_hint
+from twolink.simulation.field_keys import DEFAULTS as FIELD_DEFAULTS
+from twolink.simulation.field_keys import (
+    FIELD_KINDS,
+    check_field_keys,
+    read_field_keys,
+    write_field_keys,
+)
+from twolink.simulation.links_sim import FlexibleLinks, check_links, links_dict, read_links
 from twolink.simulation.plant_table import ARM_SCALE_KEYS as ARM_SCALE_KEYS
 from twolink.simulation.plant_table import JOINT_SCALE_KEYS as JOINT_SCALE_KEYS
 from twolink.simulation.plant_table import SPRING_STARTS as SPRING_STARTS
@@ -105,6 +118,7 @@ CONTROLLER_KINDS = (
     "pd_gravity",
     "ctc_integral",
     "fuzzy_pd",
+    *FIELD_KINDS,
     *FLEXIBLE_KINDS,
 )
 FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc", "fuzzy_pd")  # controllers with a fuzzy engine
@@ -154,6 +168,10 @@ class ControllerConfig:
     torque_limit: tuple[float, float] = (math.inf, math.inf)  # N m per joint
     rule_base: str = "paper"
     fuzzy: FuzzyConfig = FuzzyConfig()
+    gamma: tuple[float, ...] = FIELD_DEFAULTS["gamma"]  # adaptive_ctc
+    eta: tuple[float, float] = FIELD_DEFAULTS["eta"]  # sliding_mode
+    phi: tuple[float, float] | None = None  # sliding_mode; None: "auto"
+    observer_time: float = FIELD_DEFAULTS["observer_time"]  # ctc_dob
 
 
 @dataclass(frozen=True)
@@ -174,6 +192,7 @@ class Scenario:
     source: str = ""
     sensor: Sensor = Sensor()
     disturbance: Disturbance | None = None  # torques on the links the controllers don't know
+    links: FlexibleLinks | None = None  # [arm.links]: the nominal arm's links bend
 
     @property
     def plant_params(self) -> ArmParams:
@@ -212,13 +231,14 @@ class Scenario:
             del ctrl["fuzzy"]["engine"], ctrl["fuzzy"]["table_points"]
         if self.controller.fuzzy.inference == "mamdani":
             del ctrl["fuzzy"]["inference"]
+        write_field_keys(ctrl, self.controller.kind)
         return {
             "name": self.name,
             "duration": self.duration,
             "control_dt": self.control_dt,
             "timestep": self.timestep,
             "seed": self.seed,
-            "arm": asdict(self.arm),
+            "arm": asdict(self.arm) | ({"links": links_dict(self.links)} if self.links else {}),
             "plant": plant,
             "controller": ctrl,
             "reference": {
@@ -460,7 +480,7 @@ class TomlTable:
             self.fail(unknown[0], f"unknown key (known here: {sorted(self.read)})")
 
 
-def _arm(t: TomlTable) -> ArmParams:
+def _arm(t: TomlTable) -> tuple[ArmParams, FlexibleLinks | None]:
     d = ArmParams()
     arm = ArmParams(
         m1=t.number("m1", d.m1, positive=True),
@@ -469,8 +489,7 @@ def _arm(t: TomlTable) -> ArmParams:
         l2=t.number("l2", d.l2, positive=True),
         g=t.number("g", d.g),
     )
-    t.done()
-    return arm
+    return arm, read_links(t, arm)
 
 
 def _sensor(t: TomlTable) -> Sensor:
@@ -507,6 +526,7 @@ def controller_from_table(t: TomlTable, arm: ArmParams | None = None) -> Control
         torque_limit=t.pair("torque_limit", d.torque_limit, positive=True, allow_inf=True),
         rule_base=t.string("rule_base", d.rule_base),
         fuzzy=fuzzy,
+        **read_field_keys(t),
     )
     t.done()
     return ctrl
@@ -568,19 +588,26 @@ def _auto_or_number(t: TomlTable, key: str, **checks: Any) -> float | None:
     return t.number(key, 0.0, **checks)
 
 
-def _reference(t: TomlTable) -> ArmReference:
+def _reference(t: TomlTable, arm: ArmParams) -> ArmReference:
     joints = []
     for name in ("joint1", "joint2"):
         j = t.table(name)
         params = dict(j.data)
         kind = params.pop("kind", None)
         if kind is None:
-            j.fail("kind", "missing (one of step, ramp, sine, quintic)")
+            j.fail("kind", "missing (one of step, ramp, sine, quintic, septic, multisine, circle)")
+        if kind == "circle":  # the tip's circle through the model arm's kinematics
+            params = {"l1": arm.l1, "l2": arm.l2, "joint": int(name[-1]), **params}
         try:
             joints.append(make_reference(kind, **params))
         except (ValueError, TypeError) as exc:
             j.fail("", str(exc))
+        if kind == "circle" and joints[-1].joint != int(name[-1]):
+            j.fail("joint", f"must be {name[-1]} in [reference.{name}], got {params['joint']!r}")
     t.done()
+    circles = [j for j in joints if j.kind == "circle"]
+    if circles and (len(circles) == 1 or replace(circles[0], joint=2.0) != circles[1]):
+        t.fail("joint2", "a circle of the tip must be the same circle for both joints")
     return ArmReference(*joints)
 
 
@@ -591,13 +618,13 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     if "reference" not in data:
         top.fail("reference", "missing: a scenario needs [reference.joint1] and .joint2")
     initial = top.table("initial")
-    arm = _arm(top.table("arm"))
+    arm, links = _arm(top.table("arm"))
     scenario = Scenario(
         name=top.string("name", Path(source).stem),
         arm=arm,
         plant=read_plant(top.table("plant")),
         controller=controller_from_table(top.table("controller"), arm),
-        reference=_reference(top.table("reference")),
+        reference=_reference(top.table("reference"), arm),
         duration=top.number("duration", 10.0, positive=True),
         control_dt=top.number("control_dt", 1e-3, positive=True, minimum=MIN_TIME_STEP),
         timestep=top.number("timestep", 1e-3, positive=True, minimum=MIN_TIME_STEP),
@@ -642,6 +669,8 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     except ValueError as exc:
         top.fail("plant.scale", str(exc))
     _check_rule_base(top, scenario)
+    scenario = check_links(top, replace(scenario, links=links), FLEXIBLE_KINDS)
+    check_field_keys(top, scenario)
     if scenario.controller.kind in FLEXIBLE_KINDS and scenario.plant.flexibility is None:
         top.fail(
             "controller.kind",

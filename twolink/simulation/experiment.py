@@ -89,6 +89,20 @@ def build_controller(s: Scenario) -> Controller:
         return baselines.PDGravity(**common)
     if c.kind == "ctc_integral":
         return baselines.IntegralComputedTorque(**common, ki=c.ki, control_dt=s.control_dt)
+    if c.kind == "adaptive_ctc":
+        from twolink.controllers.adaptive import AdaptiveComputedTorque
+
+        return AdaptiveComputedTorque(**common, gamma=c.gamma, control_dt=s.control_dt)
+    if c.kind == "sliding_mode":
+        from twolink.controllers.sliding import SlidingMode
+
+        return SlidingMode(**common, eta=c.eta, phi=c.phi)
+    if c.kind == "ctc_dob":
+        from twolink.controllers.observer import DisturbanceObserverCTC
+
+        return DisturbanceObserverCTC(
+            **common, observer_time=c.observer_time, control_dt=s.control_dt
+        )
     if c.kind == "fuzzy_ctc":
         engine = _engine(None)
     else:
@@ -150,7 +164,12 @@ def run_scenario(
 ) -> Trajectory:
     """Simulate the scenario (deterministic for its seed). A flexible arm starts as its
     ``[plant.flexibility] start`` says (:func:`start_motor_q`, from the scenario's plant:
-    a ``plant`` passed in must be :func:`build_plant`'s)."""
+    a ``plant`` passed in must be :func:`build_plant`'s). Links that bend (``[arm.links]``)
+    run in :func:`twolink.simulation.links_sim.simulate_links`: the law reads the hubs."""
+    if s.links is not None:
+        from twolink.simulation.links_sim import run_links
+
+        return run_links(s, controller or build_controller(s)).trajectory
     plant = plant or build_plant(s)
     return simulate(
         plant,
@@ -360,6 +379,8 @@ def _arm_bytes(s: Scenario, control_dt: float, record_bytes) -> int:
 def _arm(s: Scenario):
     from twolink.simulation.batch import Arm
 
+    if s.links is not None:
+        raise ValueError(f"{s.name}: links that bend ([arm.links]) run one at a time, not batched")
     return Arm(s.plant_params, s.plant_joints, s.plant.payload, s.plant.friction, s.disturbance)
 
 

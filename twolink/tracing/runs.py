@@ -31,6 +31,10 @@ Entity paths of one run, under its prefix ``P`` (``j`` is 1 or 2)::
     P/arm/base               Points3D   static: the shoulder
     P/arm/links              LineStrips3D  base -> elbow -> tip per sample
     P/arm/joints             Points3D   base, elbow, tip per sample
+    P/arm/bent               LineStrips3D  links that bend (``bent`` given): hubs ->
+                                        hinges -> tip per sample (the rigid strip above
+                                        stays: where the hub angles point)
+    P/arm/bent/hinges        Points3D   the hinges of the bent links per sample
 
 A recording of several runs also holds, for the "all runs" overview::
 
@@ -278,6 +282,7 @@ def log_run(
     phase_scale: tuple[float, float] = (1.0, 1.0),
     centre_labels: Sequence[str] | None = None,
     name: str | None = None,
+    bent: np.ndarray | None = None,
 ) -> None:
     """Send one finished run to ``rec`` in columns along the ``"time"`` timeline.
 
@@ -309,7 +314,12 @@ def log_run(
         One label per centre; default "c1", "c2", ...
     name : str, optional
         Human-readable run name, written into the status text.
+    bent : ndarray (N, P, 2), optional
+        Links that bend: the points of each sample's bent arm in the paper's plane
+        (:attr:`twolink.simulation.links_sim.LinkRun.points`).
     """
+    if bent is not None and (np.ndim(bent) != 3 or len(bent) != len(traj.t)):
+        raise ValueError(f"bent must be (N, P, 2) with N = {len(traj.t)} samples")
     # Check everything before sending anything: a live stream gets a whole run or none.
     n = _check_trajectory(traj)
     idx = sample_indices(n, every)
@@ -345,6 +355,32 @@ def log_run(
                 strict=True,
             )
         _log_arm(rec, arm_points(arm, traj.q[idx]), prefix, times)
+        if bent is not None:
+            _log_bent(rec, np.asarray(bent, dtype=float)[idx], prefix, times)
+
+
+def _log_bent(rec, plane: np.ndarray, prefix: str, times) -> None:
+    """The bent links in 3D (the paper's (x, y) is (x, z)): a strip and its hinges."""
+    pts = np.zeros((*plane.shape[:2], 3))
+    pts[..., 0], pts[..., 2] = plane[..., 0], plane[..., 1]
+    path = _path(prefix, "arm", "bent")
+    rec.log(
+        path,
+        rr.LineStrips3D.from_fields(colors=[JOINT_COLORS[0]], radii=[0.012]),
+        static=True,
+        strict=True,
+    )
+    rec.send_columns(path, indexes=times, columns=rr.LineStrips3D.columns(strips=pts), strict=True)
+    hinges = _path(prefix, "arm", "bent", "hinges")
+    rec.log(hinges, rr.Points3D.from_fields(colors=[JOINT_COLORS[1]], radii=[0.018]), static=True)
+    rec.send_columns(
+        hinges,
+        indexes=times,
+        columns=rr.Points3D.columns(positions=pts.reshape(-1, 3)).partition(
+            [pts.shape[1]] * len(pts)
+        ),
+        strict=True,
+    )
 
 
 def _log_scalars(rec, path: str, times, values: np.ndarray, label: str, color) -> None:

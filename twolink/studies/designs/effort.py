@@ -9,12 +9,10 @@ from typing import Any
 
 import numpy as np
 
-EFFORT_METRICS = (
-    ("torque_peak_Nm", 1),
-    ("torque_peak_Nm", 2),
-    ("torque_variation_Nm", 1),
-    ("torque_variation_Nm", 2),
-)  # fmt: skip; within_budget's column order
+# The effort: peak |τ| and Σ|Δτ|, the metrics the claims judge against the fair opponent
+EFFORT_KEYS = ("torque_peak_Nm", "torque_variation_Nm")
+# per joint, within_budget's column order: peak |τ|₁, peak |τ|₂, Σ|Δτ|₁, Σ|Δτ|₂
+EFFORT_METRICS = tuple((m, j) for m in EFFORT_KEYS for j in (1, 2))
 
 
 def within_budget(values: np.ndarray, budget: np.ndarray, tolerance: np.ndarray) -> np.ndarray:

@@ -4,34 +4,31 @@ rests on the *paired* differences d = metric(A) − metric(B), plant by plant (l
 better for every metric judged here). Per metric (docs/statistics.md has the rule, its
 sources and its choices):
 
-- **better / worse / equal**: plants where A is lower than B by more than the metric's
-  practical tolerance δ (:data:`TOLERANCES`), higher by more, or within ±δ (a difference
-  of exactly δ is equal);
+- **better / worse / equal** (the counts): plants where A is lower than B by more than the
+  metric's practical tolerance δ (:data:`TOLERANCES`), higher by more, or within ±δ (a
+  difference of exactly δ is equal);
 - **the typical plant**: the Hodges-Lehmann estimate of the shift (the median of the
   Walsh averages) with its distribution-free interval (``ci_low``, ``ci_high``) at
-  ``ci_level`` = 1 − 5 %/m (Bonferroni over the family's m judged rows): better, worse or
-  equivalent where that printed interval lies wholly below −δ, above +δ or within ±δ;
-  judged only where both have the metric on at least half the plants both ran (``runs``).
-  The signed-rank tests against the margins (``margin_p``, ``tost_p``, Holm-corrected)
-  stay as evidence;
+  ``ci_level`` = 1 − 5 %/m, m the rows of the family whose typical plant is judged (both
+  have the metric on at least half the plants both ran, ``runs``): better, worse or
+  equivalent where that printed interval lies wholly below −δ, above +δ or within ±δ,
+  else undecided; ``typical`` says it, "not judged" where the quorum fails. The
+  signed-rank tests against the margins (``margin_p``, ``tost_p``, Holm-corrected) stay
+  as evidence;
 - **the shares**: the shares of plants practically better and practically worse (beyond
   ±δ, with the plants that only one controller reaches, below), each with its exact
   (Clopper-Pearson) 95 % interval, and exact binomial tests that a share exceeds
   :data:`MIN_SHARE` (Holm across the family) or stays below it;
-- **the verdict** (one of :data:`VERDICTS`, claims_words.VERDICT_WORDS): better / worse /
-  equivalent from the typical plant, "split" where it is equivalent but more than 10 % of
-  the plants lie beyond ±δ on a side; where the typical plant decides nothing, better or
-  worse from the shares (one share shown, the other shown negligible, the estimate not on
-  the other side of 0); else inconclusive. It never points against its own estimate.
-  Td, Tr and Tp on a moving reference are judged by their distance to the reference's own
-  (``reference``; docs/metrics.md). ``reading`` says it in words, with every share shown
-  ("equivalent on the typical plant; worse by more than 1 mrad on 29 of 200").
-  ``set by the reference``: a metric both controllers take from the reference (Td and Tr
-  of a smooth move); ``undefined``: no plant compares.
+- **the verdict**: one of claims_words.VERDICT_WORDS, by the first that holds (not judged,
+  equal, better/worse, equivalent, partly better/worse, split, undecided; :func:`_verdict`).
+  It never points against its own estimate. The times of :data:`TIMES_OF_THE_MOVE` on a
+  moving reference are judged by their distance to the move's own (:func:`move_distances`;
+  docs/metrics.md). ``reading`` says it in words, with every share shown ("equivalent on
+  the typical plant; worse by more than 1 mrad on 29 of 200 (10-20 %)").
 - **the sign test** of better against worse (``p_value``, Holm ``p_adjusted``) stays in
-  the tables as a count's evidence; the verdict no longer follows it.
+  the tables as a count's evidence; the verdict does not follow it.
 
-Undefined values: a time that one controller reaches and the other never does
+Missing values: a time that one controller reaches and the other never does
 (:data:`REACHED`: Td, Tr, Ts, Ts→θd never reached) counts against the second
 (``unreached_better``, ``unreached_worse``, apart from the numeric comparison, inside the
 shares). Elsewhere a plant counts only where both controllers have a value.
@@ -51,23 +48,32 @@ from scipy import stats
 
 from twolink.simulation.vocabulary import CLAIMED_BETTER
 from twolink.studies.judgments.claims_words import (
-    SET_BY_REFERENCE,
+    BETTER,
+    EQUAL,
+    EQUIVALENT,
+    NOT_JUDGED,
+    PARTLY,
     SPLIT,
     SPLIT_SHARE,
+    UNDECIDED,
     VERDICT_WORDS,
+    WORSE,
 )
+from twolink.studies.judgments.move_times import TIMES_OF_THE_MOVE, move_distances
 from twolink.studies.judgments.shift import _hodges_lehmann_rows, hodges_lehmann
 
 __all__ = [
     "CLAIM_METRICS",
     "MIN_SHARE",
     "REACHED",
+    "TIMES_OF_THE_MOVE",
     "TOLERANCES",
     "VERDICTS",
     "count_wins",
     "hodges_lehmann",
     "holm",
     "judge",
+    "move_distances",
     "paired_claims",
     "paired_claims_many",
     "proportion_interval",
@@ -78,13 +84,13 @@ VERDICTS = tuple(VERDICT_WORDS)
 ALPHA = 0.05
 # The smallest share of plants worth a word: one plant in 20 (docs/statistics.md).
 MIN_SHARE = 0.05
+# Most plants: more than one half of the plants both ran, shown by an exact test (Holm
+# across the family). Where the typical plant's interval decides nothing, most plants
+# beyond −δ (+δ) make the row better (worse).
+MOST = 0.5
 # Times a response may never reach (NaN): a plant where one controller reaches it and the
 # other does not counts against the second. Tp is not one: no peak is no failure.
 REACHED = ("delay_time_s", "rise_time_s", "settling_time_s", "settling_time_target_s")
-# Times a moving reference has itself (claims_plans.reference_values): on such a move a
-# loop is judged by how far its time lies from the move's own, either way.
-TIMES_OF_THE_MOVE = ("delay_time_s", "rise_time_s", "peak_time_s")
-
 # Practical tolerance per metric: a difference smaller than this is no difference a user
 # of the arm would act on. Times: 10 control periods; overshoot: 1 percentage point;
 # angles: 1 mrad (0.1 % of the 1 rad moves; an encoder of 17 bits resolves 0.05 mrad);
@@ -282,43 +288,32 @@ def judge_rows(
     a: np.ndarray,
     b: np.ndarray,
     tolerance: np.ndarray,
-    reference: np.ndarray,
     family: np.ndarray,
     reached: np.ndarray,
     runs: np.ndarray | None = None,
 ) -> dict[str, np.ndarray]:
     """The statistics and verdicts of R metrics' pairs at once: ``a``, ``b`` (R, N) the
-    proposed and the opponent's values (NaN: none, or a plant the row does not have),
-    per row its ``tolerance``, ``reference`` value (NaN: none), ``family`` (Holm's
-    family label), whether a NaN is a time never ``reached``, and the ``runs``: plants
-    both controllers ran (default: those where either has a value). The columns of
-    :func:`paired_claims`, as arrays."""
+    proposed and the opponent's values (NaN: none, or a plant the row does not have; on a
+    moving reference already the distances of :func:`move_distances`), per row its
+    ``tolerance``, ``family`` (the label of its Holm and Bonferroni family), whether a NaN
+    is a time never ``reached``, and the ``runs``: plants both controllers ran (default:
+    those where either has a value). The columns of :func:`paired_claims`, as arrays."""
     tol = np.asarray(tolerance, dtype=float)
     c = _counts(a, b, tol, np.asarray(reached, dtype=bool))
     runs = c["plants"] if runs is None else np.asarray(runs)
     medians_a = _row_medians(np.where(c["both"], a, np.nan))
     medians_b = _row_medians(np.where(c["both"], b, np.nan))
-    reference = np.asarray(reference, dtype=float)
-    with np.errstate(invalid="ignore"):
-        by_reference = (
-            np.isfinite(reference)
-            & (c["n"] > 0)
-            & (np.abs(medians_a - reference) <= tol)
-            & (np.abs(medians_b - reference) <= tol)
-        )
-    judged = ~by_reference & (c["n"] > 0)
-    compared = ~by_reference & (c["plants"] > 0)
+    tested = c["n"] > 0  # a pair: its tests and its interval exist
+    judged = tested & (2 * c["n"] >= runs)  # the typical plant of at least half the runs
+    compared = c["plants"] > 0
     family = np.asarray(family)
     level = interval_level(judged, family)
     estimate, ci_low, ci_high = _hodges_lehmann_rows(c["d"], level)
-    tests = _tests(c, tol, judged, family)
-    shares = _shares(c, compared, family)
-    typical = np.where(judged, _typical(estimate, ci_low, ci_high, tol), "undecided")
-    typical[2 * c["n"] < runs] = "undecided"  # the typical plant of at least half the runs
-    verdict = _verdict(typical.astype(object), estimate, shares, c, compared)
-    typical = np.where(judged, typical, "none").astype(object)
-    verdict[by_reference] = SET_BY_REFERENCE
-    verdict[c["plants"] == 0] = "undefined"
+    tests = _tests(c, tol, tested, family)
+    shares = _shares(c, compared, family, runs)
+    typical = np.where(judged, _typical(estimate, ci_low, ci_high, tol), NOT_JUDGED)
+    typical = typical.astype(object)
+    verdict = _verdict(typical, estimate, shares, c)
     return {
         "n": c["n"],
         "better": c["better"],
@@ -330,7 +325,7 @@ def judge_rows(
         "estimate": estimate,
         "ci_low": ci_low,
         "ci_high": ci_high,
-        "ci_level": np.where(judged, level, np.nan),
+        "ci_level": np.where(tested, level, np.nan),
         "difference_min": _row_extreme(c["d"], np.fmin),
         "difference_max": _row_extreme(c["d"], np.fmax),
         **tests,
@@ -369,7 +364,9 @@ def _counts(
 
 def interval_level(judged: np.ndarray, family: np.ndarray) -> np.ndarray:
     """The confidence of each row's printed interval, the one its verdict reads:
-    Bonferroni's 1 − α/m over the m rows its family judges (docs/statistics.md)."""
+    Bonferroni's 1 − α/m, m the rows of its family whose typical plant is judged (``judged``:
+    at least half the plants both ran have the metric for both; docs/statistics.md). A row
+    whose typical plant is not judged reads no interval and spends none of α."""
     family = np.asarray(family)
     labels, where = np.unique(family, return_inverse=True)
     m = np.bincount(where.ravel(), weights=np.asarray(judged, float), minlength=len(labels))
@@ -381,19 +378,19 @@ def _typical(
 ) -> np.ndarray:
     """The typical plant read off its printed interval: better where it lies wholly below
     −δ, worse wholly above +δ, equivalent wholly within ±δ, else undecided."""
-    out = np.full(len(estimate), "undecided", dtype=object)
+    out = np.full(len(estimate), UNDECIDED, dtype=object)
     with np.errstate(invalid="ignore"):
-        out[high < -tol] = "better"
-        out[low > tol] = "worse"
-        out[(low > -tol) & (high < tol)] = "equivalent"  # a bound on the margin: not inside
+        out[high < -tol] = BETTER
+        out[low > tol] = WORSE
+        out[(low > -tol) & (high < tol)] = EQUIVALENT  # a bound on the margin: not inside
     return out
 
 
 def _tests(
-    c: dict[str, np.ndarray], tol: np.ndarray, judged: np.ndarray, family: np.ndarray
+    c: dict[str, np.ndarray], tol: np.ndarray, tested: np.ndarray, family: np.ndarray
 ) -> dict[str, np.ndarray]:
     """The p-values kept beside the verdict as evidence (the sign test, TOST, the margin
-    tests), each with its Holm adjustment across the family."""
+    tests), each with its Holm adjustment across the family's ``tested`` rows (a pair)."""
     sign_p = _sign_ps(c["better"], c["worse"])
     tost_p, below_p, above_p = _margin_tests(c["d"], tol)
     margin_p = np.minimum(1.0, 2.0 * np.minimum(below_p, above_p))
@@ -401,18 +398,19 @@ def _tests(
         "p_value": np.where(c["n"] > 0, sign_p, 1.0),
         "tost_p": tost_p,
         "margin_p": margin_p,
-        "p_adjusted": _holm_families(np.where(judged, sign_p, np.nan), family),
-        "tost_p_adjusted": _holm_families(np.where(judged, tost_p, np.nan), family),
-        "margin_p_adjusted": _holm_families(np.where(judged, margin_p, np.nan), family),
+        "p_adjusted": _holm_families(np.where(tested, sign_p, np.nan), family),
+        "tost_p_adjusted": _holm_families(np.where(tested, tost_p, np.nan), family),
+        "margin_p_adjusted": _holm_families(np.where(tested, margin_p, np.nan), family),
     }
 
 
 def _shares(
-    c: dict[str, np.ndarray], compared: np.ndarray, family: np.ndarray
+    c: dict[str, np.ndarray], compared: np.ndarray, family: np.ndarray, runs: np.ndarray
 ) -> dict[str, np.ndarray]:
     """The shares of plants practically better and worse with their exact 95 % intervals,
-    whether each is shown above :data:`MIN_SHARE` (Holm across the family) and, as
-    ``_none_*``, shown below it."""
+    whether each is shown above :data:`MIN_SHARE` (Holm across the family), as ``_most_*``
+    its count shown above :data:`MOST` of the ``runs`` (Holm likewise) and, as ``_none_*``,
+    shown below 5 %."""
     plants, k_better, k_worse = c["plants"], c["k_better"], c["k_worse"]
     with np.errstate(invalid="ignore", divide="ignore"):
         share_better = np.where(plants > 0, k_better / np.maximum(plants, 1), np.nan)
@@ -425,6 +423,12 @@ def _shares(
     shown_p[np.concatenate([plants, plants]) == 0] = np.nan
     rows = np.concatenate([compared, compared])
     shown = _holm_families(np.where(rows, shown_p, np.nan), np.tile(family, 2)) < ALPHA / 2
+    # and that most of the plants both ran are beyond ±δ one way (more than one half of
+    # ``runs``, as the typical plant's quorum), Holm across the family as well
+    most_p = np.concatenate([stats.binom.sf(k_better - 1, runs, MOST),
+                             stats.binom.sf(k_worse - 1, runs, MOST)])  # fmt: skip
+    most_p[np.concatenate([plants, plants]) == 0] = np.nan
+    most = _holm_families(np.where(rows, most_p, np.nan), np.tile(family, 2)) < ALPHA / 2
     return {
         "share_better": share_better,
         "share_better_low": better_low,
@@ -434,6 +438,8 @@ def _shares(
         "share_worse_high": worse_high,
         "share_better_shown": shown[: len(plants)] & compared,
         "share_worse_shown": shown[len(plants) :] & compared,
+        "_most_better": most[: len(plants)] & compared,
+        "_most_worse": most[len(plants) :] & compared,
         "_none_better": stats.binom.cdf(k_better, plants, MIN_SHARE) < ALPHA / 2,
         "_none_worse": stats.binom.cdf(k_worse, plants, MIN_SHARE) < ALPHA / 2,
     }
@@ -444,43 +450,69 @@ def _verdict(
     estimate: np.ndarray,
     shares: dict[str, np.ndarray],
     c: dict[str, np.ndarray],
-    compared: np.ndarray,
 ) -> np.ndarray:
-    """The one-word verdict (docs/statistics.md, "The verdict rule"): the typical plant's,
-    "split" where it is equivalent but more than :data:`SPLIT_SHARE` of the plants lie
-    beyond ±δ on a side, and where it is undecided the shares' (one shown, the other
-    shown negligible, the estimate not on the other side of 0)."""
-    verdict = np.where(typical == "undecided", "inconclusive", typical).astype(object)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        beyond = np.maximum(c["k_better"], c["k_worse"]) > SPLIT_SHARE * c["plants"]
-    verdict[(typical == "equivalent") & beyond] = SPLIT
-    open_ = compared & (typical == "undecided")
+    """The one-word verdict (claims_words.VERDICT_WORDS; docs/statistics.md, "The verdict
+    rule"), by the first line that holds: not judged (no plant compares), equal (no plant
+    beyond ±δ), the typical plant's better or worse; where it is equivalent, the sides
+    with more than :data:`SPLIT_SHARE` of the plants beyond ±δ (none: equivalent, one:
+    partly that way, both: split); where it is undecided or not judged, the shares (one
+    shown above 5 %, the other shown below it, the estimate not on the other side of 0:
+    partly that way; both shown: split; a share shown above one half, the estimate not
+    against it: better or worse, as most plants are); else undecided."""
+    plants, k = c["plants"], {BETTER: c["k_better"], WORSE: c["k_worse"]}
+    verdict = np.full(len(typical), UNDECIDED, dtype=object)
     with np.errstate(invalid="ignore"):
-        not_below = ~(estimate < 0)  # 0 or above, or no estimate (NaN): never against it
-        not_above = ~(estimate > 0)
-    worse = shares["share_worse_shown"] & shares["_none_better"] & not_below
-    better = shares["share_better_shown"] & shares["_none_worse"] & not_above
-    verdict[open_ & worse] = "worse"
-    verdict[open_ & better] = "better"
+        beyond = {side: k[side] > SPLIT_SHARE * plants for side in k}
+        against = {BETTER: estimate > 0, WORSE: estimate < 0}  # NaN: never against
+    equivalent = typical == EQUIVALENT
+    open_ = (typical == UNDECIDED) | (typical == NOT_JUDGED)
+    shown = {BETTER: shares["share_better_shown"], WORSE: shares["share_worse_shown"]}
+    none = {BETTER: shares["_none_better"], WORSE: shares["_none_worse"]}
+    verdict[equivalent] = EQUIVALENT
+    for side, other in ((BETTER, WORSE), (WORSE, BETTER)):
+        one_way = equivalent & beyond[side] & ~beyond[other]
+        one_way |= open_ & shown[side] & none[other] & ~against[side]
+        verdict[one_way] = PARTLY[side]
+    both_ways = (equivalent & beyond[BETTER] & beyond[WORSE]) | (
+        open_ & shown[BETTER] & shown[WORSE]
+    )
+    verdict[both_ways] = SPLIT
+    for side in (BETTER, WORSE):  # most plants that way: the median plant is, by the counts
+        most = shares[f"_most_{side}"]
+        verdict[(typical == side) | (open_ & most & ~against[side])] = side
+    verdict[(k[BETTER] == 0) & (k[WORSE] == 0)] = EQUAL
+    verdict[plants == 0] = NOT_JUDGED
     return verdict
 
 
 def judge(
     a: np.ndarray,
     b: np.ndarray,
-    tolerance: float,
+    metric: str,
     reference: float | None = None,
-    reached: bool = False,
+    tolerance: float | None = None,
+    delay: tuple[np.ndarray, np.ndarray, float] | None = None,
 ) -> dict[str, float | int | str]:
-    """The statistics of one metric's pairs (``a`` proposed, ``b`` baseline, one value per
-    plant), judged as a family of one: counts, estimate and interval, shares, p-values
-    and the verdict. With ``reference`` (the value the reference itself has), both
-    controllers' medians within ``tolerance`` of it mark the metric as set by the
-    reference; ``reached``: a NaN is a time never reached (:data:`REACHED`)."""
-    a, b = np.asarray(a, dtype=float)[None, :], np.asarray(b, dtype=float)[None, :]
-    ref = np.array([math.nan if reference is None else reference])
-    out = judge_rows(a, b, np.array([tolerance]), ref, np.zeros(1, int), np.array([reached]))
-    return {key: getattr(v[0], "item", lambda v=v: v[0])() for key, v in out.items()}
+    """One metric's pairs (``a`` proposed, ``b`` baseline, one value per plant) judged as
+    a family of one, by the same path as every table (:func:`paired_claims`): counts,
+    estimate and interval, shares, p-values and the verdict. ``reference``: the move's own
+    value of ``metric`` (a time of :data:`TIMES_OF_THE_MOVE`: judged by its distance to
+    it); ``tolerance``: default :data:`TOLERANCES`; ``delay``: the proposed's and the
+    baseline's Td and the move's own, which Tr on a moving reference is judged with."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    columns = {f"joint1_{metric}": (a, b)}
+    own = {} if reference is None else {(1, metric): float(reference)}
+    if delay is not None:
+        columns["joint1_delay_time_s"] = (np.asarray(delay[0], float), np.asarray(delay[1], float))
+        own[(1, "delay_time_s")] = float(delay[2])
+    rows = [
+        {"sample": i, "controller": name, **{k: v[side][i] for k, v in columns.items()}}
+        for side, name in enumerate(("proposed", "baseline"))
+        for i in range(a.size)
+    ]
+    tol = None if tolerance is None else {metric: float(tolerance)}
+    table = paired_claims(pd.DataFrame(rows), "proposed", "baseline", [metric], [1], own, tol)
+    return {k: getattr(v, "item", lambda v=v: v)() for k, v in table.iloc[0].items()}
 
 
 def _dense(
@@ -515,20 +547,6 @@ def _dense(
     return values, ran, keys
 
 
-def _against_reference(
-    a: np.ndarray, b: np.ndarray, own: np.ndarray, keys: Sequence[str]
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A time of :data:`TIMES_OF_THE_MOVE` on a move with its own (``own`` > 0) judged by
-    |T − T_ref| (docs/metrics.md: shorter than the move's is lag, not speed); ``a``, ``b``
-    (family, metric, plant), and each metric's "set by the reference" value (0 for a
-    distance)."""
-    with np.errstate(invalid="ignore"):  # a step's own times are 0: |T − 0| is T itself
-        moving = (own > 0) & np.isin(list(keys), TIMES_OF_THE_MOVE)
-    a = np.where(moving[None, :, None], np.abs(a - own[None, :, None]), a)
-    b = np.where(moving[None, :, None], np.abs(b - own[None, :, None]), b)
-    return a, b, np.where(moving, 0.0, own)
-
-
 def paired_claims_many(
     results: pd.DataFrame,
     pairs: Sequence[tuple[str, str]],
@@ -544,9 +562,17 @@ def paired_claims_many(
     ``proposed`` and ``opponent`` first. Each (group, pair) is its own family (Holm). A
     pair of which either controller has no plant in a group is left out there."""
     tol = {**TOLERANCES, **(tolerances or {})}
+    own = dict(reference_values or {})
     names = list(dict.fromkeys(name for pair in pairs for name in pair))
     keys_ = [(j, key) for j in joints for key in metrics]
-    columns = [f"joint{j}_{key}" for j, key in keys_]
+    beside = [(j, "delay_time_s") for j, key in keys_  # Td for Tr on a moving reference
+              if key == "rise_time_s" and own.get((j, key), 0) > 0]  # fmt: skip
+    read = list(dict.fromkeys(keys_ + beside))
+    columns = [f"joint{j}_{key}" for j, key in read]
+    missing = [c for c in columns if c not in results.columns]
+    if missing:
+        why = " (Tr on a moving reference is judged with Td beside it)" if beside else ""
+        raise ValueError(f"the results have no column {', '.join(missing)}{why}")
     values, ran, groups = _dense(results, names, columns, by)
     where = {name: k for k, name in enumerate(names)}
     blocks = []  # (group, proposed, opponent) families in output order
@@ -560,21 +586,23 @@ def paired_claims_many(
         return pd.DataFrame()
     g_, p_, o_ = (np.array([b[i] for b in blocks]) for i in range(3))
     both = ran[p_, g_] & ran[o_, g_]  # (family, plant)
-    a = np.where(both[:, None, :], values[p_, g_].transpose(0, 2, 1), np.nan)
-    b = np.where(both[:, None, :], values[o_, g_].transpose(0, 2, 1), np.nan)
-    # plants neither ran stay NaN in both: no pair, no count
-    own = np.array([(reference_values or {}).get(k, math.nan) for k in keys_])
-    a, b, ref = _against_reference(a, b, own, [key for _, key in keys_])
+    # (side, family, plant) per key; plants neither ran stay NaN in both: no pair, no count
+    sides = np.stack([values[p_, g_], values[o_, g_]])
+    sides = np.where(both[None, :, :, None], sides, np.nan)
+    judged = move_distances({k: sides[..., i] for i, k in enumerate(read)}, own)
+    a = np.stack([judged[k][0] for k in keys_], axis=1)  # (family, metric, plant)
+    b = np.stack([judged[k][1] for k in keys_], axis=1)
     out = judge_rows(
         a.reshape(count * width, -1),
         b.reshape(count * width, -1),
         np.tile([tol[key] for _, key in keys_], count),
-        np.tile(ref, count),
         np.repeat(np.arange(count), width),
         np.tile([key in REACHED for _, key in keys_], count),
         np.repeat(both.sum(axis=1), width),
     )
-    out["reference"] = np.tile(np.where(np.isfinite(ref), own, np.nan), count)
+    # the move's own value where the row judges a distance to it (a step's own 0: T itself)
+    own_values = [own.get(k, math.nan) if k[1] in TIMES_OF_THE_MOVE else math.nan for k in keys_]
+    out["reference"] = np.tile(own_values, count)
     table = pd.DataFrame({
         **{c: groups[c].to_numpy()[np.repeat(g_, width)] for c in by},
         "proposed": np.repeat(np.array(names, dtype=object)[p_], width),
@@ -610,9 +638,10 @@ def paired_claims(
     metrics, joints
         What to judge: the table's family, Holm-corrected together.
     reference_values : mapping, optional
-        ``(joint, metric) -> value`` of the reference itself (e.g. Td of the quintic move):
-        where both controllers have it on the typical plant, the verdict is "set by the
-        reference".
+        ``(joint, metric) -> value`` of the reference itself (e.g. Td of the quintic move,
+        :func:`~twolink.studies.judgments.claims_plans.reference_values`): a time of
+        :data:`TIMES_OF_THE_MOVE` whose own value is above 0 is judged by its distance to
+        it (:func:`move_distances`; Tr needs Td of its joint in ``results``).
     tolerances : mapping, optional
         Practical tolerance per metric (default :data:`TOLERANCES`).
 
@@ -621,7 +650,7 @@ def paired_claims(
     DataFrame
         One row per (joint, metric): ``n``, ``better``, ``worse``, ``equal``,
         ``tolerance``, the two medians, ``estimate`` (Hodges-Lehmann) with ``ci_low`` and
-        ``ci_high`` (95 %), the shares (``share_better``, ``share_worse`` with their
+        ``ci_high`` (at ``ci_level``), the shares (``share_better``, ``share_worse`` with their
         ``_low``/``_high`` 95 % bounds, of ``plants``), ``unreached_better`` and
         ``unreached_worse``, the p-values (sign test ``p_value``, TOST ``tost_p``,
         margins ``margin_p``, each with its Holm ``_adjusted``), ``typical``, the

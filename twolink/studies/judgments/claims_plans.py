@@ -13,6 +13,7 @@ import numpy as np
 
 from twolink.simulation.config import Scenario, read_toml
 from twolink.simulation.vocabulary import metric
+from twolink.studies.judgments.move_times import TIMES_OF_THE_MOVE
 from twolink.studies.reproduction.manifest import Manifest
 
 __all__ = ["SMOOTH_KINDS", "raw_steps", "reference_values", "regime_plan"]
@@ -34,8 +35,10 @@ def raw_steps(source: Path | Mapping[str, Any]) -> dict[str, Any]:
 
 
 def reference_values(scenario: Scenario, joints: Any) -> dict[tuple[int, str], float]:
-    """The step metrics of the reference itself, per moving joint: where both controllers
-    have the reference's own value (a smooth move's Td and Tr), no controller set it."""
+    """The step metrics of the reference itself, per moving joint: the move's own Td, Tr,
+    Tp, Ts and Ts→θd (its own 2 % band settling time: it ends on its target, so both Ts
+    are one), which the claims judge a loop's times by their distance to
+    (:data:`~twolink.studies.judgments.move_times.TIMES_OF_THE_MOVE`)."""
     from twolink.simulation.metrics import step_metrics
 
     t = np.arange(0.0, scenario.duration + 1e-12, scenario.control_dt)
@@ -44,8 +47,9 @@ def reference_values(scenario: Scenario, joints: Any) -> dict[tuple[int, str], f
     for j in joints:
         target, start = scenario.reference.final[j - 1], scenario.q0[j - 1]
         m = step_metrics(t, q_ref[:, j - 1], target, y0=start)
-        for key in ("delay_time_s", "rise_time_s", "peak_time_s"):
-            value = getattr(m, metric(key).source.split(".")[1])
+        for key in TIMES_OF_THE_MOVE:
+            field = "settling_time" if key == "settling_time_target_s" else None
+            value = getattr(m, field or metric(key).source.split(".")[1])
             if np.isfinite(value):
                 out[(j, key)] = float(value)
     return out

@@ -12,6 +12,7 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+from twolink.studies.designs.effort import EFFORT_KEYS  # judged against the fair opponent
 from twolink.studies.designs.frontier import OPPONENT
 from twolink.studies.judgments.claims_plans import (
     SMOOTH_KINDS,
@@ -25,7 +26,6 @@ from twolink.studies.reproduction.manifest import Manifest, Variant
 # The lab arm's regime (the manifest's lab_study): its files are claims_lab.csv and the like.
 LAB = Variant("lab", "the lab arm, with joint friction and a load step", {})
 
-EFFORT_METRICS = ("torque_peak_Nm", "torque_variation_Nm")  # judged against the fair opponent
 
 __all__ = [
     "LAB",
@@ -121,7 +121,7 @@ def _claims_study(
     # these plants, where the opponent's budget must hold (docs/reproduction.md)
     fair = paired_claims(
         outcome.results, manifest.proposed, OPPONENT, joints=plan.joints, reference_values=refs,
-        metrics=(*CLAIM_METRICS, *EFFORT_METRICS),
+        metrics=(*CLAIM_METRICS, *EFFORT_KEYS),
     )  # fmt: skip
     atomic_write_text(out / f"claims_matched{suffix}.csv", fair.to_csv(index=False))
     source = f"{study.parent.name}/{study.name}" + (f", {regime}" if regime else "")

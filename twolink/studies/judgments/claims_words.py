@@ -17,36 +17,60 @@ from typing import Any
 import pandas as pd
 
 __all__ = [
+    "BETTER",
     "CELL_EFFECTS",
-    "SET_BY_REFERENCE",
+    "EQUAL",
+    "EQUIVALENT",
+    "NOT_JUDGED",
+    "PARTLY",
     "SPLIT",
     "SPLIT_SHARE",
+    "TYPICAL_WORDS",
+    "UNDECIDED",
     "VERDICT_WORDS",
+    "WORSE",
     "amount",
+    "named_side",
     "reading",
     "row_reading",
 ]
 
-SET_BY_REFERENCE = "set by the reference"
-SPLIT = "split"
-# "equivalent" says that at most one plant in ten lies practically beyond ±δ on either
-# side (the count, not its interval: docs/statistics.md); more is a split.
+BETTER, WORSE, EQUAL, EQUIVALENT = "better", "worse", "equal", "equivalent"
+SPLIT, UNDECIDED, NOT_JUDGED = "split", "undecided", "not judged"
+PARTLY = {BETTER: "partly better", WORSE: "partly worse"}
+# A side of the plants "goes" on a typical plant judged equivalent where more than one
+# plant in ten lies beyond ±δ on it (the count, not its interval: docs/statistics.md).
 SPLIT_SHARE = 0.10
 
-# The one vocabulary of verdicts: tables, readings and conclusions say these words and
-# no others (docs/statistics.md, "The verdict words", has the same list).
+# The one vocabulary of verdicts: the tables, the readings, the figure and the conclusions
+# say these words and no others (docs/statistics.md, "The verdict words", has the same
+# table). Every row gets exactly one, by the first line that holds, in this order.
 VERDICT_WORDS = {
-    "better": "the typical plant's shift lies below −δ (its printed interval wholly "
-    "below), or, the typical plant undecided, a share of plants practically better is "
-    "shown above 5 %, the share worse shown below it, and the estimate not above 0",
-    "worse": "the mirror of better",
-    "equivalent": "the typical plant's interval lies within ±δ and at most 10 % of the "
-    "plants lie beyond ±δ on either side",
-    SPLIT: "the typical plant's interval lies within ±δ but more than 10 % of the plants "
-    "lie beyond ±δ on a side: the reading names them",
-    "inconclusive": "none of the above",
-    SET_BY_REFERENCE: "both controllers take the reference's own value on the typical plant",
-    "undefined": "no plant compares",
+    NOT_JUDGED: "no plant compares: none has the metric for both, none is reached by one only",
+    EQUAL: "no plant differs by more than δ, and none is reached by one controller only",
+    BETTER: "the typical plant's interval lies wholly below −δ; or, that interval deciding "
+    "nothing, more than half the plants both ran are better by more than δ (exact test) "
+    "and the estimate is not above 0",
+    WORSE: "the mirror of better",
+    EQUIVALENT: "the typical plant's interval lies within ±δ, and at most 10 % of the "
+    "plants lie beyond δ on each side",
+    PARTLY[BETTER]: "the typical plant is not better or worse, but a share of plants is "
+    "better: with the typical plant equivalent, more than 10 % beyond −δ and at most 10 % "
+    "beyond +δ; else the share better shown above 5 %, the share worse shown below 5 %, "
+    "and the estimate not above 0",
+    PARTLY[WORSE]: "the mirror of partly better",
+    SPLIT: "the typical plant is not better or worse, and shares go both ways: with the "
+    "typical plant equivalent, more than 10 % beyond δ on each side; else both shares "
+    "shown above 5 %",
+    UNDECIDED: "plants compare, but none of the above holds",
+}
+# The typical plant's own verdict (the column ``typical``): read off its printed interval.
+TYPICAL_WORDS = {
+    BETTER: "its interval lies wholly below −δ",
+    WORSE: "its interval lies wholly above +δ",
+    EQUIVALENT: "its interval lies wholly within ±δ",
+    UNDECIDED: "its interval reaches across a margin",
+    NOT_JUDGED: "fewer than half the plants both ran have the metric for both",
 }
 # A regime map cell's effect, from its rows' verdicts (regimes.summary).
 CELL_EFFECTS = {
@@ -91,25 +115,30 @@ def _share(
     return f"{direction} {how} on {k} of {plants} ({100 * low:.0f}-{100 * high:.0f} %)"
 
 
+def named_side(r: Any, side: str) -> bool:
+    """Whether the reading names the share of plants on ``side``: shown above 5 %, or the
+    side that makes the verdict partly that way or split."""
+    k = getattr(r, side) + getattr(r, f"unreached_{side}")
+    goes = r.verdict in (PARTLY[side], SPLIT) and r.typical == EQUIVALENT
+    return bool(getattr(r, f"share_{side}_shown")) or (goes and k > SPLIT_SHARE * r.plants)
+
+
 def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
     """One row's words (``r`` a row of the table, e.g. from ``itertuples``)."""
-    if r.verdict == "undefined":
+    if r.verdict == NOT_JUDGED:
         return "no plant has it for both"
-    if r.verdict == "set by the reference":
-        return "set by the reference: both take the move's own value on the typical plant"
     tol = amount(r.metric, r.tolerance)
     parts = []
-    if r.typical in ("better", "worse", "equivalent"):
+    if r.verdict == EQUAL:
+        parts.append(f"equal on all {r.plants}: none differs by more than {tol}")
+    if r.typical in (BETTER, WORSE) or (r.typical == EQUIVALENT and r.verdict != EQUAL):
         parts.append(f"{r.typical} on the typical plant")
-    elif r.n > 0 and 2 * r.n < getattr(r, "runs", r.n):
+    elif r.typical == NOT_JUDGED and r.n > 0:
         parts.append(f"the typical plant not judged: both have it on only {r.n} of {r.runs}")
-    elif r.n > 0:
+    elif r.typical == UNDECIDED:
         parts.append("the typical plant undecided")
-    for side in ("better", "worse"):
-        named = r.verdict == SPLIT and getattr(r, side) + getattr(r, f"unreached_{side}") > (
-            SPLIT_SHARE * r.plants
-        )
-        if getattr(r, f"share_{side}_shown") or named:
+    for side in (BETTER, WORSE):
+        if named_side(r, side):
             k = getattr(r, side) + getattr(r, f"unreached_{side}")
             low, high = getattr(r, f"share_{side}_low"), getattr(r, f"share_{side}_high")
             alone = getattr(r, f"unreached_{side}")
@@ -122,7 +151,11 @@ def row_reading(r: Any, proposed: str = "", opponent: str = "") -> str:
         parts.append(f"{other} never reaches it on {r.unreached_better} where {who} does")
     reference = getattr(r, "reference", math.nan)
     if reference == reference:  # a time on a moving reference: judged by its distance
-        parts.append(f"judged by the distance to the reference's own {amount(r.metric, reference)}")
+        own = amount(r.metric, reference)
+        if r.metric == "rise_time_s" and reference > 0:  # Td beside it (move_times)
+            parts.append(f"judged by the distance of the rise to the move's own ({own}, Td beside)")
+        else:
+            parts.append(f"judged by the distance to the reference's own {own}")
     return "; ".join(parts)
 
 

@@ -149,20 +149,20 @@ def sweep_text(
 
 
 def judged_rows(claims: pd.DataFrame) -> int:
-    """The rows of a paired table that a test judges (Holm's family): neither undefined
-    nor set by the reference."""
-    from twolink.studies.judgments.claims import SET_BY_REFERENCE
+    """The m of a paired table's Bonferroni level: its rows whose typical plant is judged
+    (docs/statistics.md)."""
+    from twolink.studies.judgments.claims_words import NOT_JUDGED
 
-    return int((~claims["verdict"].isin(["undefined", SET_BY_REFERENCE])).sum())
+    return int((claims["typical"] != NOT_JUDGED).sum())
 
 
 def minimum_plants(rows: int, limit: int = 1000) -> tuple[int, int]:
-    """The fewest plants on which any verdict is possible in a table of ``rows`` judged
-    rows: the verdict rule itself (:func:`~twolink.studies.judgments.claims.judge_rows`,
+    """The fewest plants on which the typical plant can be judged in a table of ``rows``
+    judged rows: the verdict rule itself (:func:`~twolink.studies.judgments.claims.judge_rows`,
     docs/statistics.md: the typical plant's interval at 1 − 5 %/rows) asked on its most
     favourable samples: "equivalent" on identical plants (every difference 0), "better" on
-    plants all beyond the margin. With fewer plants every verdict of the typical plant is
-    "inconclusive" whatever the controllers do (the share verdicts need more still)."""
+    plants all beyond the margin. With fewer plants the typical plant is "undecided"
+    whatever the controllers do (identical plants still read "equal")."""
     from twolink.studies.judgments.claims import judge_rows
 
     rows = max(rows, 1)
@@ -170,8 +170,8 @@ def minimum_plants(rows: int, limit: int = 1000) -> tuple[int, int]:
     def verdicts(d: np.ndarray) -> set:
         a = np.tile(d, (rows, 1))
         zero, none = np.zeros(rows), np.zeros(rows, bool)
-        judged = judge_rows(a, np.zeros_like(a), np.ones(rows), np.full(rows, np.nan), zero, none)
-        return set(judged["verdict"])
+        judged = judge_rows(a, np.zeros_like(a), np.ones(rows), zero, none)
+        return set(judged["typical"])
 
     equivalent = differ = 0
     for n in range(2, limit + 1):

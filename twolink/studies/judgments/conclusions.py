@@ -1,18 +1,20 @@
-"""The report's conclusions in sentences (issue 37): at most :data:`MOST` sentences a
-control engineer reads in a minute, each with its magnitude and its count, written from
-the tables and nothing else:
+"""The report's conclusions in short sentences: which law wins where, by how much in the
+metric's own unit, on how many plants, at what effort. At most :data:`MOST` items, written
+from the tables and nothing else, in the plain words of
+:mod:`twolink.studies.judgments.plain` ("beats": better on the typical plant on some
+metric, worse on none):
 
 - per plant variant, the paper's own experiments: whether the proposed controller equals
   the baseline (no metric beyond its tolerance), how often it is lower or higher, how many
   met the spec, and for whom the loop linearised at the target is unstable;
-- per claims study (its regime), the paper's claim against each distinct opponent of the
-  study (an opponent that is another by construction, as CTC-matched is CTC on smooth
-  moves, is said once, with the alias), with every verdict's estimate and the shares
-  shown;
+- per claims study (its regime), who wins between the proposed controller and each
+  distinct opponent of the study (an opponent that is another by construction, as
+  CTC-matched is CTC on smooth moves, is said once, with the alias), with the plants
+  each met the spec on;
 - where the proposed controller makes a limit cycle its baseline does not, and on how
   many plants;
 - whether the controller with integral action beats the proposed controller and every
-  opponent;
+  opponent (on the typical plant);
 - on the lab arm (friction and a disturbance), who beats whom among the proposed
   controller, the baseline, the integral one and the opponents.
 
@@ -38,8 +40,8 @@ __all__ = [
     "variant_sentence",
 ]
 
-MOST = 9  # sentences: 8, and one for the lab arm (issue 47)
 LISTED = 3  # better or worse rows named in a clause; beyond, counted and the largest named
+MOST = 9  # sentences: 8, and one for the lab arm (issue 47)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -98,20 +100,24 @@ def _rows(table: pd.DataFrame, verdict: str) -> list[Any]:
     return [r for r in table.itertuples() if r.verdict == verdict]
 
 
+def _typical(table: pd.DataFrame, side: str) -> list[Any]:
+    """The rows better (or worse) on the typical plant: their interval beyond the tolerance."""
+    return [r for r in table.itertuples() if r.typical == side]
+
+
 def _count(r: Any, side: str) -> int:
     return getattr(r, side) + getattr(r, f"unreached_{side}")
 
 
 def _shares_said(r: Any) -> list[str]:
     """'θ2 Tr better on 33 of 200' for each share the reading names (shown, or the side
-    that makes a split): plants beyond the row's tolerance that way (its size is the
-    table's; "better" here is a plant's difference, not a verdict)."""
-    from twolink.studies.judgments.claims_words import SPLIT, SPLIT_SHARE
+    that makes a row partly one way or split): plants beyond the row's tolerance that way
+    (its size is the table's; "better" here is a plant's difference, not a verdict)."""
+    from twolink.studies.judgments.claims_words import named_side
 
     said = []
     for side in ("better", "worse"):
-        split = r.verdict == SPLIT and _count(r, side) > SPLIT_SHARE * r.plants
-        if getattr(r, f"share_{side}_shown") or split:
+        if named_side(r, side):
             alone = " or alone in reaching it" if getattr(r, f"unreached_{side}") else ""
             said.append(f"{_name(r)} {side}{alone} on {_count(r, side)} of {r.plants}")
     return said
@@ -125,10 +131,17 @@ def describe(table: pd.DataFrame) -> str:
     """A claims table in one clause, in the verdict words of the table
     (:data:`~twolink.studies.judgments.claims_words.VERDICT_WORDS`): better and worse with
     their estimates (over :data:`LISTED` rows: counted, the largest in tolerances named);
-    split with the plants beyond the tolerance each way; equivalent counted, with the
-    shares shown beside it; inconclusive counted and named (its shares are the table's);
-    the rest counted. Short on purpose: the tables hold the intervals and shares."""
-    from twolink.studies.judgments.claims_words import SPLIT
+    partly better, partly worse and split with the plants beyond the tolerance; equal and
+    equivalent counted (equivalent with the shares shown beside it); undecided counted
+    and named (its shares are the table's); not judged counted. Short on purpose: the
+    tables hold the intervals and shares."""
+    from twolink.studies.judgments.claims_words import (
+        EQUAL,
+        NOT_JUDGED,
+        PARTLY,
+        SPLIT,
+        UNDECIDED,
+    )
 
     parts = []
     for verdict in ("better", "worse"):
@@ -139,45 +152,50 @@ def describe(table: pd.DataFrame) -> str:
             parts.append(f"{verdict} on {len(rows)}, the largest {named}")
         elif rows:
             parts.append(f"{verdict} on {', '.join(_sized(r) for r in rows)}")
-    split = _rows(table, SPLIT)
-    if split:  # equivalent on the typical plant, more than a tenth beyond the tolerance
-        shares = ", ".join(x for r in split for x in _shares_said(r))
-        parts.append(f"{SPLIT} on {len(split)} ({shares} beyond the tolerance)")
+    for verdict in (PARTLY["better"], PARTLY["worse"], SPLIT):
+        rows = _rows(table, verdict)
+        if rows:  # a share of the plants beyond the tolerance, the typical plant not
+            shares = ", ".join(x for r in rows for x in _shares_said(r))
+            parts.append(f"{verdict} on {len(rows)} ({shares} beyond the tolerance)")
+    equal = _rows(table, EQUAL)
+    if equal:
+        parts.append(f"{EQUAL} on {len(equal)}")
     equivalent = _rows(table, "equivalent")
     if equivalent:
         shares = [x for r in equivalent for x in _shares_said(r)]
         more = f", but {', '.join(shares)} beyond the tolerance" if shares else ""
         parts.append(f"equivalent on {len(equivalent)}{more}")
-    inconclusive = _rows(table, "inconclusive")
-    if inconclusive:
-        parts.append(
-            f"inconclusive on {len(inconclusive)} ({', '.join(_name(r) for r in inconclusive)})"
-        )
-    by_reference = len(_rows(table, "set by the reference"))
-    if by_reference:
-        parts.append(f"{by_reference} set by the reference")
+    undecided = _rows(table, UNDECIDED)
+    if undecided:
+        parts.append(f"{UNDECIDED} on {len(undecided)} ({', '.join(_name(r) for r in undecided)})")
+    not_judged = len(_rows(table, NOT_JUDGED))
+    if not_judged:
+        parts.append(f"{not_judged} {NOT_JUDGED}")
     return "; ".join(parts) or "nothing judged"
 
 
 def study_sentence(study: ClaimsStudy, first: bool = True) -> str:
-    """The paper's claim on a study's plants, against each distinct opponent; the
-    ``first`` says what the claim is and what the brackets hold."""
+    """Who wins on a study's plants between the proposed controller and each distinct
+    opponent (:func:`~twolink.studies.judgments.plain.pair_sentences`), with the plants
+    each met the spec on; ``first`` names the claim."""
+    from twolink.studies.judgments.plain import pair_sentences
+
     p = study.proposed
-    clauses = []
+    said = []
     for opponent, table in study.claims.items():
         if opponent in study.same_as:
             continue
         alias = [a for a, b in study.same_as.items() if b == opponent]
-        also = f" (= {', '.join(alias)} here)" if alias else ""
-        clauses.append(
-            f"against {opponent}{also}, met the spec {study.met.get(p, 0)} to "
-            f"{study.met.get(opponent, 0)}: {describe(table)}"
-        )
-    what = f" ({p} lowers Tp, Td, Ts, Tr, Mp, ess; brackets: the typical-plant shift)"
+        name = f"{opponent} (= {', '.join(alias)} here)" if alias else opponent
+        said += pair_sentences(table, p, name, study.plants)
+    met = ", ".join(
+        f"{n} {study.met.get(n, 0)}"
+        for n in dict.fromkeys([p, *(o for o in study.claims if o not in study.same_as)])
+    )
+    claim = f" ({p} lowers Tp, Td, Ts, Tr, Mp, ess)" if first else ""
     return (
-        f"**The paper's claim on {study.plants} plants, {study.label}**{what if first else ''}: "
-        + "; ".join(clauses)
-        + "."
+        f"**The paper's claim{claim} on {study.label}, {study.plants} plants.** Met the "
+        f"spec: {met}. " + " ".join(said)
     )
 
 
@@ -238,11 +256,11 @@ def integral_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
         counts, beaten, not_beaten = [], [], []
         for other in against:
             t = _pair(s.every, s.integral, other)
-            better, worse = _rows(t, "better"), _rows(t, "worse")
+            better, worse = _typical(t, "better"), _typical(t, "worse")
             (beaten if better and not worse else not_beaten).append(other)
             counts.append(f"{other} {len(better)}/{len(worse)}")
         t = _pair(s.every, s.integral, s.proposed)
-        best = min(_rows(t, "better"), key=lambda r: r.estimate / r.tolerance, default=None)
+        best = min(_typical(t, "better"), key=lambda r: r.estimate / r.tolerance, default=None)
         largest = f"; e.g. {_name(best)} {_signed(best.metric, best.estimate)}" if best else ""
         if not not_beaten:
             verb = f"beats {_names(beaten)}"
@@ -251,46 +269,27 @@ def integral_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
         else:
             verb = f"beats {_names(beaten)} but not {_names(not_beaten)}"
         parts.append(
-            f"{verb} on {s.label} (metrics better/worse of {len(t)}: "
+            f"{verb} on {s.label} (metrics better/worse on the typical plant, of {len(t)}: "
             f"{', '.join(counts)}{largest} against {s.proposed})"
         )
     return f"**Integral action:** {name} " + "; it ".join(parts) + "."
 
 
 def lab_sentence(study: ClaimsStudy) -> str:
-    """The lab arm in one sentence: for each pair its tables judge with the proposed
-    controller on one side (against the baseline, the opponents, the integral one), who
-    wins: better on
-    some winner metrics and worse on none ("beats"), the reverse ("loses to"), both
-    ("trades with") or neither ("is not told from"); with the counts of metrics, and the
-    largest shift each way (in tolerances) with the plants it holds on."""
+    """The lab arm: for each pair its tables judge with the proposed controller on one side
+    (against the baseline, the opponents, the integral one), who wins on the winner
+    metrics, in :func:`~twolink.studies.judgments.plain.pair_sentences`' words (its
+    rules: "beats" on the typical plant, the size in the metric's unit, the plants)."""
+    from twolink.studies.judgments.plain import pair_sentences
+
     named = {study.proposed, study.baseline, study.integral, *study.claims}
-    clauses = []
+    said = []
     for (a, b), t in study.every.groupby(["proposed", "opponent"], sort=False):
         if a not in named or b not in named or study.proposed not in (a, b):
             continue  # the others among themselves are the tables', not the claim's
-        better, worse = _rows(t, "better"), _rows(t, "worse")
-        verb = {
-            (True, False): "beats",
-            (False, True): "loses to",
-            (True, True): "trades with",
-            (False, False): "is not told from",
-        }[(bool(better), bool(worse))]
-        said = [f"better/worse on {len(better)}/{len(worse)} of {len(t)} metrics"]
-        for side, rows in (("better", better), ("worse", worse)):
-            if rows:
-                r = max(rows, key=lambda r: abs(r.estimate) / r.tolerance)
-                said.append(
-                    f"{_name(r)} {_signed(r.metric, r.estimate)}, {side} on "
-                    f"{getattr(r, side)} of {r.n} plants"
-                )
-        clauses.append(f"{a} {verb} {b} ({'; '.join(said)})")
+        said += pair_sentences(t, a, b, study.plants, what="metrics")
     label = study.label[0].upper() + study.label[1:]
-    return (
-        f"**{label}, {study.plants} plants** (typical-plant shift, first minus second): "
-        + "; ".join(clauses)
-        + "."
-    )
+    return f"**{label}, {study.plants} plants.** " + " ".join(said)
 
 
 def variant_sentence(

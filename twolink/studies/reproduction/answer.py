@@ -10,10 +10,12 @@ from pathlib import Path
 from typing import Any
 
 from twolink.simulation.vocabulary import CLAIMED_BETTER, metric
+from twolink.studies.designs.effort import EFFORT_KEYS
 from twolink.studies.reproduction.manifest import Manifest
 from twolink.studies.reproduction.summary import (
     ANSWER_FIGURE,
     PROFILES_FIGURE,
+    SCOREBOARD_FIGURE,
     Judged,
     summary,
 )
@@ -44,8 +46,34 @@ def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
         }
         name, defined = REGIME_NAMES.get(suffix, ("", ""))
         sweep = f"claims_study{suffix}"
-        out.append(Judged(study.label, study.plants, study.proposed, files, sweep, name, defined))
+        effort = {o: _effort_rows(study.every, study.proposed, o) for o in study.claims}
+        out.append(
+            Judged(study.label, study.plants, study.proposed, files, sweep, name, defined,
+                   effort={o: t for o, t in effort.items() if len(t)})
+        )  # fmt: skip
     return out
+
+
+def _effort_rows(every: Any, proposed: str, opponent: str) -> Any:
+    """The pair's peak |τ| and Σ|Δτ| rows of the study's every-pair table (empty: none)."""
+    mine = (every["proposed"] == proposed) & (every["opponent"] == opponent)
+    return every[mine & every["metric"].isin(EFFORT_KEYS)]
+
+
+def with_iae(out: Path, studies: Sequence[Judged]) -> list[Judged]:
+    """Each regime with its controllers' median IAE1 + IAE2 over its plants, from its
+    sweep's ``results.parquet`` (the scoreboard's order and the strongest opponent)."""
+    from dataclasses import replace
+
+    from twolink.studies.reproduction.profiles import scoreboard
+    from twolink.sweep import load_results
+
+    done = []
+    for s in studies:
+        board = scoreboard(load_results(out / s.sweep))
+        iae = board.drop_duplicates("controller").set_index("controller")["iae_sum"]
+        done.append(replace(s, iae=iae.to_dict()))
+    return done
 
 
 def question(manifest: Manifest) -> str:
@@ -53,9 +81,14 @@ def question(manifest: Manifest) -> str:
     return f"the paper's step metrics ({symbols}, on each joint)"
 
 
+# the report's first section ends here: the rest of summary.md is a pointer away
+POINTER = "**Terms, the verdicts counted, and where the numbers come from:** `summary.md`."
+
+
 def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> list[str]:
-    """summary.md in ``out``; returns its lines for the report's first section, where the
-    sources paragraph is a pointer to summary.md (the first table then comes early)."""
+    """summary.md in ``out``; returns its lines for the report's first section: the
+    question, the answer and the figures, then :data:`POINTER` (the first table then
+    comes early)."""
     from twolink.foundation.io import atomic_write_text
     from twolink.studies.designs.frontier import OPPONENT
 
@@ -68,25 +101,32 @@ def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> l
     opponents = {n: what.get(n, "an opponent of the manifest") for n in names}
     text = summary(studies, opponents, question(manifest))
     atomic_write_text(out / "summary.md", text)
-    sources = "**Where the numbers come from.**"
-    return [
-        "**Where the numbers come from:** `summary.md`, file and column." if s.startswith(sources)
-        else s
-        for s in text.splitlines()
-    ]  # fmt: skip
+    lines = text.splitlines()
+    terms = next(k for k, s in enumerate(lines) if s.startswith("**Terms.**"))
+    return [*lines[:terms], POINTER]
 
 
 def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:
-    """figures/answer.png (the claims tables as a forest plot) and figures/profiles.png
-    (each sweep's performance profiles on IAE and Σ|Δτ|), a worker task."""
+    """figures/answer.png (the claims tables as a forest plot), figures/scoreboard.png
+    (every controller's medians per regime) and figures/profiles.png (each sweep's
+    performance profiles on IAE and Σ|Δτ|), a worker task."""
     from twolink.figures import answer, plots
-    from twolink.studies.reproduction.profiles import PROFILE_COSTS, costs, performance_profile
+    from twolink.figures.scoreboard import scoreboard_figure
+    from twolink.studies.reproduction.profiles import (
+        PROFILE_COSTS,
+        costs,
+        performance_profile,
+        scoreboard,
+    )
     from twolink.sweep import load_results
 
     plants = ", ".join(sorted({str(s.plants) for s in studies}))
     title = f"Does {proposed} lower the paper's step metrics? {plants} plants per panel"
     tables = [(s.label, {n: t for n, (_, t) in s.tables.items()}) for s in studies]
     plots.save_figure(answer.answer_figure(tables, proposed, title), out / ANSWER_FIGURE)
+    boards = [(s.name or s.label, scoreboard(load_results(out / s.sweep))) for s in studies]
+    title = f"Every controller of the claims studies, {plants} plants per regime"
+    plots.save_figure(scoreboard_figure(boards, title), out / SCOREBOARD_FIGURE)
     profiles = []
     for s in studies:
         results = load_results(out / s.sweep)
@@ -102,6 +142,6 @@ def answer_at_a_glance(
 ) -> list[str]:
     """The answer at a glance: its figures drawn by ``draw`` (a task of the pool), and
     ``summary.md`` written; returns the summary's lines (the report's first section)."""
-    studies = judged(manifest, claim_tables)
+    studies = with_iae(out, judged(manifest, claim_tables))
     draw(answer_figures, out, studies, manifest.proposed)
     return write_summary(out, manifest, studies)

@@ -11,10 +11,20 @@ costs are read from the sweep's own table (``results.parquet``), not computed ag
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pandas as pd
 
-__all__ = ["PROFILE_COSTS", "costs", "performance_profile", "ratios"]
+__all__ = [
+    "PROFILE_COSTS",
+    "SCOREBOARD_KEYS",
+    "costs",
+    "median_interval",
+    "performance_profile",
+    "ratios",
+    "scoreboard",
+]
 
 # The costs profiled, per joint summed: tracking (IAE) and effort (Σ|Δτ|): one each.
 PROFILE_COSTS = ("iae_rad_s", "torque_variation_Nm")
@@ -51,3 +61,47 @@ def performance_profile(cost: pd.DataFrame, taus: np.ndarray | None = None) -> p
     taus = np.asarray(taus, dtype=float)
     rho = (ratio[None, :, :] <= taus[:, None, None]).mean(axis=1)
     return pd.DataFrame(rho, index=pd.Index(taus, name="tau"), columns=cost.columns)
+
+
+# The scoreboard's columns: tracking (IAE) and effort (peak |τ|, Σ|Δτ|), per joint.
+SCOREBOARD_KEYS = ("iae_rad_s", "torque_peak_Nm", "torque_variation_Nm")
+
+
+def median_interval(values: np.ndarray, level: float = 0.95) -> tuple[float, float, float]:
+    """The median and its distribution-free interval from order statistics (Conover,
+    *Practical Nonparametric Statistics*, 3rd ed., §3.2): ``[x_(j), x_(n−j+1)]`` with
+    ``j`` the smallest count at which Bin(n, ½)'s CDF reaches (1 − level) / 2, so that
+    it covers the median with at least ``level``. NaN values are left out; NaN bounds
+    where too few values are left for one."""
+    from scipy.stats import binom
+
+    x = np.sort(np.asarray(values, dtype=float)[np.isfinite(values)])
+    n = len(x)
+    if n == 0:
+        return math.nan, math.nan, math.nan
+    j = int(binom.ppf((1 - level) / 2, n, 0.5))
+    if j < 1:
+        return float(np.median(x)), math.nan, math.nan
+    return float(np.median(x)), float(x[j - 1]), float(x[n - j])
+
+
+def scoreboard(results: pd.DataFrame, keys=SCOREBOARD_KEYS) -> pd.DataFrame:
+    """Per controller (the sweep's order), joint and metric of ``keys``: the median over
+    the plants its run completed on (``status`` "ok"), its interval
+    (:func:`median_interval`) and the plants; plus ``iae_sum``, the median of IAE1 + IAE2
+    per plant, the scoreboard's order (the lowest first: the best)."""
+    ok = results[results["status"] == "ok"] if "status" in results else results
+    rows = []
+    for name in dict.fromkeys(results["controller"]):
+        mine = ok[ok["controller"] == name]
+        total = (mine["joint1_iae_rad_s"] + mine["joint2_iae_rad_s"]).to_numpy(float)
+        for key in keys:
+            for j in (1, 2):
+                values = mine[f"joint{j}_{key}"].to_numpy(float)
+                median, low, high = median_interval(values)
+                rows.append({
+                    "controller": name, "joint": j, "metric": key, "median": median,
+                    "low": low, "high": high, "plants": int(np.isfinite(values).sum()),
+                    "iae_sum": float(np.nanmedian(total)) if len(total) else math.nan,
+                })  # fmt: skip
+    return pd.DataFrame(rows).sort_values("iae_sum", kind="stable").reset_index(drop=True)

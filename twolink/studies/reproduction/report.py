@@ -16,6 +16,7 @@ import pandas as pd
 
 from twolink.simulation.vocabulary import CLAIMED_BETTER, format_value, metric
 from twolink.studies.judgments.claims import TOLERANCES, count_wins
+from twolink.studies.judgments.claims_words import VERDICT_WORDS
 from twolink.studies.reproduction.manifest import Experiment, Manifest
 
 fmt = format_value
@@ -268,7 +269,8 @@ def render(
     out = [
         "# Reproduction of Devi, Ravi Kumar & Pydi: CTC vs FCM-CTC",
         "",
-        "By `twolink reproduce`: the answer, the paper's tables, the rest.",
+        "By `twolink reproduce`. First the answer in plain words (also `summary.md`). Then "
+        "the paper's tables beside its numbers, the conclusions, and the claims in full.",
         "",
         *summary,
         *paper_tables(rows, manifest, figures, controllers, calibrated),
@@ -383,23 +385,22 @@ WINNER_METRICS = (
 STATISTICS = (
     "Per plant the difference controller − baseline (negative: lower, better for every metric "
     "here). better / worse / equal: plants where it is lower / higher by more than the "
-    "metric's practical tolerance, or within it. The verdict: on the typical plant (the "
-    "Hodges-Lehmann shift, with its interval at 1 − 5 %/m over the table's m rows, the one "
-    "printed) **better** or **worse** where the interval lies beyond the tolerance, "
-    "**equivalent** where it lies within it and at most 10 % of plants are beyond it on "
-    "either side, **split** where more are beyond on a side (the reading names them); the "
-    "typical plant is judged only where at least half the plants have the metric; where it "
-    "decides nothing, the share of plants practically worse (or better) where it is shown "
-    "above 5 % and the other below 5 % (exact binomial tests); else **inconclusive**. A "
-    "verdict never points against its estimate; the reading names every share above 5 %; "
-    "on a moving reference, Td, Tr and Tp are judged by their distance to the reference's own, "
-    "and a time one controller never reaches counts against it (docs/statistics.md)."
+    "metric's practical tolerance, or within it. The verdict, the first that holds "
+    "(docs/statistics.md): **not judged** where no plant compares; **equal** where no plant "
+    "differs by more than the tolerance; **better** or **worse** where the typical plant's "
+    "interval (the Hodges-Lehmann shift at 1 − 5 %/m, m the table's rows whose typical plant "
+    "is judged: the one printed) lies beyond the tolerance, or, that interval deciding "
+    "nothing, most plants go that way; **equivalent** where it lies within the tolerance and "
+    "at most 10 % of plants lie beyond it on each side; **partly better** or **partly worse** "
+    "where a share goes one way only; **split** where shares go both ways; else "
+    "**undecided**. The typical plant is judged only where at least half the plants have the "
+    "metric. A verdict never points against its estimate; the reading names every share "
+    "above 5 %. On a moving reference Td, Tr, Tp and Ts are judged by their distance to the "
+    "move's own (Tr with Td beside), and a time one controller never reaches counts against it."
 )
 
 
 def _verdict_cell(r: Any) -> str:
-    if r.verdict == "set by the reference":
-        return "set by the reference"
     return f"{r.verdict} ({r.better}/{r.worse}/{r.equal}; {fmt(r.estimate)})"
 
 
@@ -548,11 +549,4 @@ def _largest(rows, manifest: Manifest, variant: str) -> tuple[str, float, str] |
     return out
 
 
-VERDICT_ORDER = (
-    "better",
-    "worse",
-    "equivalent",
-    "inconclusive",
-    "set by the reference",
-    "undefined",
-)
+VERDICT_ORDER = tuple(VERDICT_WORDS)

@@ -1,0 +1,151 @@
+"""Scenarios with [arm.links], the closed loop on bending links and the tip's measures."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from twolink.arm.params import ArmParams
+from twolink.simulation.config import ConfigError, scenario_from_dict
+from twolink.simulation.experiment import build_controller, build_plant, run_scenario
+from twolink.simulation.links_sim import LinkRun, plant_links, run_links, tip_metrics
+from twolink.simulation.sim import Trajectory, simulate
+
+
+def _data(**links):
+    return {
+        "duration": 1.0,
+        "arm": {"g": 0.0, "links": {"ei": 1e4, "segments": 4, **links}},
+        "controller": {"kind": "ctc"},
+        "reference": {
+            "joint1": {"kind": "quintic", "final": 0.5, "duration": 0.8},
+            "joint2": {"kind": "quintic", "final": -0.3, "duration": 0.8},
+        },
+    }
+
+
+def test_arm_links_are_read_and_written_back():
+    s = scenario_from_dict(_data(hub_inertia=[0.4, 0.08], tip_mass=0.2, damping_ratio=0.02))
+    b1, b2 = s.links.links
+    assert (b1.ei, b1.rho_a, b1.length, b1.hub_inertia, b1.tip_mass) == (1e4, 1.0, 1.0, 0.4, 0.2)
+    assert (b2.hub_inertia, b2.damping_ratio, s.links.segments) == (0.08, 0.02, 4)
+    again = scenario_from_dict(s.to_dict())
+    assert again.links == s.links
+    # The plant's links are on the plant's rods: a heavier link 2 is a heavier beam.
+    heavier = scenario_from_dict(_data() | {"plant": {"scale": {"m2": 1.5}}})
+    assert plant_links(heavier).link2.rho_a == 1.5 and heavier.links.link2.rho_a == 1.0
+    assert "links" not in scenario_from_dict(_data() | {"arm": {}}).to_dict()["arm"]
+
+
+@pytest.mark.parametrize(
+    "change, key",
+    [
+        ({"ei": -1.0}, "arm.links.ei"),
+        ({"segments": 0}, "arm.links.segments"),
+        ({"tip_mass": [0.1, -0.1]}, "arm.links.tip_mass"),
+        ({"stiffness": 3.0}, "arm.links.stiffness"),
+    ],
+)
+def test_bad_links_are_one_line_errors_that_name_the_key(change, key):
+    with pytest.raises(ConfigError, match=key.replace(".", r"\.")) as info:
+        scenario_from_dict(_data(**change), "x.toml")
+    assert "\n" not in str(info.value)
+
+
+def test_bending_links_refuse_what_their_loop_does_not_model():
+    for extra, key in (
+        ({"plant": {"flexibility": {}}}, "plant.flexibility"),
+        ({"sensor": {"noise_std_rad": 1e-3}}, "sensor"),
+    ):
+        with pytest.raises(ConfigError, match=key):
+            scenario_from_dict(_data() | extra)
+
+
+def test_stiff_links_under_ctc_follow_the_rigid_arm():
+    """E I = 1e4 N m² (first mode 56 Hz), no hubs or tip masses: the paper's CTC with the
+    rigid model moves the hubs as on the rigid arm, to within 1 mrad. The tip bends by
+    about a millimetre: link 2's inertia (6.8 N, 2 N m at 4.5 rad/s²) on link 1 gives a
+    quasi-static 0.9 mm at the tip."""
+    s = scenario_from_dict(_data())
+    run = run_links(s, build_controller(s))
+    rigid = simulate(build_plant(s), build_controller(s), s.duration, s.control_dt)
+    assert run.trajectory.ok
+    assert np.abs(run.trajectory.q - rigid.q).max() < 1e-3
+    assert np.abs(run.trajectory.q - rigid.q).max() > 1e-7  # but they do differ
+    bend = np.linalg.norm(run.tip - run.rigid_tip(s.arm), axis=1).max()
+    assert 5e-4 < bend < 2e-3
+    assert np.array_equal(run_scenario(s).q, run.trajectory.q)  # `twolink run` takes this path
+
+
+def _synthetic(deflection: np.ndarray, t: np.ndarray) -> LinkRun:
+    """A run whose hubs sit at 0 (the rigid tip at (2, 0)) and whose tip is off by
+    ``deflection`` along y."""
+    n = len(t)
+    zeros = np.zeros((n, 2))
+    traj = Trajectory(t, zeros, zeros, zeros, zeros, zeros, zeros, np.empty((0, 2)))
+    tip = np.stack([np.full(n, 2.0), deflection], -1)
+    return LinkRun(traj, tip, np.zeros((n, 2, 1)))
+
+
+def test_tip_metrics_on_a_known_decaying_vibration():
+    t = np.arange(0, 5.0, 1e-3)
+    amplitude = 0.01 * np.exp(-t)  # within 1 mm once e^-t < 0.1: t = ln 10
+    run = _synthetic(amplitude * np.cos(2 * np.pi * 5 * t), t)
+    m = tip_metrics(run, ArmParams(), rest_time=1.0, band=1e-3)
+    assert m.tip_error == pytest.approx(0.01)
+    assert m.residual_vibration == pytest.approx(0.01 * math.exp(-1.0), rel=1e-3)
+    assert math.log(10) - 0.1 < m.vibration_settling_time <= math.log(10)
+    # The first sample from which every swing stays in the band, and none before it.
+    tail = t >= t[-1] - 0.5
+    swing = np.abs(run.tip[:, 1] - run.tip[tail, 1].mean())
+    i = int(np.searchsorted(t, m.vibration_settling_time))
+    assert np.all(swing[i:] <= 1e-3) and swing[i - 1] > 1e-3
+    assert m.final_tip_error == pytest.approx(abs(run.tip[-1, 1]))
+    # Still swinging past the band at the end: not settled.
+    still = tip_metrics(_synthetic(0.01 * np.cos(2 * np.pi * 5 * t), t), ArmParams(), 1.0)
+    assert math.isnan(still.vibration_settling_time)
+
+
+def test_recording_draws_the_bent_links(tmp_path):
+    """The 3D view's strip ``arm/bent`` holds, per kept sample, the hubs, hinges and tip
+    as MuJoCo placed them, in the paper's plane (x, y) drawn as (x, z)."""
+    from rerun.chunk import RrdReader
+
+    from twolink.tracing import write_recording
+
+    s = scenario_from_dict(_data() | {"duration": 0.3})
+    run = run_links(s, build_controller(s))
+    assert run.points.shape == (len(run.trajectory.t), 2 * 4 + 3, 2)
+    assert np.allclose(run.points[:, -1], run.tip)  # its last point is the tip
+    assert np.allclose(run.points[:, 0], 0.0)  # its first the base
+    path = write_recording(
+        tmp_path / "r.rrd", [("", run.trajectory, s.arm, {"bent": run.points})], every=50
+    )
+    strips = []
+    for chunk in RrdReader(path).store().stream():
+        if chunk.entity_path.strip("/") == "arm/bent" and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            name = next(n for n in batch.schema.names if n.endswith(":strips"))
+            strips += batch.column(name).to_pylist()
+    kept = np.arange(0, len(run.trajectory.t), 50)
+    assert len(strips) == len(kept)
+    first = np.array(strips[-1][0])
+    expected = run.points[kept[-1]]
+    assert np.allclose(first[:, [0, 2]], expected, atol=1e-6) and np.allclose(first[:, 1], 0)
+    with pytest.raises(ValueError, match="bent"):
+        write_recording(tmp_path / "x.rrd", [("", run.trajectory, s.arm, {"bent": run.points[1:]})])
+
+
+@pytest.mark.slow
+def test_shipped_soft_links_bend_as_the_docs_say():
+    """docs/flexible_links.md: the screenshot's moment, 0.34 m of bending at 0.198 s."""
+    from twolink.simulation.config import load_scenario
+
+    s = load_scenario("flexible_links/ctc_soft")
+    assert s.links.link1.ei == 100.0 and s.links.segments == 8
+    run = run_links(s, build_controller(s))
+    bend = np.linalg.norm(run.tip - run.rigid_tip(s.arm), axis=1)
+    assert run.trajectory.t[bend.argmax()] == pytest.approx(0.198)
+    assert bend.max() == pytest.approx(0.344, abs=5e-4)

@@ -1,0 +1,236 @@
+"""Links that bend (:mod:`twolink.arm.links`) in a scenario: its ``[arm.links]`` table,
+the closed loop on them, and the measures at the tip.
+
+The loop is :func:`twolink.simulation.sim.simulate`'s: zero-order hold at
+``control_dt``, the same divergence bounds. A controller reads the hub angles θ1, θ2
+as ``controller(t, q, qd)``, as on the rigid arm; one whose ``needs_links`` is true is
+called ``controller(t, q, qd, bends, bend_rates)`` with the hinge angles and rates
+(2, N) too. The run keeps the tip and the hinge angles at each control instant.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from twolink.arm.links import MAX_SEGMENTS, FlexibleLinks, LinkPlant, rigid_tip
+from twolink.arm.params import ArmParams
+from twolink.controllers.base import Controller
+from twolink.simulation.sim import (
+    STATUS_DIVERGED,
+    STATUS_OK,
+    Bounds,
+    Trajectory,
+    _trajectory,
+    control_steps,
+    state_message,
+    torque_message,
+)
+
+if TYPE_CHECKING:
+    from twolink.simulation.config import Scenario
+
+
+@dataclass(frozen=True, eq=False)
+class LinkRun:
+    """A run of the flexible-link arm: the hub trajectory and, at the same instants, the
+    tip (N, 2) [m], each link's hinge angles (N, 2, segments) [rad] and the points of the
+    bent arm (N, 2 segments + 3, 2) [m]: hubs, hinges and tip (:attr:`LinkPlant.points`)."""
+
+    trajectory: Trajectory
+    tip: np.ndarray
+    bends: np.ndarray
+    points: np.ndarray | None = None
+
+    def rigid_tip(self, p: ArmParams) -> np.ndarray:
+        """Where the rigid arm ``p``'s tip would be at the recorded hub angles."""
+        return rigid_tip(p, self.trajectory.q)
+
+    def reference_tip(self, p: ArmParams) -> np.ndarray:
+        """Where the rigid arm ``p``'s tip is at the reference's hub angles."""
+        return rigid_tip(p, self.trajectory.q_ref)
+
+
+def simulate_links(
+    plant: LinkPlant,
+    controller: Controller,
+    duration: float,
+    control_dt: float = 1e-3,
+    q0=(0.0, 0.0),
+    qd0=(0.0, 0.0),
+    bounds: Bounds = Bounds(),  # noqa: B008 - frozen, as simulate()'s
+) -> LinkRun:
+    """Run ``controller`` against the flexible-link ``plant`` from straight links at
+    rest (hubs at ``q0``, ``qd0``); ``control_dt`` a whole number of the plant's steps
+    (round it with :func:`control_timestep`)."""
+    n, substeps = control_steps(duration, control_dt, plant.dt)
+    plant.reset(q0, qd0)
+    controller.reset()
+    links_aware = bool(getattr(controller, "needs_links", False))
+    rows, tips, bends, points = [], [], [], []
+
+    def keep() -> None:
+        tips.append(plant.tip)
+        bends.append(plant.bends)
+        points.append(plant.points)
+
+    status, message = STATUS_OK, ""
+    for k in range(n + 1):
+        t = k * control_dt
+        (q1, q2), (w1, w2) = plant.q, plant.qd
+        if not (max(abs(q1), abs(q2)) < bounds.angle and max(abs(w1), abs(w2)) < bounds.rate):
+            status, message = STATUS_DIVERGED, state_message(t, q1, q2, w1, w2)
+            if not rows:
+                rows.append((t, q1, q2, w1, w2, math.nan, math.nan))
+                keep()
+            break
+        if links_aware:
+            tau = controller(t, (q1, q2), (w1, w2), plant.bends, plant.bend_rates)
+        else:
+            tau = controller(t, (q1, q2), (w1, w2))
+        tau1, tau2 = float(tau[0]), float(tau[1])
+        rows.append((t, q1, q2, w1, w2, tau1, tau2))
+        keep()
+        if not (abs(tau1) < bounds.torque and abs(tau2) < bounds.torque):
+            status, message = STATUS_DIVERGED, torque_message(t, tau1, tau2)
+            break
+        if k == n:
+            break
+        for _ in range(substeps):
+            plant.step(tau1, tau2)
+    traj = _trajectory(rows, [], status, message, controller)
+    return LinkRun(traj, np.array(tips).reshape(-1, 2), np.array(bends), np.array(points))
+
+
+def control_timestep(links: FlexibleLinks, control_dt: float, margin: float = 0.5) -> float:
+    """The largest physics step at most :func:`twolink.arm.links.stable_timestep` that
+    divides ``control_dt`` a whole number of times."""
+    from twolink.arm.links import stable_timestep
+
+    return control_dt / math.ceil(control_dt / stable_timestep(links, margin))
+
+
+@dataclass(frozen=True)
+class TipMetrics:
+    """Measures at the tip of a flexible-link run.
+
+    Attributes
+    ----------
+    tip_error : float
+        Largest distance from the tip to where the rigid arm's tip is at the reference's
+        hub angles, over the whole run [m].
+    final_tip_error : float
+        That distance at the end of the run [m].
+    residual_vibration : float
+        Largest deflection (the tip off the rigid arm's tip at the measured hub angles)
+        after the reference has come to rest [m].
+    vibration_settling_time : float
+        The first time after which the deflection stays within ``band`` of its mean
+        over the run's last ``window`` seconds [s]; nan where it swings wider than
+        ``band`` in that window too (not settled within the run).
+    """
+
+    tip_error: float
+    final_tip_error: float
+    residual_vibration: float
+    vibration_settling_time: float
+
+
+def tip_metrics(
+    run: LinkRun, p: ArmParams, rest_time: float, band: float = 1e-3, window: float = 0.5
+) -> TipMetrics:
+    """:class:`TipMetrics` of ``run`` against the rigid arm ``p`` (the laws' model), the
+    reference at rest from ``rest_time`` on; ``band`` [m] and ``window`` [s] for the
+    settling."""
+    t = run.trajectory.t
+    off_ref = np.linalg.norm(run.tip - run.reference_tip(p), axis=1)
+    deflection = run.tip - run.rigid_tip(p)
+    after = t >= rest_time
+    residual = float(np.linalg.norm(deflection[after], axis=1).max()) if after.any() else math.nan
+    tail = t >= t[-1] - window
+    swing = np.linalg.norm(deflection - deflection[tail].mean(axis=0), axis=1)
+    outside = np.nonzero(swing > band)[0]
+    if len(outside) == 0:
+        settle = float(t[0])
+    elif tail[outside[-1]]:
+        settle = math.nan
+    else:
+        settle = float(t[outside[-1] + 1])
+    return TipMetrics(float(off_ref.max()), float(off_ref[-1]), residual, settle)
+
+
+def run_links(s: Scenario, controller: Controller) -> LinkRun:
+    """A scenario with ``[arm.links]``: its plant's links (:func:`plant_links`,
+    its gravity and payload) from straight and at rest at ``q0``, ``qd0``, a physics step
+    that divides ``control_dt`` (:func:`control_timestep`, at most ``timestep``)."""
+    links = plant_links(s)
+    dt = control_timestep(links, s.control_dt)
+    if dt > s.timestep:
+        dt = s.control_dt / math.ceil(s.control_dt / s.timestep - 1e-9)
+    plant = LinkPlant.build(links, s.plant_params.g, s.plant.payload, timestep=dt)
+    return simulate_links(plant, controller, s.duration, s.control_dt, s.q0, s.qd0)
+
+
+# ----------------------------------------------------------------------------- [arm.links]
+
+
+def read_links(arm_table, arm: ArmParams) -> FlexibleLinks | None:
+    """``[arm]``'s sub-table ``links`` (None where it has none), then ``[arm]`` done: the
+    bending links of ``arm``'s rods (their ρ A = m / l, L = l)."""
+    if "links" not in arm_table.data:
+        arm_table.done()
+        return None
+    links = _links(arm_table.table("links"), arm)
+    arm_table.done()
+    return links
+
+
+def _links(t, arm: ArmParams) -> FlexibleLinks:
+    segments = t.integer("segments", 8)
+    if not 1 <= segments <= MAX_SEGMENTS:
+        t.fail("segments", f"must be in 1..{MAX_SEGMENTS}, got {segments}")
+    links = FlexibleLinks.from_arm(
+        arm,
+        ei=t.pair("ei", (100.0, 100.0), positive=True),
+        hub_inertia=t.pair("hub_inertia", (0.0, 0.0), minimum=0.0),
+        tip_mass=t.pair("tip_mass", (0.0, 0.0), minimum=0.0),
+        damping_ratio=t.pair("damping_ratio", (0.01, 0.01), minimum=0.0),
+        segments=segments,
+    )
+    t.done()
+    return links
+
+
+def links_dict(links: FlexibleLinks) -> dict[str, Any]:
+    """``[arm.links]`` as plain data (its keys; ρ A and L are ``[arm]``'s)."""
+    names = ("ei", "hub_inertia", "tip_mass", "damping_ratio")
+    return {"segments": links.segments} | {
+        name: [getattr(b, name) for b in links.links] for name in names
+    }
+
+
+def check_links(top, scenario, flexible_kinds: tuple[str, ...]):
+    """``scenario`` back, where its bending links (if any) are runnable; else the error that
+    names the key: such a run starts straight, sees the truth, with a law of the hub angles."""
+    if scenario.links is None:
+        return scenario
+    for key, there in (
+        ("plant.flexibility", scenario.plant.flexibility is not None),
+        ("plant.friction", scenario.plant.friction is not None),
+        ("disturbance", scenario.disturbance is not None),
+        ("sensor", not scenario.sensor.ideal),
+    ):
+        if there:
+            top.fail("arm.links", f"links that bend run without [{key}]")
+    if scenario.controller.kind in flexible_kinds:
+        top.fail("controller.kind", "links that bend: a law of the hub angles")
+    return scenario
+
+
+def plant_links(s) -> FlexibleLinks | None:
+    """The simulated arm's bending links: ``[arm.links]`` on the rods of the scenario's
+    ``plant_params`` (ρ A = m / l, L = l); None where the links are rigid."""
+    return None if s.links is None else s.links.with_arm(s.plant_params)
