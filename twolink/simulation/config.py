@@ -79,9 +79,7 @@ from twolink.controllers.fuzzy.rulebase import resolve_rule_base as resolve_rule
 from twolink.controllers.fuzzy_ctc import DEFAULT_SPAN as DEFAULT_SPAN
 from twolink.controllers.fuzzy_ctc import auto_fuzzy_scaling as auto_fuzzy_scaling
 from twolink.controllers.fuzzy_ctc import linear_span as linear_span
-from twolink.foundation.overrides import (
-    REPLACE as REPLACE,  # merging: re-exported, callers' old home
-)
+from twolink.foundation.overrides import REPLACE as REPLACE  # re-exported: callers' old home
 from twolink.foundation.overrides import merge as merge
 from twolink.foundation.overrides import set_nested
 from twolink.foundation.overrides import strip_replace as strip_replace
@@ -99,7 +97,7 @@ from twolink.simulation.plant_table import ARM_SCALE_KEYS as ARM_SCALE_KEYS
 from twolink.simulation.plant_table import JOINT_SCALE_KEYS as JOINT_SCALE_KEYS
 from twolink.simulation.plant_table import SPRING_STARTS as SPRING_STARTS
 from twolink.simulation.plant_table import PlantConfig as PlantConfig
-from twolink.simulation.plant_table import disturbance_dict, read_disturbance, read_plant
+from twolink.simulation.plant_table import disturbance_dict, nyquist, read_disturbance, read_plant
 from twolink.simulation.sensor import VELOCITY_ESTIMATES, Sensor
 
 # Controllers of flexible joints (controllers/flexible.py): they read the motor states and
@@ -647,16 +645,6 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         top.fail("control_dt", f"must be a whole multiple of timestep {scenario.timestep}")
     if scenario.duration < scenario.control_dt:
         top.fail("duration", f"must be at least control_dt {scenario.control_dt}")
-    nyquist = 0.5 / scenario.timestep  # the sine is applied at each physics step
-    for n, sine in enumerate(scenario.disturbance.sines if scenario.disturbance else ()):
-        if sine.frequency >= nyquist:
-            top.fail(
-                f"disturbance.sine[{n}].frequency",
-                f"{sine.frequency:g} Hz is at or above {nyquist:g} Hz, the Nyquist frequency "
-                f"of the physics step (timestep {scenario.timestep:g} s), where the sine is "
-                "applied: it would alias (a whole multiple of the step rate is zero at every "
-                "step); give a lower frequency or a finer timestep",
-            )
     if scenario.duration / scenario.timestep > MAX_PHYSICS_STEPS:
         top.fail(
             "duration",
@@ -671,6 +659,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     _check_rule_base(top, scenario)
     scenario = check_links(top, replace(scenario, links=links), FLEXIBLE_KINDS)
     check_field_keys(top, scenario)
+    nyquist(top, scenario)  # a sine disturbance the physics step can carry
     if scenario.controller.kind in FLEXIBLE_KINDS and scenario.plant.flexibility is None:
         top.fail(
             "controller.kind",

@@ -127,6 +127,22 @@ def read_disturbance(t: TomlTable) -> Disturbance:
 _MINIMA = {"time": 0.0, "frequency": 0.0}
 
 
+def nyquist(top: TomlTable, scenario: Any) -> None:
+    """Fail naming the key where a sine of ``scenario``'s disturbance is at or above the
+    Nyquist frequency of its physics step, where the sine is applied: it would alias (a
+    whole multiple of the step rate is zero at every step)."""
+    nyquist = 0.5 / scenario.timestep
+    for n, sine in enumerate(scenario.disturbance.sines if scenario.disturbance else ()):
+        if sine.frequency >= nyquist:
+            top.fail(
+                f"disturbance.sine[{n}].frequency",
+                f"{sine.frequency:g} Hz is at or above {nyquist:g} Hz, the Nyquist frequency "
+                f"of the physics step (timestep {scenario.timestep:g} s), where the sine is "
+                "applied: it would alias (a whole multiple of the step rate is zero at every "
+                "step); give a lower frequency or a finer timestep",
+            )
+
+
 def disturbance_dict(d: Disturbance) -> dict[str, list[dict[str, float]]]:
     """``d`` as a ``[disturbance]`` table (what a run's resolved config holds)."""
     out: dict = {
