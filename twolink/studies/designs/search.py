@@ -197,13 +197,15 @@ BOUNDS = [(-1, 6)] * N_FREE + [(0, 1)]
 @dataclass(frozen=True)
 class Setup:
     """What evaluating a table needs: the training plants' scenarios and FCM-CTC's
-    arguments (model, reference, gains, limits) in one regime."""
+    arguments (model, reference, gains, limits) in one regime, and the sweep ``plan`` they
+    come from (its base scenario builds any other controller as the sweep would)."""
 
     scenarios: tuple[Any, ...]
     fcm: dict[str, Any]
     # the batch models' gravity: None, the largest |g| of these plants (as the shipped
     # search ran); the sweep's own (plan.model_gravity()) runs each plant as the sweep does
     model_g: float | None = None
+    plan: Any = None
 
 
 def setup(spec: SearchSpec, regime: str) -> Setup:
@@ -236,7 +238,7 @@ def setup_of(plan: Any, proposed: str, plants: int) -> Setup:
         "kd": c.kd,
         "torque_limit": c.torque_limit,
     }
-    return Setup(tuple(scenarios), fcm)
+    return Setup(tuple(scenarios), fcm, plan=plan)
 
 
 def evaluate_tables(stp: Setup, tables: np.ndarray, inference: str) -> np.ndarray:
