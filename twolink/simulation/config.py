@@ -41,6 +41,11 @@ Schema (all keys optional except the reference)::
                              # "flexible_fl_kalman" (that, from encoder angles only)
     kp = [4, 4]  kd = [2.4, 2.4]  torque_limit = 1e3
     ki = [2, 2]              # ctc_integral: integral gain, 1/s^3
+                             # the field's laws: "adaptive_ctc" (Slotine-Li), "sliding_mode"
+                             # (boundary layer), "ctc_dob" (CTC with a disturbance observer)
+    gamma = [30, 10, 10, 300, 100]  # adaptive_ctc: adaptation gains, per parameter
+    eta = [1.0, 0.5]  phi = "auto"     # sliding_mode: margin N m, layer half width rad/s
+    observer_time = 0.013    # ctc_dob: the observer's time constant, s
     rule_base = "paper"      # fcm_ctc, fuzzy_pd: "paper", "designed", "default" or a path
     [controller.fuzzy]       # u = ku f(ke e, kde de); "auto": tied to the gains (docs/fuzzy.md)
     ke = "auto"  kde = "auto"  ku = "auto"  span = "auto"  authority = 1.0  mode = "add"
@@ -81,6 +86,13 @@ from twolink.foundation.overrides import set_nested
 from twolink.foundation.overrides import strip_replace as strip_replace
 from twolink.foundation.references import ArmReference, make_reference, reference_params
 from twolink.foundation.shipped import locate, locate_beside, shipped_hint
+from twolink.simulation.field_keys import DEFAULTS as FIELD_DEFAULTS
+from twolink.simulation.field_keys import (
+    FIELD_KINDS,
+    check_field_keys,
+    read_field_keys,
+    write_field_keys,
+)
 from twolink.simulation.plant_table import ARM_SCALE_KEYS as ARM_SCALE_KEYS
 from twolink.simulation.plant_table import JOINT_SCALE_KEYS as JOINT_SCALE_KEYS
 from twolink.simulation.plant_table import SPRING_STARTS as SPRING_STARTS
@@ -104,6 +116,7 @@ CONTROLLER_KINDS = (
     "pd_gravity",
     "ctc_integral",
     "fuzzy_pd",
+    *FIELD_KINDS,
     *FLEXIBLE_KINDS,
 )
 FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc", "fuzzy_pd")  # controllers with a fuzzy engine
@@ -153,6 +166,10 @@ class ControllerConfig:
     torque_limit: tuple[float, float] = (math.inf, math.inf)  # N m per joint
     rule_base: str = "paper"
     fuzzy: FuzzyConfig = FuzzyConfig()
+    gamma: tuple[float, ...] = FIELD_DEFAULTS["gamma"]  # adaptive_ctc
+    eta: tuple[float, float] = FIELD_DEFAULTS["eta"]  # sliding_mode
+    phi: tuple[float, float] | None = None  # sliding_mode; None: "auto"
+    observer_time: float = FIELD_DEFAULTS["observer_time"]  # ctc_dob
 
 
 @dataclass(frozen=True)
@@ -211,6 +228,7 @@ class Scenario:
             del ctrl["fuzzy"]["engine"], ctrl["fuzzy"]["table_points"]
         if self.controller.fuzzy.inference == "mamdani":
             del ctrl["fuzzy"]["inference"]
+        write_field_keys(ctrl, self.controller.kind)
         return {
             "name": self.name,
             "duration": self.duration,
@@ -506,6 +524,7 @@ def controller_from_table(t: TomlTable, arm: ArmParams | None = None) -> Control
         torque_limit=t.pair("torque_limit", d.torque_limit, positive=True, allow_inf=True),
         rule_base=t.string("rule_base", d.rule_base),
         fuzzy=fuzzy,
+        **read_field_keys(t),
     )
     t.done()
     return ctrl
@@ -631,6 +650,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
     except ValueError as exc:
         top.fail("plant.scale", str(exc))
     _check_rule_base(top, scenario)
+    check_field_keys(top, scenario)
     if scenario.controller.kind in FLEXIBLE_KINDS and scenario.plant.flexibility is None:
         top.fail(
             "controller.kind",

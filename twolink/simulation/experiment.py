@@ -89,6 +89,20 @@ def build_controller(s: Scenario) -> Controller:
         return baselines.PDGravity(**common)
     if c.kind == "ctc_integral":
         return baselines.IntegralComputedTorque(**common, ki=c.ki, control_dt=s.control_dt)
+    if c.kind == "adaptive_ctc":
+        from twolink.controllers.adaptive import AdaptiveComputedTorque
+
+        return AdaptiveComputedTorque(**common, gamma=c.gamma, control_dt=s.control_dt)
+    if c.kind == "sliding_mode":
+        from twolink.controllers.sliding import SlidingMode
+
+        return SlidingMode(**common, eta=c.eta, phi=c.phi)
+    if c.kind == "ctc_dob":
+        from twolink.controllers.observer import DisturbanceObserverCTC
+
+        return DisturbanceObserverCTC(
+            **common, observer_time=c.observer_time, control_dt=s.control_dt
+        )
     if c.kind == "fuzzy_ctc":
         engine = _engine(None)
     else:
