@@ -55,6 +55,9 @@ __all__ = [
 FAMILIES = ("CTC", "CTC clipped")  # CTC-best's families
 ZETA = (0.4, 1.5)  # the damping searched per joint: under- to over-damped
 RHO = (0.0, 0.9)  # CTC-I's integral gain, a share of its nominal loop's stability bound
+LOG_GAMMA = (-2.0, 2.0)  # Slotine-Li's Γ: 1/100 to 100 times the law's default diagonal
+LOG_PHI = (-3.0, 1.0)  # sliding mode's boundary layer φ: 1 mrad/s to 10 rad/s
+LOG_T = (-2.7, -0.3)  # CTC-DOB's observer time constant: 2 ms (2 control periods) to 0.5 s
 
 
 def _ctc_start(c: Any) -> np.ndarray:
@@ -65,15 +68,32 @@ def _ctc_start(c: Any) -> np.ndarray:
 
 
 def _integral_start(c: Any) -> np.ndarray:
-    """(ωn1, ζ1, ρ1, ωn2, ζ2, ρ2) of a controller config's Kp, Kd and Ki."""
+    """(ωn1, ζ1, ρ1, ωn2, ζ2, ρ2) of a controller's Kp, Kd and Ki."""
     wn1, z1, wn2, z2 = _ctc_start(c)
     rho = np.asarray(c.ki, dtype=float) / (np.asarray(c.kp) * np.asarray(c.kd))
     return np.array([wn1, z1, rho[0], wn2, z2, rho[1]])
 
 
+def _adaptive_start(c: Any) -> np.ndarray:
+    """(ωn1, ωn2, 0): the regime's ωn, the law's default Γ."""
+    wn1, _, wn2, _ = _ctc_start(c)
+    return np.array([wn1, wn2, 0.0])
+
+
+def _sliding_start(c: Any) -> np.ndarray:
+    """(ωn1, log10 φ1, ωn2, log10 φ2): the regime's ωn, the law's own φ = K / K_D."""
+    wn1, _, wn2, _ = _ctc_start(c)
+    return np.array([wn1, np.log10(c.phi[0]), wn2, np.log10(c.phi[1])])
+
+
+def _observer_start(c: Any) -> np.ndarray:
+    """(ωn1, ζ1, ωn2, ζ2, log10 T): the regime's gains, the law's default T."""
+    return np.append(_ctc_start(c), np.log10(c.observer_time))
+
+
 # Per family: its span from the frontier's grid of the regime (ωn: the CTC grid's smallest
 # to largest; clipped CTC: the clipped grid's) and its start from the regime's own gains
-# (the family's kind as the sweep's base scenario configures it).
+# (the family's kind as the sweep's base scenario builds it).
 SPANS: dict[str, tuple[Any, Any]] = {
     "CTC": (lambda g: [_span(g.wn), ZETA, _span(g.wn), ZETA], _ctc_start),
     "CTC clipped": (
@@ -81,6 +101,9 @@ SPANS: dict[str, tuple[Any, Any]] = {
         _ctc_start,
     ),
     "CTC-I": (lambda g: [_span(g.wn), ZETA, RHO, _span(g.wn), ZETA, RHO], _integral_start),
+    "Slotine-Li": (lambda g: [_span(g.wn), _span(g.wn), LOG_GAMMA], _adaptive_start),
+    "sliding mode": (lambda g: [_span(g.wn), LOG_PHI, _span(g.wn), LOG_PHI], _sliding_start),
+    "CTC-DOB": (lambda g: [_span(g.wn), ZETA, _span(g.wn), ZETA, LOG_T], _observer_start),
 }
 
 
@@ -146,11 +169,15 @@ def configured(stp: Any, entry: dict[str, Any]) -> Any:
 def evaluate_loops(stp: Any, loops: list[dict[str, Any]]) -> np.ndarray:
     """Per loop (a sweep's ``[controllers]`` entry of any family, e.g. :func:`controller`'s):
     :func:`search.evaluate_controllers`' medians on the setup's plants (``stp``:
-    :func:`search.setup`'s), each controller built as the sweep builds it."""
+    :func:`search.setup`'s), each controller built as the sweep builds it, one per plant (a
+    law's own state, an estimate or an observer, is each arm's own)."""
     from twolink.simulation.experiment import build_controller
     from twolink.studies.designs.search import evaluate_controllers
 
-    ctrls = [build_controller(configured(stp, c)) for c in loops]
+    ctrls = []
+    for c in loops:
+        scenario = configured(stp, c)
+        ctrls.append([build_controller(scenario) for _ in stp.scenarios])
     return evaluate_controllers(stp.scenarios, ctrls, stp.model_g)
 
 
@@ -172,9 +199,14 @@ def bounds(spec: Any, regime: str, family: str) -> list[tuple[float, float]]:
     """The span searched per joint (:data:`SPANS`): ωn over the frontier's grid of the
     family (its smallest to its largest), ζ over :data:`ZETA`, a family's own gains over
     theirs."""
+    return SPANS[family][0](frontier_grid(spec, regime))
+
+
+def frontier_grid(spec: Any, regime: str) -> Any:
+    """The linear frontier's grid of ``regime``: the spans' source."""
     from twolink.studies.designs import frontier
 
-    return SPANS[family][0](frontier.load_spec(spec.frontier).grid(regime))
+    return frontier.load_spec(spec.frontier).grid(regime)
 
 
 def search_family(spec: Any, stp: Any, regime: str, family: str) -> dict[str, Any]:
@@ -192,7 +224,9 @@ def search_family(spec: Any, stp: Any, regime: str, family: str) -> dict[str, An
     if family == "CTC clipped":
         limit = np.minimum(limit, budget[:2])
     law = LAWS[family]
-    start = SPANS[family][1](configured(stp, {"kind": law.kind}).controller)
+    from twolink.simulation.experiment import build_controller
+
+    start = SPANS[family][1](build_controller(configured(stp, {"kind": law.kind})))
     tried: list[tuple[float, np.ndarray, np.ndarray]] = []
 
     def objective(xs: np.ndarray) -> np.ndarray:
@@ -306,6 +340,9 @@ def tune(spec: Any, regime: str, family: str, batch: int = 4) -> dict[str, Any]:
     its judged values: the study shows it as over the budget. Returns the loop (family,
     gain vector ``x`` and its names, torque limit, both sides' effort on both sets,
     ``within``), the loops refused and the evaluations."""
+    import time
+
+    start = time.perf_counter()
     done = _search_and_judge(spec, regime, (family,), batch)
     found, c = done["found"], done["chosen"]
     within = c is not None
@@ -326,6 +363,7 @@ def tune(spec: Any, regime: str, family: str, batch: int = 4) -> dict[str, Any]:
         "within": within,
         "refused": len(done["refused"]),
         "evaluations": found[0]["evaluations"],
+        "wall_s": time.perf_counter() - start,
     }
 
 

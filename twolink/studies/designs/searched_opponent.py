@@ -59,6 +59,45 @@ def integral_controller(x: np.ndarray, torque_limit: tuple[float, float]) -> dic
     }
 
 
+def _limit(torque_limit: tuple[float, float]) -> list[float]:
+    return [float(torque_limit[0]), float(torque_limit[1])]
+
+
+def _rate_gains(wn1: float, wn2: float) -> dict[str, list[float]]:
+    """Kp = ωn², Kd = 2 ωn: the adaptive and sliding laws' λ = ωn, K_D = ωn M̂_jj."""
+    return {"kp": [wn1 * wn1, wn2 * wn2], "kd": [2 * wn1, 2 * wn2]}
+
+
+def adaptive_controller(x: np.ndarray, torque_limit: tuple[float, float]) -> dict[str, Any]:
+    """Slotine-Li's entry of ``x = (ωn1, ωn2, g)``: λ = ωn and K_D = ωn M̂_jj per joint
+    (:func:`twolink.controllers.adaptive.adaptive_gains` of Kp = ωn², Kd = 2 ωn), and
+    Γ = 10^g times the law's default diagonal."""
+    from twolink.controllers.adaptive import DEFAULT_GAMMA
+
+    wn1, wn2, g = (float(v) for v in x)
+    gamma = [10.0**g * v for v in DEFAULT_GAMMA]
+    return {"kind": "adaptive_ctc", **_rate_gains(wn1, wn2), "gamma": gamma,
+            "torque_limit": _limit(torque_limit)}  # fmt: skip
+
+
+def sliding_controller(x: np.ndarray, torque_limit: tuple[float, float]) -> dict[str, Any]:
+    """Sliding mode's entry of ``x = (ωn1, f1, ωn2, f2)``: λ = ωn per joint and the
+    boundary layer φ = 10^f rad/s; the gain K stays the theory's (the model-error bound
+    plus η: :func:`twolink.controllers.uncertainty.sliding_gain`), so K/φ, the layer's
+    slope, moves with φ."""
+    wn1, f1, wn2, f2 = (float(v) for v in x)
+    return {"kind": "sliding_mode", **_rate_gains(wn1, wn2), "phi": [10.0**f1, 10.0**f2],
+            "torque_limit": _limit(torque_limit)}  # fmt: skip
+
+
+def observer_controller(x: np.ndarray, torque_limit: tuple[float, float]) -> dict[str, Any]:
+    """CTC-DOB's entry of ``x = (ωn1, ζ1, ωn2, ζ2, h)``: CTC's Kp = ωn², Kd = 2ζωn per
+    joint and the observer's time constant T = 10^h s."""
+    wn1, z1, wn2, z2, h = (float(v) for v in x)
+    return {**controller(np.array([wn1, z1, wn2, z2]), torque_limit), "kind": "ctc_dob",
+            "observer_time": 10.0**h}  # fmt: skip
+
+
 @dataclass(frozen=True)
 class Law:
     """A family of a searched opponent: the names of its gain vector's entries and the
@@ -69,21 +108,33 @@ class Law:
     entry: Any  # (x, torque_limit) -> dict
 
     def describe(self, x: tuple[float, ...]) -> str:
-        """The gains per joint, e.g. ``ωn = 27.2 / 33.8, ζ = 0.44 / 0.40``."""
-        half = len(self.params) // 2
-        return ", ".join(
-            f"{name[:-1]} = {x[k]:.3g} / {x[k + half]:.3g}"
-            for k, name in enumerate(self.params[:half])
-        )
+        """The gains per joint, then the others, e.g. ``ωn = 27.2 / 33.8, ζ = 0.44 / 0.40``
+        (a name ending in 1 is joint 1's, its joint-2 twin ends in 2)."""
+        value = dict(zip(self.params, x, strict=True))
+        words = []
+        for name in self.params:
+            if name.endswith("1") and f"{name[:-1]}2" in value:
+                words.append(f"{name[:-1]} = {value[name]:.3g} / {value[name[:-1] + '2']:.3g}")
+            elif not (name.endswith("2") and f"{name[:-1]}1" in value):
+                words.append(f"{name} = {value[name]:.3g}")
+        return ", ".join(words)
 
 
 LAWS = {
     "CTC": Law("ctc", ("ωn1", "ζ1", "ωn2", "ζ2"), controller),
     "CTC clipped": Law("ctc", ("ωn1", "ζ1", "ωn2", "ζ2"), controller),
     "CTC-I": Law("ctc_integral", ("ωn1", "ζ1", "ρ1", "ωn2", "ζ2", "ρ2"), integral_controller),
+    "Slotine-Li": Law("adaptive_ctc", ("ωn1", "ωn2", "log10 Γ/Γ₀"), adaptive_controller),
+    "sliding mode": Law("sliding_mode", ("ωn1", "log10 φ1", "ωn2", "log10 φ2"), sliding_controller),
+    "CTC-DOB": Law("ctc_dob", ("ωn1", "ζ1", "ωn2", "ζ2", "log10 T"), observer_controller),
 }
 # the tuned opponents' names in sweeps and tables, and the family each is tuned in
-TUNED = {"CTC-I-best": "CTC-I"}
+TUNED = {
+    "CTC-I-best": "CTC-I",
+    "SL-best": "Slotine-Li",
+    "SMC-best": "sliding mode",
+    "CTC-DOB-best": "CTC-DOB",
+}
 
 
 @dataclass(frozen=True)
