@@ -32,7 +32,7 @@ from twolink.controllers.uncertainty import DEFAULT_UNCERTAINTY, Uncertainty
 # tunes Γ by search.
 DEFAULT_GAMMA = (30.0, 10.0, 10.0, 300.0, 100.0)
 
-__all__ = ["DEFAULT_GAMMA", "AdaptiveComputedTorque", "adaptive_gains", "gammas"]
+__all__ = ["DEFAULT_GAMMA", "AdaptiveComputedTorque", "adaptive_gains", "gammas", "lyapunov"]
 
 
 def adaptive_gains(c: ComputedTorque) -> tuple[tuple[float, float], tuple[float, float]]:
@@ -126,3 +126,19 @@ class AdaptiveComputedTorque(ComputedTorque):
                 )
             )
         return tau1, tau2
+
+
+def lyapunov(c: AdaptiveComputedTorque, t: float, q, qd, mass, a) -> tuple[float, float]:
+    """``(V, s^T K_D s)`` of the law ``c`` at ``(t, q, qd)`` against the plant's true
+    inertia matrix ``mass`` (2, 2) and parameters ``a`` (5,): ``V = s^T M s / 2 +
+    ã^T Γ^-1 ã / 2`` with its current estimate (Γ > 0 needed), and the dissipation rate
+    that the theory says is ``-dV/dt``."""
+    import numpy as np
+
+    (r1, r2), (v1, v2), _ = c.reference(t)
+    lam = np.array(c.lam)
+    e = np.subtract((r1, r2), q)
+    s = np.subtract((v1, v2), qd) + lam * e
+    a_err = np.subtract(c.a_hat, a)
+    v = 0.5 * s @ np.asarray(mass) @ s + 0.5 * float(np.sum(a_err**2 / np.array(c.gamma)))
+    return float(v), float(s @ (np.array(c.k_d) * s))

@@ -29,19 +29,26 @@ from typing import Any
 import numpy as np
 
 from twolink.arm.dynamics import terms
+from twolink.arm.regressor import regressor_rows
+from twolink.controllers.adaptive import AdaptiveComputedTorque
 from twolink.controllers.base import Controller
 from twolink.controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity
 from twolink.controllers.ctc import ComputedTorque
 from twolink.controllers.fuzzy import kernels
 from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
+from twolink.controllers.observer import DisturbanceObserverCTC, momentum_terms
+from twolink.controllers.sliding import SlidingMode
 from twolink.foundation.references import ArmReference
 
 __all__ = [
+    "BatchAdaptiveComputedTorque",
     "BatchComputedTorque",
+    "BatchDisturbanceObserverCTC",
     "BatchFuzzyComputedTorque",
     "BatchFuzzyPD",
     "BatchIntegralComputedTorque",
     "BatchPDGravity",
+    "BatchSlidingMode",
     "ReferenceTable",
     "batch_laws",
 ]
@@ -210,6 +217,110 @@ class BatchIntegralComputedTorque(BatchComputedTorque):
         return tau, xp.where(free, z + e * self.dt, z)
 
 
+def _dot(rows: tuple, a) -> Any:
+    """``sum(y * x for y, x in zip(rows, a.T))`` in the scalar laws' order (0 + first
+    term, then each next one), per arm: a (N, 5)."""
+    out = 0
+    for i, y in enumerate(rows):
+        out = out + y * a[:, i]
+    return out
+
+
+class _SlidingTerms(BatchComputedTorque):
+    """What the Slotine-Li style laws share: the sliding variable s = de + Λ e and the
+    regressor's rows at (q, qd, qdr = qd + s, qddr = qdd_d + Λ de), per arm."""
+
+    def sliding(self, k: int, q, qd):
+        a, e, de = self.errors(k, q, qd)
+        s = de + self.lam * e
+        r, b = qd + s, a + self.lam * de
+        xp = self.xp
+        row1, row2 = regressor_rows(
+            q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], r[:, 0], r[:, 1], b[:, 0], b[:, 1],
+            cos=xp.cos, sin=xp.sin,
+        )  # fmt: skip
+        return s, row1, row2
+
+
+class BatchAdaptiveComputedTorque(_SlidingTerms):
+    """:class:`~controllers.adaptive.AdaptiveComputedTorque` for N arms: the estimates
+    ``â`` are this law's state, (N, 5), the models' parameters at the start of a run."""
+
+    def __init__(self, controllers: Sequence[AdaptiveComputedTorque], times: np.ndarray) -> None:
+        self.a0 = np.array([c.a_nominal for c in controllers])
+        super().__init__(controllers, times)
+        self.lam = np.array([c.lam for c in controllers])
+        self.k_d = np.array([c.k_d for c in controllers])
+        self.gamma = np.array([c.gamma for c in controllers])
+        self.low = np.array([c.low for c in controllers])
+        self.high = np.array([c.high for c in controllers])
+        self.dt = np.array([[c.control_dt] for c in controllers])
+
+    def initial(self) -> Any:
+        return self.xp.asarray(self.a0).copy() if self.xp is np else self.xp.asarray(self.a0)
+
+    def step(self, k: int, q, qd, state: Any) -> tuple[Any, Any]:
+        xp, a = self.xp, state
+        s, row1, row2 = self.sliding(k, q, qd)
+        raw = xp.stack([_dot(row1, a), _dot(row2, a)], axis=1) + self.k_d * s
+        tau = xp.clip(raw, -self.limit, self.limit)
+        y1 = xp.stack(xp.broadcast_arrays(*row1), axis=1)
+        y2 = xp.stack(xp.broadcast_arrays(*row2), axis=1)
+        step = a + self.dt * self.gamma * (y1 * s[:, :1] + y2 * s[:, 1:])
+        new = xp.minimum(xp.maximum(step, self.low), self.high)
+        free = xp.all(tau == raw, axis=1)[:, None]  # held while saturated, as the scalar law
+        return tau, xp.where(free, new, a)
+
+
+class BatchSlidingMode(_SlidingTerms):
+    """:class:`~controllers.sliding.SlidingMode` for N arms (no state)."""
+
+    def __init__(self, controllers: Sequence[SlidingMode], times: np.ndarray) -> None:
+        super().__init__(controllers, times)
+        self.lam = np.array([c.lam for c in controllers])
+        self.a = np.array([c.a_model for c in controllers])
+        self.gain = np.array([c.gain for c in controllers])
+        self.phi = np.array([c.phi for c in controllers])
+
+    def step(self, k: int, q, qd, state: Any) -> tuple[Any, Any]:
+        xp = self.xp
+        s, row1, row2 = self.sliding(k, q, qd)
+        switch = self.gain * xp.clip(s / self.phi, -1.0, 1.0)
+        raw = xp.stack([_dot(row1, self.a), _dot(row2, self.a)], axis=1) + switch
+        return xp.clip(raw, -self.limit, self.limit), state
+
+
+class BatchDisturbanceObserverCTC(BatchComputedTorque):
+    """:class:`~controllers.observer.DisturbanceObserverCTC` for N arms: the observers'
+    integrals are this law's state, (N, 2); NaN (the start of a run) is set to the first
+    momentum, as the scalar law's None."""
+
+    def __init__(self, controllers: Sequence[DisturbanceObserverCTC], times: np.ndarray) -> None:
+        self.n_arms = len(controllers)
+        super().__init__(controllers, times)
+        self.observer_time = np.array([[c.observer_time] for c in controllers])
+        self.dt = np.array([[c.control_dt] for c in controllers])
+
+    def initial(self) -> Any:
+        return self.xp.full((self.n_arms, 2), np.nan)
+
+    def step(self, k: int, q, qd, state: Any) -> tuple[Any, Any]:
+        xp = self.xp
+        a, e, de = self.errors(k, q, qd)
+        p1, p2, c1, c2, m11, m12, m22, n1, n2 = momentum_terms(
+            self.model, q[:, 0], q[:, 1], qd[:, 0], qd[:, 1], cos=xp.cos, sin=xp.sin
+        )
+        p = xp.stack([p1, p2], axis=1)
+        integral = xp.where(xp.isnan(state), p, state)
+        d = (p - integral) / self.observer_time
+        v = a + self.kd * de + self.kp * e
+        v1, v2 = v[:, 0], v[:, 1]
+        raw = xp.stack([m11 * v1 + m12 * v2 + n1, m12 * v1 + m22 * v2 + n2], axis=1) - d
+        tau = xp.clip(raw, -self.limit, self.limit)
+        drift = xp.stack(xp.broadcast_arrays(c1, c2), axis=1)
+        return tau, integral + self.dt * (tau + drift + d)
+
+
 class _SharedTerms:
     """Computed-torque laws of several kinds (CTC, CTC-I, fuzzy CTC) as one law: the
     reference errors and the model terms of all their arms are computed once per instant,
@@ -359,6 +470,9 @@ _LAWS: dict[type, type] = {
     PDGravity: BatchPDGravity,
     IntegralComputedTorque: BatchIntegralComputedTorque,
     FuzzyPD: BatchFuzzyPD,
+    AdaptiveComputedTorque: BatchAdaptiveComputedTorque,
+    SlidingMode: BatchSlidingMode,
+    DisturbanceObserverCTC: BatchDisturbanceObserverCTC,
     _ArmByArm: _ArmByArm,
 }
 

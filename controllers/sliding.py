@@ -15,6 +15,7 @@ precision for a continuous torque (no chattering).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -33,6 +34,18 @@ DEFAULT_RATE_BOUND = (1.5, 1.5)  # rad/s, |qd| and |qdr|
 DEFAULT_ACCEL_BOUND = (3.0, 3.0)  # rad/s², |qddr|
 
 __all__ = ["DEFAULT_ETA", "SlidingMode", "sat"]
+
+
+def _key(u: Uncertainty) -> tuple:
+    """``u`` as hashable values (its factors are a dict)."""
+    return tuple(sorted(u.factors.items())), u.payload, u.friction, u.viscous
+
+
+@functools.lru_cache(maxsize=256)
+def _gain(model, eta, rate, accel, factors, payload, friction, viscous):
+    """:func:`sliding_gain`'s K, computed once per design (a sweep builds one law per arm)."""
+    u = Uncertainty(dict(factors), payload, friction, viscous)
+    return sliding_gain(model, eta, rate, accel, u)[0]
 
 
 def sat(x: float) -> float:
@@ -70,9 +83,10 @@ class SlidingMode(ComputedTorque):
         super().__post_init__()
         self.eta = pair("eta", self.eta)
         if self.gain is None:
-            self.gain, _ = sliding_gain(
-                self.model, self.eta, self.rate_bound, self.accel_bound, self.uncertainty
-            )
+            self.gain = _gain(
+                self.model, self.eta, pair("rate_bound", self.rate_bound),
+                pair("accel_bound", self.accel_bound), *_key(self.uncertainty),
+            )  # fmt: skip
         self.gain = pair("gain", self.gain)
         self.lam = (math.sqrt(self.kp[0]), math.sqrt(self.kp[1]))
         if self.phi is None:

@@ -51,6 +51,9 @@ LAWS = {
     "pd_gravity": ({"kind": "pd_gravity", "kp": 100.0, "kd": 20.0}, RIGID, [22.0, 8.0]),
     "fuzzy_ctc": ({"kind": "fuzzy_ctc", "fuzzy": {"ke": 2.0, "ku": 30.0}}, RIGID, [30.0, 8.0]),
     "fcm_ctc": ({"kind": "fcm_ctc", "rule_base": "designed"}, RIGID, [30.0, 8.0]),
+    "adaptive_ctc": ({"kind": "adaptive_ctc", "kp": 100.0, "kd": 20.0}, RIGID, [30.0, 8.0]),
+    "sliding_mode": ({"kind": "sliding_mode", "kp": 100.0, "kd": 20.0}, RIGID, [25.0, 8.0]),
+    "ctc_dob": ({"kind": "ctc_dob", "kp": 100.0, "kd": 20.0}, RIGID, [30.0, 8.0]),
     "fcm_ctc table": (
         {"kind": "fcm_ctc", "rule_base": "designed", "fuzzy": {"engine": "table"}},
         RIGID,

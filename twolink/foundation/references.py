@@ -29,6 +29,13 @@ from typing import Any, ClassVar, Protocol, runtime_checkable
 
 import numpy as np
 
+from twolink.foundation.reference_fields import (
+    REQUIRED,
+    _as_times,
+    _check_order,
+    _validate_fields,
+)
+
 __all__ = [
     "ArmReference",
     "JointReference",
@@ -52,43 +59,6 @@ class JointReference(Protocol):
 
     @property
     def final(self) -> float: ...
-
-
-# Default of a parameter that must be given: ``Step(final=1.0)`` needs no ``initial`` (0 by
-# default, as a scenario's start), but a step needs its ``final``.
-REQUIRED: Any = None
-
-
-def _validate_fields(obj: object, positive: tuple[str, ...] = ()) -> None:
-    """Check every dataclass field is a finite real number and store it as a Python float.
-
-    Storing floats (not ints or numpy scalars) is what keeps ``__call__`` returning floats.
-    """
-    owner = type(obj).__name__
-    for f in fields(obj):  # type: ignore[arg-type]
-        value = getattr(obj, f.name)
-        if value is REQUIRED:
-            raise ValueError(f"{owner}.{f.name} is required, e.g. {owner}({f.name}=1.0)")
-        if isinstance(value, bool) or not isinstance(value, int | float | np.integer | np.floating):
-            raise ValueError(f"{owner}.{f.name} must be a real number, got {value!r}")
-        value = float(value)
-        if not math.isfinite(value):
-            raise ValueError(f"{owner}.{f.name} must be finite, got {value!r}")
-        if f.name in positive and value <= 0.0:
-            raise ValueError(f"{owner}.{f.name} must be > 0, got {value!r}")
-        object.__setattr__(obj, f.name, value)
-
-
-def _as_times(t: np.ndarray | float) -> np.ndarray:
-    return np.asarray(t, dtype=float)
-
-
-MAX_ORDER = 4  # snap: the highest derivative ``derivatives`` gives
-
-
-def _check_order(n: int) -> None:
-    if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= MAX_ORDER:
-        raise ValueError(f"derivative order must be an integer 0..{MAX_ORDER}, got {n!r}")
 
 
 def _held(value: float, n: int) -> tuple[float, ...]:
@@ -548,7 +518,9 @@ class ArmReference:
 
 
 def _reference_classes() -> dict[str, type]:
-    return {cls.kind: cls for cls in (Step, Ramp, Sine, Quintic, Septic)}
+    from twolink.foundation.trajectories import FIELD_REFERENCES
+
+    return {cls.kind: cls for cls in (Step, Ramp, Sine, Quintic, Septic, *FIELD_REFERENCES)}
 
 
 def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic | Septic:
@@ -556,8 +528,8 @@ def make_reference(kind: str, **params: Any) -> Step | Ramp | Sine | Quintic | S
 
     Parameters
     ----------
-    kind : {"step", "ramp", "sine", "quintic", "septic"}
-        Which reference.
+    kind : {"step", "ramp", "sine", "quintic", "septic", "multisine", "circle"}
+        Which reference (the last two: :mod:`twolink.foundation.trajectories`).
     **params
         The class's fields, e.g. ``make_reference("ramp", initial=0, final=1, duration=5)``.
 

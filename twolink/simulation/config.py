@@ -64,7 +64,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -586,19 +586,26 @@ def _auto_or_number(t: TomlTable, key: str, **checks: Any) -> float | None:
     return t.number(key, 0.0, **checks)
 
 
-def _reference(t: TomlTable) -> ArmReference:
+def _reference(t: TomlTable, arm: ArmParams) -> ArmReference:
     joints = []
     for name in ("joint1", "joint2"):
         j = t.table(name)
         params = dict(j.data)
         kind = params.pop("kind", None)
         if kind is None:
-            j.fail("kind", "missing (one of step, ramp, sine, quintic)")
+            j.fail("kind", "missing (one of step, ramp, sine, quintic, septic, multisine, circle)")
+        if kind == "circle":  # the tip's circle through the model arm's kinematics
+            params = {"l1": arm.l1, "l2": arm.l2, "joint": int(name[-1]), **params}
         try:
             joints.append(make_reference(kind, **params))
         except (ValueError, TypeError) as exc:
             j.fail("", str(exc))
+        if kind == "circle" and joints[-1].joint != int(name[-1]):
+            j.fail("joint", f"must be {name[-1]} in [reference.{name}], got {params['joint']!r}")
     t.done()
+    circles = [j for j in joints if j.kind == "circle"]
+    if circles and (len(circles) == 1 or replace(circles[0], joint=2.0) != circles[1]):
+        t.fail("joint2", "a circle of the tip must be the same circle for both joints")
     return ArmReference(*joints)
 
 
@@ -615,7 +622,7 @@ def scenario_from_dict(data: dict[str, Any], source: str = "<dict>") -> Scenario
         arm=arm,
         plant=read_plant(top.table("plant")),
         controller=controller_from_table(top.table("controller"), arm),
-        reference=_reference(top.table("reference")),
+        reference=_reference(top.table("reference"), arm),
         duration=top.number("duration", 10.0, positive=True),
         control_dt=top.number("control_dt", 1e-3, positive=True, minimum=MIN_TIME_STEP),
         timestep=top.number("timestep", 1e-3, positive=True, minimum=MIN_TIME_STEP),

@@ -14,7 +14,10 @@ unstable (:func:`closed_loop_growth`).
 
 - The state is the plant's (links, and a flexible arm's rotors) and the controller's
   own (:attr:`internal_state`: CTC-I's integrators ``z``, flexible-FL's held torque
-  ``held``, flexible-FL-I's both), so a law with memory is linearised with it.
+  ``held``, flexible-FL-I's both, ACTC's five estimates ``a_hat``, CTC-DOB's observer
+  ``integral``), so a law with memory is linearised with it. A neutral mode (ACTC's
+  estimates that the torque at rest does not read: a continuum of rest states) gives
+  σ = 0, not the rounding's sign.
 - A fuzzy law (FCM-CTC, fuzzy-CTC, fuzzy-PD) is linearised with its fuzzy term, whose
   Jacobian at the rest state the differences take along: 0 where no rule fires near the
   rest state (the designed rules near the target: the linearisation is CTC's), the rule
@@ -64,6 +67,11 @@ KINK_TOLERANCE = 1e-3  # relative: one-sided Jacobians further apart than this a
 # smooth map's are h |Φ''| apart, 1e-6 of a unit curvature)
 NEWTON_STEPS = 20  # to the loop's rest state: Φ is smooth, so a few steps converge
 REST_TOLERANCE = 1e-11  # rad, rad/s: |Φ(x) − x| at a rest state
+# |σ| below this [1/s] is a neutral mode, read as 0: a continuum of rest states (an adaptive
+# law's estimates that the torque at rest does not read) has ρ = 1 exactly, which the
+# differences give to ~1e-11 (σ ~ 1e-8 either side); a true growth this slow doubles in
+# 2 years.
+NEUTRAL_SIGMA = 1e-5
 
 
 @dataclass(frozen=True)
@@ -76,8 +84,9 @@ class Linearisation:
 
 
 def internal_state(controller: Any) -> tuple[str, ...]:
-    """The names of a controller's own state variables (each a pair of floats, or None
-    before its first call): its class's ``internal_state`` (none by default)."""
+    """The names of a controller's own state variables (each a tuple of floats, a pair
+    for most, or None before its first call): its class's ``internal_state`` (none by
+    default)."""
     return tuple(getattr(controller, "internal_state", ()))
 
 
@@ -123,9 +132,10 @@ def linearise(scenario, plant, controller, eps: float = EPSILON, near: Any = Non
 
     def advance(x: np.ndarray) -> np.ndarray:
         plant.set_state(x[:nq], x[nq:n_plant])
-        for k, name in enumerate(fields):
-            i = n_plant + 2 * k
-            setattr(controller, name, (float(x[i]), float(x[i + 1])))
+        i = n_plant
+        for name, width in zip(fields, setup.widths, strict=True):
+            setattr(controller, name, tuple(float(v) for v in x[i : i + width]))
+            i += width
         tau = call(x)
         for _ in range(substeps):
             plant.step(*tau)
@@ -188,6 +198,9 @@ def judge(
         jacs += list(one_sided.values())
     rho = max(float(np.max(np.abs(np.linalg.eigvals(j)))) for j in jacs)
     sigma = math.log(rho) / dt if rho > 0 else -math.inf
+    if abs(sigma) < NEUTRAL_SIGMA:
+        sigma = 0.0
+        note = note or "a neutral mode (a continuum of rest states): σ = 0"
     return Linearisation(sigma, note)
 
 
@@ -204,6 +217,7 @@ class Setup:
     substeps: int  # plant steps per control period
     t_hold: float  # the instant the controller is called at: the reference at rest
     starts: tuple[np.ndarray, ...]  # where Newton's search starts: the target, then near
+    widths: tuple[int, ...] = ()  # floats per field (2: a pair; an adaptive estimate: more)
 
 
 def prepare(
@@ -226,10 +240,9 @@ def prepare(
     target = np.array(scenario.reference.final, dtype=float)
     needs_motor = bool(getattr(controller, "needs_motor", False))
     n_plant = 2 * nq
-    n = n_plant + 2 * len(fields)
 
     def start(q: Any, motor_q: Any, own: np.ndarray) -> np.ndarray:
-        x = np.zeros(n)
+        x = np.zeros(n_plant + len(own))
         x[:2] = q
         if flexible and len(motor_q):
             x[2:4] = motor_q
@@ -253,8 +266,12 @@ def prepare(
         else:
             controller(t_hold, q, qd)
         own0 = np.array([v for name in fields for v in getattr(controller, name)], dtype=float)
+    widths = tuple(len(getattr(controller, name)) for name in fields)
+    n = n_plant + len(own0)
     starts = [start(target, motor0, own0)]
     if near is not None:
         starts.append(start(near[0], near[1], own0))
     substeps = round(scenario.control_dt / dt)
-    return Setup(controller, fields, needs_motor, nq, n_plant, n, substeps, t_hold, tuple(starts))
+    return Setup(
+        controller, fields, needs_motor, nq, n_plant, n, substeps, t_hold, tuple(starts), widths
+    )

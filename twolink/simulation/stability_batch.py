@@ -55,6 +55,7 @@ NO_REST = "no rest state found near the target"
 
 def _batchable() -> dict[type, tuple[str, ...]]:
     """The controller classes whose batch law this module drives, with their own state."""
+    from twolink.controllers.adaptive import AdaptiveComputedTorque
     from twolink.controllers.baselines import FuzzyPD, IntegralComputedTorque, PDGravity
     from twolink.controllers.ctc import ComputedTorque
     from twolink.controllers.flexible import (
@@ -64,8 +65,13 @@ def _batchable() -> dict[type, tuple[str, ...]]:
     )
     from twolink.controllers.flexible_robust import IntegralFlexibleFeedbackLinearisation
     from twolink.controllers.fuzzy_ctc import FuzzyComputedTorque
+    from twolink.controllers.observer import DisturbanceObserverCTC
+    from twolink.controllers.sliding import SlidingMode
 
     return {
+        AdaptiveComputedTorque: ("a_hat",),
+        SlidingMode: (),
+        DisturbanceObserverCTC: ("integral",),
         ComputedTorque: (),
         PDGravity: (),
         FuzzyComputedTorque: (),
@@ -385,6 +391,8 @@ class _StateAdapter:
             ]
         elif isinstance(law, cb.BatchIntegralComputedTorque):
             self.kind = "integral"
+        elif isinstance(law, (cb.BatchAdaptiveComputedTorque, cb.BatchDisturbanceObserverCTC)):
+            self.kind = "stepped"  # its whole state in and out of step(), any width
         elif isinstance(law, cb.BatchComputedTorque):
             self.kind = "stateless"
         elif isinstance(law, BatchIntegralFlexibleFeedbackLinearisation):
@@ -406,6 +414,8 @@ class _StateAdapter:
             return tau, new
         if self.kind == "integral":
             return law.step(1, *args, own[:, 0:2])
+        if self.kind == "stepped":
+            return law.step(1, *args, own)
         if self.kind == "stateless":
             return law.step(1, *args, None)[0], own[:, :0]
         if self.kind == "held":
