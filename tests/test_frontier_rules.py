@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from twolink.studies.designs.frontier import summarise, within_budget
+from twolink.studies.designs.effort import within_budget
+from twolink.studies.designs.frontier import summarise
 
 
 def test_the_index_is_the_median_of_the_plants_iae_totals():

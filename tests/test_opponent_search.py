@@ -33,12 +33,12 @@ def test_a_loop_within_budget_on_training_but_over_it_where_judged_is_not_chosen
         ]
     )
     budget_train = np.array([28.5, 8.0, 236.3, 76.8])
-    ok = ops.admissible(train, judged, budget_train, BUDGET, TOL)
+    ok = effort.admissible(train, judged, budget_train, BUDGET, TOL)
     assert ok.tolist() == [False, True, False]
-    assert ops.within_budget(train, budget_train, TOL).tolist() == [True, True, False]
+    assert effort.within_budget(train, budget_train, TOL).tolist() == [True, True, False]
     assert ops.choose_admissible(index, ok) == 1
     # judged on the training plants alone, the over-budget loop would have won
-    assert ops.choose_admissible(index, ops.within_budget(train, budget_train, TOL)) == 0
+    assert ops.choose_admissible(index, effort.within_budget(train, budget_train, TOL)) == 0
     with pytest.raises(ValueError, match="no candidate"):
         ops.choose_admissible(index, np.zeros(3, dtype=bool))
 
@@ -48,12 +48,12 @@ def test_the_tolerance_decides_a_choice():
     claims judge it); with no tolerance the same loop is over budget and the next wins."""
     index = np.array([0.05, 0.06])
     values = np.array([[28.0, 7.9, 235.1, 76.0], [28.0, 7.9, 234.0, 76.0]])
-    with_tol = ops.admissible(values, values, BUDGET, BUDGET, TOL)
-    without = ops.admissible(values, values, BUDGET, BUDGET, np.zeros(4))
+    with_tol = effort.admissible(values, values, BUDGET, BUDGET, TOL)
+    without = effort.admissible(values, values, BUDGET, BUDGET, np.zeros(4))
     assert ops.choose_admissible(index, with_tol) == 0
     assert ops.choose_admissible(index, without) == 1
     # a failed run (NaN) is never within, whatever the tolerance
-    assert not ops.within_budget([[np.nan, 0, 0, 0]], BUDGET, TOL)[0]
+    assert not effort.within_budget([[np.nan, 0, 0, 0]], BUDGET, TOL)[0]
 
 
 def test_the_optimiser_finds_a_known_optimum_under_the_effort_constraint():
@@ -165,12 +165,12 @@ def test_the_shipped_opponents_give_their_numbers_and_keep_the_rule():
             search.setup(spec, regime), [ops.controller(x, o["torque_limit"])]
         )
         np.testing.assert_allclose(values[0], o["train"], rtol=1e-9)
-        ok = ops.admissible(
+        ok = effort.admissible(
             np.array([o["train"][:4]]), np.array([o["judged"][:4]]), o["train_fcm"][:4],
             o["judged_fcm"][:4], tol,
         )  # fmt: skip
         assert ok[0], regime
-        assert all(not ops.within_budget(r["judged"][:4], o["judged_fcm"][:4], tol)[0]
+        assert all(not effort.within_budget(r["judged"][:4], o["judged_fcm"][:4], tol)[0]
                    for r in o["refused"])  # fmt: skip
 
 

@@ -35,6 +35,7 @@ import pandas as pd
 
 from twolink.foundation.shipped import runs_dir
 from twolink.simulation.config import TomlTable, expect_kind, read_toml
+from twolink.studies.designs import effort
 
 __all__ = [
     "CONTINUOUS",
@@ -49,7 +50,6 @@ __all__ = [
     "run_frontier",
     "save_frontier",
     "summarise",
-    "within_budget",
 ]
 
 DEFAULT_SPEC = runs_dir() / "paper" / "frontier.toml"  # package data
@@ -281,23 +281,10 @@ def run_frontier(spec: FrontierSpec, pool: Any = None) -> pd.DataFrame:
         budget = {f"{k}{j}": float(fuzzy[f"{k}{j}"]) for k in EFFORT for j in (1, 2)}
         ratios = np.stack([table[c] / v for c, v in budget.items()], axis=1)
         table["effort_ratio"] = ratios.max(axis=1)
-        table["within"] = within_budget(table, budget) & (table["failed"] == 0)
+        table["within"] = effort.within_budget(table, budget) & (table["failed"] == 0)
         table["pareto"] = _pareto(table["effort_ratio"].to_numpy(), table["index"].to_numpy())
         tables.append(table)
     return pd.concat(tables, ignore_index=True)
-
-
-def within_budget(table: pd.DataFrame, budget: dict[str, float]) -> np.ndarray:
-    """Whether each loop's effort (``table``'s columns ``torque_peak_Nm1``, ...) stays
-    within the ``budget`` (the same columns' FCM-CTC values) plus the metric's practical
-    tolerance (:data:`twolink.studies.judgments.claims.TOLERANCES`): a loop over by less
-    than a difference anyone would act on is within."""
-    from twolink.studies.judgments.claims import TOLERANCES
-
-    within = np.ones(len(table), dtype=bool)
-    for c, v in budget.items():
-        within &= (table[c] <= v + TOLERANCES[c[:-1]]).to_numpy()
-    return within
 
 
 def _pareto(effort: np.ndarray, index: np.ndarray) -> np.ndarray:

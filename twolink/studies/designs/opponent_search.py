@@ -28,41 +28,87 @@ from typing import Any
 
 import numpy as np
 
-from twolink.studies.designs.effort import within_budget
+from twolink.studies.designs.effort import admissible
 from twolink.studies.designs.searched_opponent import (  # its public face too
+    LAWS,
+    TUNED,
+    TUNED_FILE,
     SearchedOpponent,
     controller,
     shipped_opponents,
+    shipped_tuned,
 )
 
 __all__ = [
     "FAMILIES",
+    "SPANS",
     "SearchedOpponent",
-    "admissible",
     "choose_admissible",
     "controller",
     "evaluate_loops",
     "minimise",
     "shipped_opponents",
-    "within_budget",
+    "shipped_tuned",
+    "tune",
 ]
 
-FAMILIES = ("CTC", "CTC clipped")
+FAMILIES = ("CTC", "CTC clipped")  # CTC-best's families
 ZETA = (0.4, 1.5)  # the damping searched per joint: under- to over-damped
+RHO = (0.0, 0.9)  # CTC-I's integral gain, a share of its nominal loop's stability bound
+LOG_GAMMA = (-2.0, 2.0)  # Slotine-Li's Γ: 1/100 to 100 times the law's default diagonal
+LOG_PHI = (-3.0, 1.0)  # sliding mode's boundary layer φ: 1 mrad/s to 10 rad/s
+LOG_T = (-2.7, -0.3)  # CTC-DOB's observer time constant: 2 ms (2 control periods) to 0.5 s
 
 
-def admissible(
-    train: np.ndarray,
-    judged: np.ndarray,
-    budget_train: np.ndarray,
-    budget_judged: np.ndarray,
-    tolerance: np.ndarray,
-) -> np.ndarray:
-    """The effort rule (module docstring): within FCM-CTC's effort on both plant sets, each
-    against FCM-CTC's own effort on that set."""
-    return within_budget(train, budget_train, tolerance) & within_budget(
-        judged, budget_judged, tolerance
-    )
+def _ctc_start(c: Any) -> np.ndarray:
+    """(ωn1, ζ1, ωn2, ζ2) of a controller config's Kp and Kd."""
+    wn = np.sqrt(np.asarray(c.kp, dtype=float))
+    zeta = np.asarray(c.kd, dtype=float) / (2 * wn)
+    return np.array([wn[0], zeta[0], wn[1], zeta[1]])
+
+
+def _integral_start(c: Any) -> np.ndarray:
+    """(ωn1, ζ1, ρ1, ωn2, ζ2, ρ2) of a controller's Kp, Kd and Ki."""
+    wn1, z1, wn2, z2 = _ctc_start(c)
+    rho = np.asarray(c.ki, dtype=float) / (np.asarray(c.kp) * np.asarray(c.kd))
+    return np.array([wn1, z1, rho[0], wn2, z2, rho[1]])
+
+
+def _adaptive_start(c: Any) -> np.ndarray:
+    """(ωn1, ωn2, 0): the regime's ωn, the law's default Γ."""
+    wn1, _, wn2, _ = _ctc_start(c)
+    return np.array([wn1, wn2, 0.0])
+
+
+def _sliding_start(c: Any) -> np.ndarray:
+    """(ωn1, log10 φ1, ωn2, log10 φ2): the regime's ωn, the law's own φ = K / K_D."""
+    wn1, _, wn2, _ = _ctc_start(c)
+    return np.array([wn1, np.log10(c.phi[0]), wn2, np.log10(c.phi[1])])
+
+
+def _observer_start(c: Any) -> np.ndarray:
+    """(ωn1, ζ1, ωn2, ζ2, log10 T): the regime's gains, the law's default T."""
+    return np.append(_ctc_start(c), np.log10(c.observer_time))
+
+
+# Per family: its span from the frontier's grid of the regime (ωn: the CTC grid's smallest
+# to largest; clipped CTC: the clipped grid's) and its start from the regime's own gains
+# (the family's kind as the sweep's base scenario builds it).
+SPANS: dict[str, tuple[Any, Any]] = {
+    "CTC": (lambda g: [_span(g.wn), ZETA, _span(g.wn), ZETA], _ctc_start),
+    "CTC clipped": (
+        lambda g: [_span(g.clipped_wn), ZETA, _span(g.clipped_wn), ZETA],
+        _ctc_start,
+    ),
+    "CTC-I": (lambda g: [_span(g.wn), ZETA, RHO, _span(g.wn), ZETA, RHO], _integral_start),
+    "Slotine-Li": (lambda g: [_span(g.wn), _span(g.wn), LOG_GAMMA], _adaptive_start),
+    "sliding mode": (lambda g: [_span(g.wn), LOG_PHI, _span(g.wn), LOG_PHI], _sliding_start),
+    "CTC-DOB": (lambda g: [_span(g.wn), ZETA, _span(g.wn), ZETA, LOG_T], _observer_start),
+}
+
+
+def _span(values: tuple[float, ...]) -> tuple[float, float]:
+    return (min(values), max(values))
 
 
 def choose_admissible(index: np.ndarray, ok: np.ndarray) -> int:
@@ -111,17 +157,27 @@ def minimise(
     return best, float(cost), len(seen)
 
 
+def configured(stp: Any, entry: dict[str, Any]) -> Any:
+    """The scenario of the setup's sweep (``stp.plan``) with ``entry`` (a sweep's
+    ``[controllers]`` entry) as its controller: built as the sweep builds it."""
+    from twolink.foundation.overrides import merge
+    from twolink.simulation.config import scenario_from_dict
+
+    return scenario_from_dict(merge(stp.plan.base, {"controller": entry}), stp.plan.file)
+
+
 def evaluate_loops(stp: Any, loops: list[dict[str, Any]]) -> np.ndarray:
-    """Per loop (a :func:`controller` entry): :func:`search.evaluate_controllers`' medians
-    on the setup's plants (``stp``: :func:`search.setup`'s, its arm and reference)."""
-    from twolink.controllers.ctc import ComputedTorque
+    """Per loop (a sweep's ``[controllers]`` entry of any family, e.g. :func:`controller`'s):
+    :func:`search.evaluate_controllers`' medians on the setup's plants (``stp``:
+    :func:`search.setup`'s), each controller built as the sweep builds it, one per plant (a
+    law's own state, an estimate or an observer, is each arm's own)."""
+    from twolink.simulation.experiment import build_controller
     from twolink.studies.designs.search import evaluate_controllers
 
-    arm, ref = stp.fcm["arm"], stp.fcm["reference"]
-    ctrls = [
-        ComputedTorque(arm, ref, kp=c["kp"], kd=c["kd"], torque_limit=c["torque_limit"])
-        for c in loops
-    ]
+    ctrls = []
+    for c in loops:
+        scenario = configured(stp, c)
+        ctrls.append([build_controller(scenario) for _ in stp.scenarios])
     return evaluate_controllers(stp.scenarios, ctrls, stp.model_g)
 
 
@@ -140,14 +196,17 @@ def judged_setup(spec: Any, regime: str) -> Any:
 
 
 def bounds(spec: Any, regime: str, family: str) -> list[tuple[float, float]]:
-    """The span searched per joint: ωn over the frontier's grid of the family (its
-    smallest to its largest), ζ over :data:`ZETA`."""
+    """The span searched per joint (:data:`SPANS`): ωn over the frontier's grid of the
+    family (its smallest to its largest), ζ over :data:`ZETA`, a family's own gains over
+    theirs."""
+    return SPANS[family][0](frontier_grid(spec, regime))
+
+
+def frontier_grid(spec: Any, regime: str) -> Any:
+    """The linear frontier's grid of ``regime``: the spans' source."""
     from twolink.studies.designs import frontier
 
-    grid = frontier.load_spec(spec.frontier).grid(regime)
-    wn = grid.wn if family == "CTC" else grid.clipped_wn
-    span = (min(wn), max(wn))
-    return [span, ZETA, span, ZETA]
+    return frontier.load_spec(spec.frontier).grid(regime)
 
 
 def search_family(spec: Any, stp: Any, regime: str, family: str) -> dict[str, Any]:
@@ -155,22 +214,23 @@ def search_family(spec: Any, stp: Any, regime: str, family: str) -> dict[str, An
     optimiser, budget (``popsize``, ``maxiter``, ``seed``) and objective, the regime's own
     gains seeded in. Returns the evaluated loops ranked by training cost (each its ``x``,
     torque limit, cost and values), FCM-CTC's training values and the evaluations."""
+    from twolink.studies.designs.effort import tolerances
     from twolink.studies.designs.search import cost, designed_table, evaluate_tables
-    from twolink.studies.judgments.claims import TOLERANCES
 
     fcm = evaluate_tables(stp, designed_table()[None], "mamdani")[0]
     budget = fcm[:4]
-    tol = np.array([TOLERANCES["torque_peak_Nm"]] * 2 + [TOLERANCES["torque_variation_Nm"]] * 2)
+    tol = tolerances()
     limit = np.asarray(stp.fcm["torque_limit"], dtype=float)
     if family == "CTC clipped":
         limit = np.minimum(limit, budget[:2])
-    wn = np.sqrt(np.asarray(stp.fcm["kp"], dtype=float))
-    zeta = np.asarray(stp.fcm["kd"], dtype=float) / (2 * wn)
-    start = np.array([wn[0], zeta[0], wn[1], zeta[1]])
+    law = LAWS[family]
+    from twolink.simulation.experiment import build_controller
+
+    start = SPANS[family][1](build_controller(configured(stp, {"kind": law.kind})))
     tried: list[tuple[float, np.ndarray, np.ndarray]] = []
 
     def objective(xs: np.ndarray) -> np.ndarray:
-        values = evaluate_loops(stp, [controller(x, limit) for x in xs])
+        values = evaluate_loops(stp, [law.entry(x, limit) for x in xs])
         costs = cost(values, budget, tol)
         tried.extend(zip(costs, xs.copy(), values, strict=True))
         return costs
@@ -187,18 +247,19 @@ def search_family(spec: Any, stp: Any, regime: str, family: str) -> dict[str, An
     }
 
 
-def search_opponent(spec: Any, regime: str, batch: int = 4) -> dict[str, Any]:
-    """Both families searched on the training plants, then the effort rule: the loops
-    within budget on training, in the order of their training index, are run on the
-    judged plants ``batch`` at a time; the first within FCM-CTC's effort there too is the
-    opponent. Returns it (family, ωn and ζ per joint, torque limit, both sides' effort on
-    both plant sets), the loops refused and the evaluations."""
+def _search_and_judge(
+    spec: Any, regime: str, families: tuple[str, ...], batch: int = 4
+) -> dict[str, Any]:
+    """The rule every searched opponent is chosen by: ``families`` searched on the training
+    plants, then the effort rule: the loops within budget on training, in the order of
+    their training index, are run on the judged plants ``batch`` at a time; the first
+    within FCM-CTC's effort there too is chosen (``chosen``, with its ``judged`` values).
+    Where none is, ``chosen`` is None. Returns the searches, FCM-CTC's judged values, the
+    loops refused and the judged setup."""
     from twolink.studies.designs.search import OVER, designed_table, evaluate_tables, setup
-    from twolink.studies.judgments.claims import TOLERANCES
 
-    tol = np.array([TOLERANCES["torque_peak_Nm"]] * 2 + [TOLERANCES["torque_variation_Nm"]] * 2)
     stp = setup(spec, regime)
-    found = [search_family(spec, stp, regime, f) for f in FAMILIES]
+    found = [search_family(spec, stp, regime, f) for f in families]
     candidates = sorted(
         (
             {**loop, "family": f["family"], "torque_limit": f["torque_limit"]}
@@ -210,41 +271,100 @@ def search_opponent(spec: Any, regime: str, batch: int = 4) -> dict[str, Any]:
     )
     judged = judged_setup(spec, regime)
     fcm_judged = evaluate_tables(judged, designed_table()[None], "mamdani")[0]
-    refused = []
+    refused: list[dict[str, Any]] = []
+    out = {"found": found, "judged_fcm": fcm_judged, "refused": refused, "judged_setup": judged}
     for start in range(0, len(candidates), batch):
         group = candidates[start : start + batch]
-        values = evaluate_loops(judged, [controller(c["x"], c["torque_limit"]) for c in group])
+        values = evaluate_loops(judged, [_entry(c) for c in group])
         train = np.array([c["values"][:4] for c in group])
-        ok = admissible(train, values[:, :4], found[0]["budget"], fcm_judged[:4], tol)
+        ok = admissible(train, values[:, :4], found[0]["budget"], fcm_judged[:4])
         if not ok.any():
             refused += [{**c, "judged": v.tolist()} for c, v in zip(group, values, strict=True)]
             continue
         k = choose_admissible(np.array([c["cost"] for c in group]), ok)
         refused += [{**c, "judged": v.tolist()} for c, v in zip(group[:k], values, strict=False)]
-        c, x = group[k], group[k]["x"]
-        return {
-            "regime": regime,
-            "family": c["family"],
-            "wn": [x[0], x[2]],
-            "zeta": [x[1], x[3]],
-            "torque_limit": c["torque_limit"],
-            "train": c["values"],
-            "train_fcm": found[0]["fcm"],
-            "judged": values[k].tolist(),
-            "judged_fcm": fcm_judged.tolist(),
-            "judged_plants": len(judged.scenarios),
-            "refused": refused,
-            "evaluations": sum(f["evaluations"] for f in found),
-            "searched": [  # every loop tried on the training plants: the frontier's figure
-                {
-                    "family": f["family"],
-                    "x": [p["x"] for p in f["loops"]],
-                    "values": [p["values"] for p in f["loops"]],
-                }
-                for f in found
-            ],  # fmt: skip
+        return {**out, "chosen": {**group[k], "judged": values[k].tolist()}}
+    return {**out, "chosen": None}
+
+
+def _entry(candidate: dict[str, Any]) -> dict[str, Any]:
+    law = LAWS[candidate["family"]]
+    return law.entry(np.asarray(candidate["x"]), candidate["torque_limit"])
+
+
+def _searched(found: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """Every loop tried on the training plants, by family: the figure's points."""
+    return [
+        {
+            "family": f["family"],
+            "x": [p["x"] for p in f["loops"]],
+            "values": [p["values"] for p in f["loops"]],
         }
-    raise ValueError(f"{regime}: no searched loop is within FCM-CTC's effort on both plant sets")
+        for f in found
+    ]
+
+
+def search_opponent(spec: Any, regime: str, batch: int = 4) -> dict[str, Any]:
+    """CTC-best: both of :data:`FAMILIES` by :func:`_search_and_judge`'s rule. Returns it
+    (family, ωn and ζ per joint, torque limit, both sides' effort on both plant sets), the
+    loops refused and the evaluations. ValueError where none is within on both sets."""
+    done = _search_and_judge(spec, regime, FAMILIES, batch)
+    c, found = done["chosen"], done["found"]
+    if c is None:
+        raise ValueError(
+            f"{regime}: no searched loop is within FCM-CTC's effort on both plant sets"
+        )
+    x = c["x"]
+    return {
+        "regime": regime,
+        "family": c["family"],
+        "wn": [x[0], x[2]],
+        "zeta": [x[1], x[3]],
+        "torque_limit": c["torque_limit"],
+        "train": c["values"],
+        "train_fcm": found[0]["fcm"],
+        "judged": c["judged"],
+        "judged_fcm": done["judged_fcm"].tolist(),
+        "judged_plants": len(done["judged_setup"].scenarios),
+        "refused": done["refused"],
+        "evaluations": sum(f["evaluations"] for f in found),
+        "searched": _searched(found),  # every loop tried on the training plants
+    }
+
+
+def tune(spec: Any, regime: str, family: str, batch: int = 4) -> dict[str, Any]:
+    """One law family (:data:`LAWS`) tuned by CTC-best's rule (:func:`_search_and_judge`:
+    the same optimiser, seed, budget, training plants, objective and effort rule). Where no
+    loop is within FCM-CTC's effort on both sets, the family's loop of the lowest training
+    cost (the nearest the budget, feasibility first) is returned with ``within`` false and
+    its judged values: the study shows it as over the budget. Returns the loop (family,
+    gain vector ``x`` and its names, torque limit, both sides' effort on both sets,
+    ``within``), the loops refused and the evaluations."""
+    import time
+
+    start = time.perf_counter()
+    done = _search_and_judge(spec, regime, (family,), batch)
+    found, c = done["found"], done["chosen"]
+    within = c is not None
+    if c is None:  # the nearest the budget, run where judged for its figures
+        c = {**found[0]["loops"][0], "family": family, "torque_limit": found[0]["torque_limit"]}
+        c["judged"] = evaluate_loops(done["judged_setup"], [_entry(c)])[0].tolist()
+    return {
+        "regime": regime,
+        "family": family,
+        "params": list(LAWS[family].params),
+        "x": c["x"],
+        "torque_limit": c["torque_limit"],
+        "train": c["values"],
+        "train_fcm": found[0]["fcm"],
+        "judged": c["judged"],
+        "judged_fcm": done["judged_fcm"].tolist(),
+        "judged_plants": len(done["judged_setup"].scenarios),
+        "within": within,
+        "refused": len(done["refused"]),
+        "evaluations": found[0]["evaluations"],
+        "wall_s": time.perf_counter() - start,
+    }
 
 
 def shipped_path(spec: Any) -> Path:
@@ -252,9 +372,30 @@ def shipped_path(spec: Any) -> Path:
     return Path(spec.source).parent / "frontier_per_joint.json"
 
 
+def tuned_path(spec: Any) -> Path:
+    """The shipped tuned laws beside the search file: ``runs/paper/tuned_opponents.json``."""
+    return Path(spec.source).parent / TUNED_FILE
+
+
+def tune_all(spec: Any, regimes: Any = None, names: Any = None) -> dict[str, Any]:
+    """Every tuned opponent of :data:`TUNED` (or ``names``) in every regime of the search
+    file (or ``regimes``): :func:`tune`'s result by name, then regime, with the settings
+    and the wall time; the shipped file's content."""
+    import time
+
+    start = time.perf_counter()
+    opponents = {
+        name: {r: tune(spec, r, TUNED[name]) for r in (regimes or spec.regimes)}
+        for name in (names or TUNED)
+    }
+    wall = time.perf_counter() - start
+    return {"settings": spec.settings(), "wall_s": wall, "opponents": opponents}
+
+
 def main(argv: list[str] | None = None) -> int:
     """``python -m twolink.studies.designs.opponent_search --out DIR`` (or ``--install``:
-    into runs/paper/): each regime's searched opponent, as JSON."""
+    into runs/paper/): each regime's searched opponent, as JSON; with ``--tuned``, the
+    tuned laws instead (``tuned_opponents.json``)."""
     import argparse
     import json
     import time
@@ -269,8 +410,21 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--regimes", nargs="*", default=None, help="default: the search file's")
     parser.add_argument("--claims", action="store_true", help="and claims_per_joint.csv")
     parser.add_argument("--reuse", action="store_true", help="judge the shipped opponents only")
+    parser.add_argument("--tuned", nargs="*", default=None, metavar="NAME",
+                        help=f"tune these laws (default: all of {', '.join(TUNED)})")  # fmt: skip
     args = parser.parse_args(argv)
     spec = load_spec()
+    if args.tuned is not None:
+        if any(n not in TUNED for n in args.tuned):
+            parser.error(f"--tuned takes names of {list(TUNED)}, got {args.tuned}")
+        tuned = tune_all(spec, args.regimes, args.tuned)
+        path = tuned_path(spec) if args.install else args.out / TUNED_FILE
+        if path.is_file() and args.tuned:  # the other laws' shipped results stay theirs
+            tuned["opponents"] = {**json.loads(path.read_text())["opponents"], **tuned["opponents"]}
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_json(path, tuned)
+        print(path)
+        return 0
     start = time.perf_counter()
     if args.reuse:
         found = json.loads(shipped_path(spec).read_text())["opponents"]

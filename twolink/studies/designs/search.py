@@ -197,13 +197,15 @@ BOUNDS = [(-1, 6)] * N_FREE + [(0, 1)]
 @dataclass(frozen=True)
 class Setup:
     """What evaluating a table needs: the training plants' scenarios and FCM-CTC's
-    arguments (model, reference, gains, limits) in one regime."""
+    arguments (model, reference, gains, limits) in one regime, and the sweep ``plan`` they
+    come from (its base scenario builds any other controller as the sweep would)."""
 
     scenarios: tuple[Any, ...]
     fcm: dict[str, Any]
     # the batch models' gravity: None, the largest |g| of these plants (as the shipped
     # search ran); the sweep's own (plan.model_gravity()) runs each plant as the sweep does
     model_g: float | None = None
+    plan: Any = None
 
 
 def setup(spec: SearchSpec, regime: str) -> Setup:
@@ -236,7 +238,7 @@ def setup_of(plan: Any, proposed: str, plants: int) -> Setup:
         "kd": c.kd,
         "torque_limit": c.torque_limit,
     }
-    return Setup(tuple(scenarios), fcm)
+    return Setup(tuple(scenarios), fcm, plan=plan)
 
 
 def evaluate_tables(stp: Setup, tables: np.ndarray, inference: str) -> np.ndarray:
@@ -253,16 +255,17 @@ def evaluate_controllers(
 ) -> np.ndarray:
     """Per controller, on every scenario (the batch engine, its models under the gravity
     ``model_g``: :func:`twolink.simulation.experiment.iter_scenarios`): the medians of peak
-    |τ|₁, peak |τ|₂, Σ|Δτ|₁, Σ|Δτ|₂ and IAE₁ + IAE₂, (n, 5); NaN where a run failed."""
+    |τ|₁, peak |τ|₂, Σ|Δτ|₁, Σ|Δτ|₂ and IAE₁ + IAE₂, (n, 5); NaN where a run failed. A
+    controller with a state of its own (an estimate, an observer) comes as a list, one
+    object per scenario, so that no two arms share its state."""
     from twolink.simulation.experiment import iter_scenarios
     from twolink.simulation.metrics import error_measures, torque_measures
 
     n, p = len(ctrls), len(scenarios)
     values = np.full((n, p, 5), np.nan)
     arms = [(k, i) for k in range(n) for i in range(p)]
-    runs = iter_scenarios(
-        [scenarios[i] for _, i in arms], [ctrls[k] for k, _ in arms], model_g=model_g
-    )
+    per_arm = [ctrls[k][i] if isinstance(ctrls[k], list) else ctrls[k] for k, i in arms]
+    runs = iter_scenarios([scenarios[i] for _, i in arms], per_arm, model_g=model_g)
     for m, traj in runs:
         k, i = arms[m]
         if isinstance(traj, Exception) or traj.status != "ok":

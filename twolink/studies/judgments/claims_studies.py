@@ -12,6 +12,9 @@ import dataclasses
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pandas as pd
+
 from twolink.studies.designs.effort import EFFORT_KEYS  # judged against the fair opponent
 from twolink.studies.designs.frontier import OPPONENT
 from twolink.studies.judgments.claims_plans import (
@@ -31,10 +34,12 @@ __all__ = [
     "LAB",
     "SMOOTH_KINDS",
     "fair_opponent",
+    "ranking",
     "raw_steps",
     "reference_values",
     "regime_plan",
     "run_claims",
+    "tuned_opponents",
 ]
 
 
@@ -54,11 +59,20 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
         regimes.append((dataclasses.replace(manifest, claims_study=manifest.lab_study), None, LAB))
     variants = [label for _, _, label in regimes]
     plans = []
+    tuned = []
     for judged, variant, _ in regimes:
         # the fair linear opponent: the best linear loop at the proposed controller's effort
         opponent = fair_opponent(manifest, variant, pool)
-        overrides = {"controllers": {OPPONENT: opponent.controller()}}
+        # the laws of the field, tuned by the same rule (designs/opponent_search.py)
+        laws = tuned_opponents(manifest, variant)
+        overrides = {
+            "controllers": {
+                OPPONENT: opponent.controller(),
+                **{t.name: t.controller() for t in laws},
+            }
+        }
         plans.append((opponent, regime_plan(judged, variant, overrides)))
+        tuned.append(laws)
     try:
         # every regime's sweep at once on the pool, each into the reproduction's own
         # folder (a changed sweep file's results are replaced)
@@ -79,12 +93,19 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
         raise KeyboardInterrupt from None  # the reproduction's own stop
     sections: list[str] = []
     tables = []
-    for (judged, _, variant), (opponent, plan), outcome in zip(
-        regimes, plans, outcomes, strict=True
+    rankings = []
+    for (judged, _, variant), (opponent, plan), laws, outcome in zip(
+        regimes, plans, tuned, outcomes, strict=True
     ):
-        more, studies = _claims_study(judged, out, variant, opponent, plan, outcome)
+        more, studies = _claims_study(judged, out, variant, opponent, plan, outcome, laws)
         sections += more
         tables += studies
+        rankings.append(ranking(outcome.results, judged.proposed, variant, opponent, laws))
+    from twolink.foundation.io import atomic_write_text
+
+    every = pd.concat(rankings, ignore_index=True)
+    atomic_write_text(out / RANKING, every.to_csv(index=False))
+    sections += ranking_section(every)
     # after the claims: where the fair opponent comes from, and the strongest fuzzy term
     sections += frontier.report_section(manifest, out, pool) + search.report_section(manifest, out)
     return sections, tables
@@ -95,7 +116,13 @@ def _suffix(variant: Any) -> str:
 
 
 def _claims_study(
-    manifest: Manifest, out: Path, variant: Any, opponent: Any, plan: Any, outcome: Any
+    manifest: Manifest,
+    out: Path,
+    variant: Any,
+    opponent: Any,
+    plan: Any,
+    outcome: Any,
+    laws: list[Any] = (),  # type: ignore[assignment]
 ) -> tuple[list[str], Any]:
     """One claims study, its sweep ``outcome`` in ``out/claims_study[_VARIANT]``: the
     paper's claim judged on its plants (``claims[_VARIANT].csv``), every controller
@@ -131,7 +158,8 @@ def _claims_study(
     # controller with integral action against the proposed one and the opponents: one pass.
     base, proposed = manifest.baseline, manifest.proposed
     integral = next((n for n, over in plan.controllers if over.get("kind") == "ctc_integral"), None)
-    pairs = [(name, base) for name in plan.controller_names if name != base]
+    names = {t.name for t in laws}  # judged in their own table below
+    pairs = [(name, base) for name in plan.controller_names if name != base and name not in names]
     pairs += [(proposed, OPPONENT)]
     if integral is not None:
         pairs += [(integral, proposed), (integral, OPPONENT)]
@@ -150,6 +178,9 @@ def _claims_study(
     sections += opponent_section(opponent, manifest) + report.claims_section(
         fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {OPPONENT}", sensor
     )
+    if laws:  # FCM-CTC against each tuned law, and each against CTC-best, effort judged too
+        sections += _tuned_study(manifest, out, suffix, plan, outcome, laws, refs, met, source,
+                                 regime, sensor)  # fmt: skip
     if variant is LAB:
         sections += hunting_section()
     label = regime or "the claims study's quintic moves"
@@ -166,6 +197,133 @@ def _claims_study(
         lab=variant is LAB,
     )
     return sections, [study]
+
+
+def _tuned_study(
+    manifest: Manifest,
+    out: Path,
+    suffix: str,
+    plan: Any,
+    outcome: Any,
+    laws: list[Any],
+    refs: Any,
+    met: dict[str, int],
+    source: str,
+    regime: str,
+    sensor: str,
+) -> list[str]:
+    """``claims_tuned[_VARIANT].csv``: :func:`paired_claims_many`'s rows of the proposed
+    controller against each tuned law and of each law against CTC-best, on the claim
+    metrics and the effort metrics; the report's sections on them."""
+    from twolink.foundation.io import atomic_write_text
+    from twolink.studies.judgments.claims import CLAIM_METRICS, paired_claims_many
+    from twolink.studies.reproduction import report
+
+    p = manifest.proposed
+    pairs = [(p, t.name) for t in laws] + [(t.name, OPPONENT) for t in laws]
+    table = paired_claims_many(
+        outcome.results, pairs, (*CLAIM_METRICS, *EFFORT_KEYS), plan.joints,
+        reference_values=refs,
+    )  # fmt: skip
+    atomic_write_text(out / f"claims_tuned{suffix}.csv", table.to_csv(index=False))
+
+    def rows(mine: str, theirs: str) -> Any:
+        t = table[(table["proposed"] == mine) & (table["opponent"] == theirs)]
+        return t.drop(columns=["proposed", "opponent"]).reset_index(drop=True)
+
+    label = regime or "quintic moves"
+    sections: list[str] = []
+    for t in laws:
+        against = dataclasses.replace(manifest, baseline=t.name)
+        sections += tuned_section(t, manifest) + report.claims_section(
+            rows(p, t.name), against, plan.samples, source, met, f"{label}, {t.name}", sensor
+        )
+    versus = {t.name: rows(t.name, OPPONENT) for t in laws}
+    return sections + report.winners_section(versus, OPPONENT, met, plan.samples, label)
+
+
+def tuned_opponents(manifest: Manifest, variant: Any = None) -> list[Any]:
+    """The regime's tuned laws shipped beside the manifest
+    (:func:`twolink.studies.designs.searched_opponent.shipped_tuned`), in :data:`TUNED`'s
+    order; the lab arm's are the quintic moves'. None where none is shipped."""
+    from twolink.studies.designs import frontier
+    from twolink.studies.designs.searched_opponent import shipped_tuned
+
+    regime = frontier.QUINTIC if variant is None else variant.name
+    return [by[regime] for by in shipped_tuned(manifest.path.parent).values() if regime in by]
+
+
+def tuned_section(law: Any, manifest: Manifest) -> list[str]:
+    """What a tuned law is, before its claims table."""
+    p, mine, theirs = manifest.proposed, law.judged, law.judged_fcm
+    return [
+        "",
+        f"### Against {law.name}, tuned by CTC-best's rule",
+        "",
+        f"{law.name} is {law.describe()}: the best of the same search as {OPPONENT} (its",
+        "optimiser, seed, budget, training plants and objective;",
+        '`runs/paper/tuned_opponents.json`, docs/reproduction.md, "The laws tuned by the same',
+        f"rule\"). Its median Σ|Δτ| was {mine[2]:.4g} / {mine[3]:.4g} N·m against {p}'s",
+        f"{theirs[2]:.4g} / {theirs[3]:.4g} on the judged plants when it was tuned; the",
+        "table's torque rows judge both sides' effort on these plants, plant by plant.",
+    ]
+
+
+RANKING = "ranking.csv"  # every controller's index and effort per regime (docs/reproduction.md)
+
+
+def ranking(results: Any, proposed: str, variant: Any, opponent: Any, laws: list[Any]) -> Any:
+    """One regime's ranking: per controller of the sweep, its index (the median over the
+    judged plants of IAE₁ + IAE₂) and its four effort medians there, whether that effort is
+    within the proposed controller's (:func:`twolink.studies.designs.effort.within_budget`),
+    its rank by index; and, for a searched or tuned one, its numbers on the training plants
+    it was chosen on and whether the effort rule admitted it."""
+    from twolink.studies.designs import effort, frontier
+
+    table = frontier.summarise(results)
+    table = table[["controller", "failed", "index", *effort.EFFORT_COLUMNS]].copy()
+    own = table[table["controller"] == proposed].iloc[0]
+    budget = {c: float(own[c]) for c in effort.EFFORT_COLUMNS}
+    table["within"] = effort.within_budget(table, budget) & (table["failed"] == 0)
+    table["rank"] = table["index"].rank(method="min").astype("Int64")
+    train: dict[str, tuple[tuple[float, ...], bool | None]] = {}
+    if hasattr(opponent, "train"):  # the searched CTC-best (the grid's has no training row)
+        train[OPPONENT] = (opponent.train, True)
+        train[proposed] = (opponent.train_fcm, None)
+    for t in laws:
+        train[t.name] = (t.train, t.within)
+    names = ("train_index", *(f"train_{c}" for c in effort.EFFORT_COLUMNS))
+    for k, name in enumerate(names):
+        pick = (4, 0, 1, 2, 3)[k]
+        table[name] = [train[c][0][pick] if c in train else np.nan for c in table["controller"]]
+    table["admitted"] = [train[c][1] if c in train else None for c in table["controller"]]
+    regime = frontier.QUINTIC if variant is None else variant.name
+    table.insert(0, "regime", regime)
+    table.insert(2, "plants", int(results["sample"].nunique()))
+    return table.sort_values(["rank", "controller"], kind="stable").reset_index(drop=True)
+
+
+def ranking_section(table: Any) -> list[str]:
+    """The reproduction's ranking (``ranking.csv``) as a table per regime."""
+    out = [
+        "",
+        "## Every controller by its index, per regime",
+        "",
+        "The index is the median over the judged plants of IAE₁ + IAE₂ [rad·s]; effort: the",
+        "median peak |τ| and Σ|Δτ| per joint [N·m]; within: each at most FCM-CTC's plus the",
+        'tolerance there (`ranking.csv`, docs/reproduction.md, "The ranking").',
+    ]
+    for regime, t in table.groupby("regime", sort=False):
+        out += ["", f"{regime}:", "", "| rank | controller | index | peak τ₁ / τ₂ | Σ|Δτ|₁ / ₂ "
+                "| within | training index |", "|---|---|---|---|---|---|---|"]  # fmt: skip
+        for r in t.itertuples():
+            train = "—" if r.train_index != r.train_index else f"{r.train_index:.4g}"
+            out.append(
+                f"| {r.rank} | {r.controller} | {r.index:.4g} | {r.torque_peak_Nm1:.1f} / "
+                f"{r.torque_peak_Nm2:.1f} | {r.torque_variation_Nm1:.1f} / "
+                f"{r.torque_variation_Nm2:.1f} | {'yes' if r.within else 'no'} | {train} |"
+            )
+    return out
 
 
 def fair_opponent(manifest: Manifest, variant: Any = None, pool: Any = None) -> Any:
