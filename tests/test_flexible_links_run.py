@@ -149,3 +149,55 @@ def test_shipped_soft_links_bend_as_the_docs_say():
     bend = np.linalg.norm(run.tip - run.rigid_tip(s.arm), axis=1)
     assert run.trajectory.t[bend.argmax()] == pytest.approx(0.198)
     assert bend.max() == pytest.approx(0.344, abs=5e-4)
+
+
+def _bent_strips(path) -> list:
+    from rerun.chunk import RrdReader
+
+    strips = []
+    for chunk in RrdReader(path).store().stream():
+        if chunk.entity_path.strip("/").endswith("arm/bent") and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            name = next(n for n in batch.schema.names if n.endswith(":strips"))
+            strips += batch.column(name).to_pylist()
+    return strips
+
+
+def test_twolink_run_writes_the_tip_metrics_and_draws_the_bent_links(tmp_path):
+    """`twolink run` on bending links: metrics.json's ``tip`` holds the tip's measures by
+    their keys (those of the API, in metres and seconds) and the recording draws the bent
+    strip; a rigid run has neither."""
+    import json
+
+    from click.testing import CliRunner
+
+    from twolink.foundation.io import to_toml
+    from twolink.interface.cli import main
+    from twolink.simulation.experiment import TRACE_EVERY
+    from twolink.simulation.links_sim import scenario_tip_metrics
+    from twolink.simulation.vocabulary import TIP_METRICS
+
+    data = _data(ei=300.0, hub_inertia=[0.4, 0.08], tip_mass=[0.5, 0.1]) | {"duration": 1.5}
+    (tmp_path / "s.toml").write_text(to_toml(data))
+    rigid = {k: v for k, v in data.items() if k != "arm"} | {"arm": {"g": 0.0}}
+    (tmp_path / "r.toml").write_text(to_toml(rigid))
+    printed = {}
+    for name in ("s", "r"):
+        args = ["run", str(tmp_path / f"{name}.toml"), "--out", str(tmp_path / name), "--no-plots"]
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code in (0, 1), result.output
+        printed[name] = result.output
+    written = json.loads((tmp_path / "s" / "metrics.json").read_text())
+    s = scenario_from_dict(data)
+    expected = scenario_tip_metrics(s, run_links(s, build_controller(s)))
+    assert set(written["tip"]) == {m.key for m in TIP_METRICS}
+    assert written["tip"]["residual_vibration_m"] == pytest.approx(expected.residual_vibration)
+    assert written["tip"]["tip_error_m"] == pytest.approx(expected.tip_error)
+    assert 1e-4 < expected.residual_vibration < expected.tip_error  # a move that bends
+    mm = f"{1e3 * expected.residual_vibration:.4g} mm"
+    assert "residual_vibration_m" in printed["s"] and mm in printed["s"]
+    assert "residual_vibration_m" not in printed["r"]
+    strips = _bent_strips(tmp_path / "s" / "trace.rrd")
+    assert len(strips) == len(range(0, round(s.duration / s.control_dt) + 1, TRACE_EVERY))
+    assert "tip" not in json.loads((tmp_path / "r" / "metrics.json").read_text())
+    assert _bent_strips(tmp_path / "r" / "trace.rrd") == []

@@ -138,6 +138,13 @@ class TipMetrics:
     residual_vibration: float
     vibration_settling_time: float
 
+    def to_dict(self) -> dict[str, float]:
+        """Each measure by its key in outputs (:data:`twolink.simulation.vocabulary.TIP_METRICS`,
+        unit included: ``tip_error_m``, ...)."""
+        from twolink.simulation.vocabulary import TIP_METRICS
+
+        return {m.key: float(getattr(self, m.source)) for m in TIP_METRICS}
+
 
 def tip_metrics(
     run: LinkRun, p: ArmParams, rest_time: float, band: float = 1e-3, window: float = 0.5
@@ -160,6 +167,15 @@ def tip_metrics(
     else:
         settle = float(t[outside[-1] + 1])
     return TipMetrics(float(off_ref.max()), float(off_ref[-1]), residual, settle)
+
+
+def scenario_tip_metrics(s: Scenario, run: LinkRun) -> TipMetrics:
+    """:func:`tip_metrics` of a scenario's run: against the plant's rigid rods (where its
+    straight links would put the tip), at rest from the reference's end on
+    (:func:`twolink.simulation.outcome.reference_end`), the default band and window."""
+    from twolink.simulation.outcome import reference_end
+
+    return tip_metrics(run, s.plant_params, reference_end(s.reference))
 
 
 def run_links(s: Scenario, controller: Controller) -> LinkRun:
