@@ -280,24 +280,37 @@ def build_links_spec(
     ``payload`` [kg] added to link 2's tip mass, motors ``tau1``, ``tau2`` on the hubs,
     a site ``tip`` at link 2's end. RK4 at ``timestep`` (the hinges are stiff: see
     :func:`stable_timestep`)."""
+    spec = new_spec(timestep, g, "twolink_flexible_links")
+    add_links_arm(spec, links, payload, visual=visual, motors=motors)
+    return spec
+
+
+def add_links_arm(
+    spec: mujoco.MjSpec,
+    links: FlexibleLinks,
+    payload: float = 0.0,
+    prefix: str = "",
+    visual: bool = True,
+    motors: bool = True,
+) -> None:
+    """Add the flexible-link arm to ``spec`` at the world's origin, every name under
+    ``prefix`` (the batch engine's ``arm{i}_``): what :func:`build_links_spec` builds."""
     if not (payload >= 0 and np.isfinite(payload)):
         raise ValueError(f"payload must be a finite mass >= 0, got {payload!r}")
-    spec = new_spec(timestep, g, "twolink_flexible_links")
     n = links.segments
-    tip1 = add_link(spec.worldbody, links.link1, n, 1, visual=visual)
+    tip1 = add_link(spec.worldbody, links.link1, n, 1, prefix=prefix, visual=visual)
     beam2 = links.link2
     if payload:
         beam2 = LinkBeam(**{**_fields(beam2), "tip_mass": beam2.tip_mass + payload})
     end1 = pieces(links.link1, n)[-1][1]
-    tip2 = add_link(tip1, beam2, n, 2, pos=(end1, 0.0, 0.0), visual=visual)
+    tip2 = add_link(tip1, beam2, n, 2, pos=(end1, 0.0, 0.0), prefix=prefix, visual=visual)
     end2 = pieces(beam2, n)[-1][1]
-    tip2.add_site(name="tip", pos=[end2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
+    tip2.add_site(name=f"{prefix}tip", pos=[end2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
     if motors:
         for i in (1, 2):
-            act = spec.add_actuator(name=f"tau{i}", target=f"theta{i}")
+            act = spec.add_actuator(name=f"{prefix}tau{i}", target=f"{prefix}theta{i}")
             act.trntype = mujoco.mjtTrn.mjTRN_JOINT
             act.set_to_motor()
-    return spec
 
 
 def _fields(beam: LinkBeam) -> dict[str, float]:

@@ -11,6 +11,7 @@ called ``controller(t, q, qd, bends, bend_rates)`` with the hinge angles and rat
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -250,3 +251,144 @@ def plant_links(s) -> FlexibleLinks | None:
     """The simulated arm's bending links: ``[arm.links]`` on the rods of the scenario's
     ``plant_params`` (ρ A = m / l, L = l); None where the links are rigid."""
     return None if s.links is None else s.links.with_arm(s.plant_params)
+
+
+# ------------------------------------------------------------------------- the batch engine
+
+
+class LinkBatch:
+    """Many flexible-link arms in one MuJoCo model, stepped in lockstep: the batch engine
+    (:mod:`twolink.simulation.batch`) for links that bend. Arm i's names carry the prefix
+    ``arm{i}_``; its hub and hinge addresses come from its joints' names (the arms may
+    have different N). The arms are separate trees without contacts, so each moves as
+    alone. Torques enter as applied forces at the hubs, as the single arm's gear-1
+    motors add them."""
+
+    def __init__(
+        self, arms: Sequence[tuple[FlexibleLinks, float]], g: float, timestep: float
+    ) -> None:
+        from twolink.arm.links import add_links_arm
+        from twolink.arm.plant import mujoco, new_spec
+
+        if not arms:
+            raise ValueError("a batch needs at least one arm")
+        spec = new_spec(timestep, g, "twolink_links_batch")
+        for i, (links, payload) in enumerate(arms):
+            add_links_arm(spec, links, payload, prefix=f"arm{i}_", visual=False, motors=False)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self.segments = [links.segments for links, _ in arms]
+        m = self.model
+        self.hubs = np.array([[m.joint(f"arm{i}_theta{k}").dofadr[0] for k in (1, 2)]
+                              for i in range(len(arms))])  # fmt: skip
+        self.bends = [
+            np.array(
+                [
+                    [m.joint(f"arm{i}_bend{k}_{j}").dofadr[0] for j in range(1, n + 1)]
+                    for k in (1, 2)
+                ]
+            )  # fmt: skip
+            for i, n in enumerate(self.segments)
+        ]
+        # Each arm's bodies in tree order (hubs, hinges) and its tip site: its points.
+        self.bodies = [
+            np.array([m.body(f"arm{i}_link{k}_{j}").id for k in (1, 2) for j in range(n + 1)])
+            for i, n in enumerate(self.segments)
+        ]
+        self.tips = np.array([m.site(f"arm{i}_tip").id for i in range(len(arms))])
+        # every dof of arm i (to freeze it): its hubs and hinges
+        self.dofs = [np.concatenate([self.hubs[i], b.ravel()]) for i, b in enumerate(self.bends)]
+
+    def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
+        """Time 0, arm i's hubs at ``q0[i]``, ``qd0[i]``, its links straight and at rest.
+        (qpos and qvel share addresses: hinge joints only.)"""
+        from twolink.arm.plant import mujoco
+
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[self.hubs] = q0
+        self.data.qvel[self.hubs] = qd0
+        mujoco.mj_forward(self.model, self.data)
+
+    def freeze(self, i: int) -> None:
+        """Hold arm i straight at rest at zero with no torque."""
+        self.data.qpos[self.dofs[i]] = 0.0
+        self.data.qvel[self.dofs[i]] = 0.0
+        self.data.qfrc_applied[self.hubs[i]] = 0.0
+
+    def points(self, i: int) -> np.ndarray:
+        """Arm i's hubs, hinges and tip in the paper's plane (after the kinematics)."""
+        p = np.concatenate([self.data.xpos[self.bodies[i]], self.data.site_xpos[[self.tips[i]]]])
+        return p[:, [0, 2]]
+
+
+def simulate_links_batch(
+    arms: Sequence[tuple[FlexibleLinks, float]],
+    controllers: Sequence[Controller],
+    duration: float,
+    control_dt: float,
+    timestep: float,
+    g: float = 0.0,
+    q0=None,
+    qd0=None,
+    bounds: Bounds = Bounds(),  # noqa: B008 - frozen, as simulate()'s
+) -> list[LinkRun]:
+    """:func:`simulate_links` for many arms ``(links, payload)`` at once, arm i under
+    ``controllers[i]``, all at one ``timestep`` and gravity ``g``, from hubs at ``q0[i]``,
+    ``qd0[i]`` (default 0). An arm that leaves its bounds stops there as "diverged", as
+    alone, and is then frozen; the others run on."""
+    from twolink.arm.plant import mujoco
+
+    batch = LinkBatch(arms, g, timestep)
+    n_arms = len(arms)
+    q0 = np.zeros((n_arms, 2)) if q0 is None else np.asarray(q0, dtype=float)
+    qd0 = np.zeros((n_arms, 2)) if qd0 is None else np.asarray(qd0, dtype=float)
+    n, substeps = control_steps(duration, control_dt, batch.dt)
+    batch.reset(q0, qd0)
+    for c in controllers:
+        c.reset()
+    aware = [bool(getattr(c, "needs_links", False)) for c in controllers]
+    rows: list[list] = [[] for _ in range(n_arms)]
+    kept: list[list] = [[] for _ in range(n_arms)]
+    ended = [(STATUS_OK, "")] * n_arms
+    active = list(range(n_arms))
+    data = batch.data
+    for k in range(n + 1):
+        t = k * control_dt
+        mujoco.mj_kinematics(batch.model, data)
+        for i in list(active):
+            (q1, q2), (w1, w2) = data.qpos[batch.hubs[i]], data.qvel[batch.hubs[i]]
+            q1, q2, w1, w2 = float(q1), float(q2), float(w1), float(w2)
+            stop = None
+            bends = data.qpos[batch.bends[i]]
+            if not (max(abs(q1), abs(q2)) < bounds.angle and max(abs(w1), abs(w2)) < bounds.rate):
+                stop = (STATUS_DIVERGED, state_message(t, q1, q2, w1, w2))
+                if not rows[i]:
+                    rows[i].append((t, q1, q2, w1, w2, math.nan, math.nan))
+                    kept[i].append((batch.points(i), bends.copy()))
+            else:
+                if aware[i]:
+                    rates = data.qvel[batch.bends[i]]
+                    tau = controllers[i](t, (q1, q2), (w1, w2), bends.copy(), rates.copy())
+                else:
+                    tau = controllers[i](t, (q1, q2), (w1, w2))
+                tau1, tau2 = float(tau[0]), float(tau[1])
+                rows[i].append((t, q1, q2, w1, w2, tau1, tau2))
+                kept[i].append((batch.points(i), bends.copy()))
+                data.qfrc_applied[batch.hubs[i]] = (tau1, tau2)
+                if not (abs(tau1) < bounds.torque and abs(tau2) < bounds.torque):
+                    stop = (STATUS_DIVERGED, torque_message(t, tau1, tau2))
+            if stop is not None:
+                ended[i] = stop
+                active.remove(i)
+                batch.freeze(i)
+        if k == n or not active:
+            break
+        for _ in range(substeps):
+            mujoco.mj_step(batch.model, data)
+    runs = []
+    for i in range(n_arms):
+        traj = _trajectory(rows[i], [], ended[i][0], ended[i][1], controllers[i])
+        points = np.array([p for p, _ in kept[i]])
+        runs.append(LinkRun(traj, points[:, -1].copy(), np.array([b for _, b in kept[i]]), points))
+    return runs
