@@ -77,3 +77,40 @@ def test_an_arm_that_diverges_stops_alone():
         assert np.allclose(runs[i].trajectory.q, single.trajectory.q, rtol=0, atol=1e-9)
     with pytest.raises(ValueError):
         simulate_links_batch([], [], 0.1, 1e-3, DT)
+
+
+def test_iter_scenarios_runs_bending_links_as_run_scenario():
+    """The batch engine's entry (iter_scenarios) runs [arm.links] scenarios, batched with
+    each other, each trajectory equal to run_scenario's; a rigid scenario beside them too."""
+    from twolink.simulation.config import scenario_from_dict
+    from twolink.simulation.experiment import iter_scenarios, run_scenario
+
+    def data(**links):
+        return {
+            "duration": 0.4,
+            "arm": {"g": 0.0, "links": {"segments": 4, **links}},
+            "controller": {"kind": "ctc"},
+            "reference": {
+                "joint1": {"kind": "quintic", "final": 0.5, "duration": 0.3},
+                "joint2": {"kind": "quintic", "final": -0.3, "duration": 0.3},
+            },
+        }
+
+    rigid = data()
+    del rigid["arm"]["links"]
+    scenarios = [
+        scenario_from_dict(d)
+        for d in (
+            data(ei=1e3, hub_inertia=[0.4, 0.08]),
+            rigid,
+            data(ei=1e3, hub_inertia=[0.2, 0.08], tip_mass=0.3),
+            data(ei=1e3) | {"plant": {"payload": 0.2}},
+        )
+    ]
+    got = dict(iter_scenarios(scenarios))
+    assert sorted(got) == [0, 1, 2, 3]
+    for i, s in enumerate(scenarios):
+        alone = run_scenario(s)
+        assert np.array_equal(got[i].q, alone.q) and np.array_equal(got[i].tau, alone.tau)
+    with pytest.raises(ValueError, match="cpu"):
+        dict(iter_scenarios(scenarios, backend="mjx"))

@@ -184,11 +184,53 @@ def run_links(s: Scenario, controller: Controller) -> LinkRun:
     its gravity and payload) from straight and at rest at ``q0``, ``qd0``, a physics step
     that divides ``control_dt`` (:func:`control_timestep`, at most ``timestep``)."""
     links = plant_links(s)
-    dt = control_timestep(links, s.control_dt)
+    plant = LinkPlant.build(links, s.plant_params.g, s.plant.payload, timestep=links_timestep(s))
+    return simulate_links(plant, controller, s.duration, s.control_dt, s.q0, s.qd0)
+
+
+def links_timestep(s: Scenario) -> float:
+    """The physics step of a scenario's bending links: :func:`control_timestep`, at most
+    the scenario's ``timestep``, a whole fraction of ``control_dt`` either way."""
+    dt = control_timestep(plant_links(s), s.control_dt)
     if dt > s.timestep:
         dt = s.control_dt / math.ceil(s.control_dt / s.timestep - 1e-9)
-    plant = LinkPlant.build(links, s.plant_params.g, s.plant.payload, timestep=dt)
-    return simulate_links(plant, controller, s.duration, s.control_dt, s.q0, s.qd0)
+    return dt
+
+
+LINKS_BATCH = 64  # arms per model: past it a batch saves nothing (bench_flexible_links.py)
+
+
+def iter_links_scenarios(
+    scenarios: Sequence[Scenario], controllers: Sequence[Controller], members: Sequence[int]
+):
+    """``(i, trajectory)`` of the scenarios ``members`` (all with ``[arm.links]``), run in
+    batches (:func:`simulate_links_batch`) of the arms that share a physics step, control
+    period, gravity and duration (at most :data:`LINKS_BATCH` arms a model): each equals
+    :func:`run_links`'s trajectory."""
+    groups: dict[tuple[float, float, float, float], list[int]] = {}
+    for i in members:
+        s = scenarios[i]
+        key = (links_timestep(s), s.control_dt, s.plant_params.g, s.duration)
+        groups.setdefault(key, []).append(i)
+    batches = [
+        (key, members[start : start + LINKS_BATCH])
+        for key, members in groups.items()
+        for start in range(0, len(members), LINKS_BATCH)
+    ]
+    for (dt, control_dt, g, duration), batch in batches:
+        arms = [(plant_links(scenarios[i]), scenarios[i].plant.payload) for i in batch]
+        runs = simulate_links_batch(
+            arms,
+            [controllers[i] for i in batch],
+            duration,
+            control_dt,
+            dt,
+            g,
+            q0=[scenarios[i].q0 for i in batch],
+            qd0=[scenarios[i].qd0 for i in batch],
+        )
+        for i, run in zip(batch, runs, strict=True):
+            yield i, run.trajectory
 
 
 # ----------------------------------------------------------------------------- [arm.links]
