@@ -201,3 +201,41 @@ def test_twolink_run_writes_the_tip_metrics_and_draws_the_bent_links(tmp_path):
     assert len(strips) == len(range(0, round(s.duration / s.control_dt) + 1, TRACE_EVERY))
     assert "tip" not in json.loads((tmp_path / "r" / "metrics.json").read_text())
     assert _bent_strips(tmp_path / "r" / "trace.rrd") == []
+
+
+def test_plant_scale_ei_stiffens_the_simulated_links_not_the_model():
+    """[plant.scale] ei: the plant's E I times the factor (a sweep draws it as ei_scale);
+    the scenario's [arm.links] (the laws' model) keeps its own; a rigid arm refuses it."""
+    s = scenario_from_dict(_data(ei=[1e3, 500.0]) | {"plant": {"scale": {"ei": 0.5}}})
+    assert [b.ei for b in plant_links(s).links] == [500.0, 250.0]
+    assert [b.ei for b in s.links.links] == [1e3, 500.0]
+    assert plant_links(scenario_from_dict(_data(ei=1e3))).link1.ei == 1e3
+    rigid = _data()
+    del rigid["arm"]["links"]
+    with pytest.raises(ConfigError, match=r"plant\.scale\.ei"):
+        scenario_from_dict(rigid | {"plant": {"scale": {"ei": 0.5}}})
+    with pytest.raises(ConfigError, match=r"plant\.scale"):
+        scenario_from_dict(_data() | {"plant": {"scale": {"ei": -1.0}}})
+
+
+def test_a_sweep_draws_the_links_stiffness_and_payload(tmp_path):
+    from twolink.foundation.io import to_toml
+    from twolink.sweep.plan import load_sweep
+
+    (tmp_path / "base.toml").write_text(to_toml(_data(ei=1e3)))
+    (tmp_path / "links.toml").write_text(
+        'name = "links"\nscenario = "base.toml"\nsamples = 3\nseed = 1\n'
+        '[parameters]\nei_scale = { dist = "uniform", low = 0.5, high = 2.0 }\n'
+        'payload = { dist = "uniform", low = 0.0, high = 0.3 }\n'
+        '[controllers.CTC]\nkind = "ctc"\n'
+    )
+    plan = load_sweep(tmp_path / "links.toml")
+    drawn = []
+    for i in range(3):
+        values, seed = plan.draw(i)
+        s = scenario_from_dict(plan.sample_data(values, seed))
+        assert plant_links(s).link1.ei == pytest.approx(1e3 * values["ei_scale"])
+        assert s.plant.payload == pytest.approx(values["payload"])
+        assert s.links.link1.ei == 1e3  # the laws' model keeps the nominal links
+        drawn.append(values["ei_scale"])
+    assert len(set(drawn)) == 3 and all(0.5 <= v <= 2.0 for v in drawn)

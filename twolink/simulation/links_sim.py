@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -275,6 +275,10 @@ def check_links(top, scenario, flexible_kinds: tuple[str, ...]):
     """``scenario`` back, where its bending links (if any) are runnable; else the error that
     names the key: such a run starts straight, sees the truth, with a law of the hub angles."""
     if scenario.links is None:
+        if "ei" in scenario.plant.scale:
+            top.fail(
+                "plant.scale.ei", "scales the bending links ([arm.links]), and this arm has none"
+            )
         return scenario
     for key, there in (
         ("plant.flexibility", scenario.plant.flexibility is not None),
@@ -291,8 +295,16 @@ def check_links(top, scenario, flexible_kinds: tuple[str, ...]):
 
 def plant_links(s) -> FlexibleLinks | None:
     """The simulated arm's bending links: ``[arm.links]`` on the rods of the scenario's
-    ``plant_params`` (ρ A = m / l, L = l); None where the links are rigid."""
-    return None if s.links is None else s.links.with_arm(s.plant_params)
+    ``plant_params`` (ρ A = m / l, L = l), each E I times ``[plant.scale]`` ``ei``; None
+    where the links are rigid."""
+    if s.links is None:
+        return None
+    links = s.links.with_arm(s.plant_params)
+    factor = s.plant.scale.get("ei", 1.0)
+    if factor == 1.0:
+        return links
+    stiffer = [replace(b, ei=b.ei * factor) for b in links.links]
+    return replace(links, link1=stiffer[0], link2=stiffer[1])
 
 
 # ------------------------------------------------------------------------- the batch engine
