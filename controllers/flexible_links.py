@@ -34,6 +34,14 @@ from twolink.controllers.ctc import DEFAULT_KD, DEFAULT_KP
 from twolink.foundation.references import ArmReference
 
 
+def _check_gains(law) -> None:
+    """A law's kp, kd, ks (>= 0) and torque limit (> 0, inf allowed) as checked pairs."""
+    law.kp = pair("kp", law.kp)
+    law.kd = pair("kd", law.kd)
+    law.ks = pair("ks", law.ks)
+    law.torque_limit = pair("torque_limit", law.torque_limit, positive=True, allow_inf=True)
+
+
 @dataclass
 class StrainRateFeedback:
     """Joint PD + gravity compensation + root strain-rate feedback.
@@ -65,11 +73,8 @@ class StrainRateFeedback:
     needs_links = True
 
     def __post_init__(self) -> None:
-        self.kp = pair("kp", self.kp)
-        self.kd = pair("kd", self.kd)
-        self.ks = pair("ks", self.ks)
+        _check_gains(self)
         self.root_stiffness = pair("root_stiffness", self.root_stiffness, positive=True)
-        self.torque_limit = pair("torque_limit", self.torque_limit, positive=True, allow_inf=True)
 
     def reset(self) -> None:
         """No internal state."""
@@ -128,10 +133,7 @@ class TwoTimeScaleControl:
     needs_links = True
 
     def __post_init__(self) -> None:
-        self.kp = pair("kp", self.kp)
-        self.kd = pair("kd", self.kd)
-        self.ks = pair("ks", self.ks)
-        self.torque_limit = pair("torque_limit", self.torque_limit, positive=True, allow_inf=True)
+        _check_gains(self)
         self.root_stiffness = tuple(b.hinge(self.model.segments)[0] for b in self.model.links)
 
     def reset(self) -> None:
