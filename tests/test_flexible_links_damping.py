@@ -102,17 +102,27 @@ def test_a_zv_shaper_at_the_loops_mode_stops_the_tip_swinging():
     at 1.276 s; shaped at the loop's mode (3.367 Hz, ζ 0.404, Δ = 162 ms) 0.49 mm after
     the shaped move, settled at 1.038 s. A shaper whose delay is off by half does worse."""
     from twolink.arm.links import LinkPlant
+    from twolink.controllers.ctc import ComputedTorque
     from twolink.simulation.links_sim import control_timestep, simulate_links, tip_metrics
 
     p = LINKS.rigid_params(0.0)
     ref = ArmReference(Quintic(final=1.0, duration=1.0), Quintic(final=0.5, duration=1.0))
     plant = LinkPlant.build(LINKS, g=0.0, timestep=control_timestep(LINKS, 1e-3))
 
-    def measured(reference, rest):
-        run = simulate_links(plant, TwoTimeScaleControl(LINKS, reference, ks=0.0), 2.5)
+    def measured(reference, rest, law=TwoTimeScaleControl):
+        controller = law(LINKS, reference, ks=0.0) if law is TwoTimeScaleControl else law
+        run = simulate_links(plant, controller, 2.5)
+        hubs.append(np.abs(run.trajectory.e).max())
         return tip_metrics(run, p, rest)
 
+    hubs: list[float] = []
+    ctc = measured(ref, 1.0, ComputedTorque(p, ref, torque_limit=np.inf))
     plain = measured(ref, 1.0)
+    assert ctc.residual_vibration == pytest.approx(4.90e-3, abs=5e-5)
+    assert ctc.vibration_settling_time == pytest.approx(1.205, abs=2e-3)
+    assert ctc.tip_error == pytest.approx(42.5e-3, abs=1e-4)
+    assert plain.tip_error == pytest.approx(33.9e-3, abs=1e-4)
+    assert hubs[0] == pytest.approx(0.0484, abs=5e-4) and hubs[1] < 2.3e-3  # CTC's, ours
     shaped_ref = zv_shaped(ref, 3.367, 0.404)
     delay = shaped_ref.joint1.delay
     assert delay == pytest.approx(0.162, abs=5e-4)
@@ -121,6 +131,7 @@ def test_a_zv_shaper_at_the_loops_mode_stops_the_tip_swinging():
     assert plain.vibration_settling_time == pytest.approx(1.276, abs=2e-3)
     assert shaped.residual_vibration == pytest.approx(0.49e-3, abs=5e-5)
     assert shaped.vibration_settling_time == pytest.approx(1.038, abs=2e-3)
+    assert shaped.tip_error == pytest.approx(28.7e-3, abs=1e-4)
     for scale in (0.5, 1.5):  # the delay's mutants
         wrong = ArmReference(*(ZVShaped(j, 3.367 / scale, 0.404) for j in (ref.joint1, ref.joint2)))
         off = measured(wrong, 1.0 + wrong.joint1.delay)
