@@ -149,3 +149,98 @@ def test_shipped_soft_links_bend_as_the_docs_say():
     bend = np.linalg.norm(run.tip - run.rigid_tip(s.arm), axis=1)
     assert run.trajectory.t[bend.argmax()] == pytest.approx(0.198)
     assert bend.max() == pytest.approx(0.344, abs=5e-4)
+
+
+def _bent_strips(path) -> list:
+    from rerun.chunk import RrdReader
+
+    strips = []
+    for chunk in RrdReader(path).store().stream():
+        if chunk.entity_path.strip("/").endswith("arm/bent") and not chunk.is_static:
+            batch = chunk.to_record_batch()
+            name = next(n for n in batch.schema.names if n.endswith(":strips"))
+            strips += batch.column(name).to_pylist()
+    return strips
+
+
+def test_twolink_run_writes_the_tip_metrics_and_draws_the_bent_links(tmp_path):
+    """`twolink run` on bending links: metrics.json's ``tip`` holds the tip's measures by
+    their keys (those of the API, in metres and seconds) and the recording draws the bent
+    strip; a rigid run has neither."""
+    import json
+
+    from click.testing import CliRunner
+
+    from twolink.foundation.io import to_toml
+    from twolink.interface.cli import main
+    from twolink.simulation.experiment import TRACE_EVERY
+    from twolink.simulation.links_sim import scenario_tip_metrics
+    from twolink.simulation.vocabulary import TIP_METRICS
+
+    data = _data(ei=300.0, hub_inertia=[0.4, 0.08], tip_mass=[0.5, 0.1]) | {"duration": 1.5}
+    (tmp_path / "s.toml").write_text(to_toml(data))
+    rigid = {k: v for k, v in data.items() if k != "arm"} | {"arm": {"g": 0.0}}
+    (tmp_path / "r.toml").write_text(to_toml(rigid))
+    printed = {}
+    for name in ("s", "r"):
+        args = ["run", str(tmp_path / f"{name}.toml"), "--out", str(tmp_path / name), "--no-plots"]
+        result = CliRunner().invoke(main, args)
+        assert result.exit_code in (0, 1), result.output
+        printed[name] = result.output
+    written = json.loads((tmp_path / "s" / "metrics.json").read_text())
+    s = scenario_from_dict(data)
+    run = run_links(s, build_controller(s))
+    expected = scenario_tip_metrics(s, run)
+    # by hand: the deflection from the reference's end (0.8 s) on, off the plant's rods
+    after = run.trajectory.t >= 0.8
+    deflection = np.linalg.norm(run.tip - run.rigid_tip(s.plant_params), axis=1)
+    assert expected.residual_vibration == pytest.approx(deflection[after].max(), rel=1e-12)
+    assert set(written["tip"]) == {m.key for m in TIP_METRICS}
+    assert written["tip"]["residual_vibration_m"] == pytest.approx(expected.residual_vibration)
+    assert written["tip"]["tip_error_m"] == pytest.approx(expected.tip_error)
+    assert 1e-4 < expected.residual_vibration < expected.tip_error  # a move that bends
+    mm = f"{1e3 * expected.residual_vibration:.4g} mm"
+    assert "residual_vibration_m" in printed["s"] and mm in printed["s"]
+    assert "residual_vibration_m" not in printed["r"]
+    strips = _bent_strips(tmp_path / "s" / "trace.rrd")
+    assert len(strips) == len(range(0, round(s.duration / s.control_dt) + 1, TRACE_EVERY))
+    assert "tip" not in json.loads((tmp_path / "r" / "metrics.json").read_text())
+    assert _bent_strips(tmp_path / "r" / "trace.rrd") == []
+
+
+def test_plant_scale_ei_stiffens_the_simulated_links_not_the_model():
+    """[plant.scale] ei: the plant's E I times the factor (a sweep draws it as ei_scale);
+    the scenario's [arm.links] (the laws' model) keeps its own; a rigid arm refuses it."""
+    s = scenario_from_dict(_data(ei=[1e3, 500.0]) | {"plant": {"scale": {"ei": 0.5}}})
+    assert [b.ei for b in plant_links(s).links] == [500.0, 250.0]
+    assert [b.ei for b in s.links.links] == [1e3, 500.0]
+    assert plant_links(scenario_from_dict(_data(ei=1e3))).link1.ei == 1e3
+    rigid = _data()
+    del rigid["arm"]["links"]
+    with pytest.raises(ConfigError, match=r"plant\.scale\.ei"):
+        scenario_from_dict(rigid | {"plant": {"scale": {"ei": 0.5}}})
+    with pytest.raises(ConfigError, match=r"plant\.scale"):
+        scenario_from_dict(_data() | {"plant": {"scale": {"ei": -1.0}}})
+
+
+def test_a_sweep_draws_the_links_stiffness_and_payload(tmp_path):
+    from twolink.foundation.io import to_toml
+    from twolink.sweep.plan import load_sweep
+
+    (tmp_path / "base.toml").write_text(to_toml(_data(ei=1e3)))
+    (tmp_path / "links.toml").write_text(
+        'name = "links"\nscenario = "base.toml"\nsamples = 3\nseed = 1\n'
+        '[parameters]\nei_scale = { dist = "uniform", low = 0.5, high = 2.0 }\n'
+        'payload = { dist = "uniform", low = 0.0, high = 0.3 }\n'
+        '[controllers.CTC]\nkind = "ctc"\n'
+    )
+    plan = load_sweep(tmp_path / "links.toml")
+    drawn = []
+    for i in range(3):
+        values, seed = plan.draw(i)
+        s = scenario_from_dict(plan.sample_data(values, seed))
+        assert plant_links(s).link1.ei == pytest.approx(1e3 * values["ei_scale"])
+        assert s.plant.payload == pytest.approx(values["payload"])
+        assert s.links.link1.ei == 1e3  # the laws' model keeps the nominal links
+        drawn.append(values["ei_scale"])
+    assert len(set(drawn)) == 3 and all(0.5 <= v <= 2.0 for v in drawn)

@@ -152,6 +152,29 @@ class FlexibleLinks:
         l1, l2 = self.links
         return ArmParams(m1=l1.mass, m2=l2.mass, l1=l1.length, l2=l2.length, g=g)
 
+    def rigid_body_terms(
+        self, q1: float, q2: float, w1: float, w2: float, g: float = 0.0
+    ) -> tuple[float, float, float, float, float]:
+        """The arm with its links held straight, hubs and tip masses included, as
+        :func:`twolink.arm.dynamics.terms` gives the rods alone: (M11, M12, M22, H1 + G1,
+        H2 + G2). A hub's inertia is its joint's armature (M_ii only); each link is its
+        rod (m L² / 3 about the hub, centre at L / 2) and a point mass at its end."""
+        b1, b2 = self.links
+        m2 = b2.mass + b2.tip_mass
+        first1 = b1.mass * b1.length / 2 + b1.tip_mass * b1.length  # m c about the hub
+        first2 = b2.mass * b2.length / 2 + b2.tip_mass * b2.length
+        inertia1 = (b1.mass / 3 + b1.tip_mass) * b1.length**2
+        inertia2 = (b2.mass / 3 + b2.tip_mass) * b2.length**2
+        a = b1.length * first2
+        c2 = math.cos(q2)
+        m22 = inertia2
+        m12 = m22 + a * c2
+        m11 = inertia1 + m2 * b1.length**2 + m22 + 2 * a * c2 + b1.hub_inertia
+        h = a * math.sin(q2)
+        g2 = first2 * math.cos(q1 + q2) * g
+        g1 = (first1 + m2 * b1.length) * math.cos(q1) * g + g2
+        return m11, m12, m22 + b2.hub_inertia, g1 - h * (2 * w1 * w2 + w2 * w2), g2 + h * w1 * w1
+
 
 @dataclass(frozen=True)
 class LinkLayout:
@@ -257,24 +280,37 @@ def build_links_spec(
     ``payload`` [kg] added to link 2's tip mass, motors ``tau1``, ``tau2`` on the hubs,
     a site ``tip`` at link 2's end. RK4 at ``timestep`` (the hinges are stiff: see
     :func:`stable_timestep`)."""
+    spec = new_spec(timestep, g, "twolink_flexible_links")
+    add_links_arm(spec, links, payload, visual=visual, motors=motors)
+    return spec
+
+
+def add_links_arm(
+    spec: mujoco.MjSpec,
+    links: FlexibleLinks,
+    payload: float = 0.0,
+    prefix: str = "",
+    visual: bool = True,
+    motors: bool = True,
+) -> None:
+    """Add the flexible-link arm to ``spec`` at the world's origin, every name under
+    ``prefix`` (the batch engine's ``arm{i}_``): what :func:`build_links_spec` builds."""
     if not (payload >= 0 and np.isfinite(payload)):
         raise ValueError(f"payload must be a finite mass >= 0, got {payload!r}")
-    spec = new_spec(timestep, g, "twolink_flexible_links")
     n = links.segments
-    tip1 = add_link(spec.worldbody, links.link1, n, 1, visual=visual)
+    tip1 = add_link(spec.worldbody, links.link1, n, 1, prefix=prefix, visual=visual)
     beam2 = links.link2
     if payload:
         beam2 = LinkBeam(**{**_fields(beam2), "tip_mass": beam2.tip_mass + payload})
     end1 = pieces(links.link1, n)[-1][1]
-    tip2 = add_link(tip1, beam2, n, 2, pos=(end1, 0.0, 0.0), visual=visual)
+    tip2 = add_link(tip1, beam2, n, 2, pos=(end1, 0.0, 0.0), prefix=prefix, visual=visual)
     end2 = pieces(beam2, n)[-1][1]
-    tip2.add_site(name="tip", pos=[end2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
+    tip2.add_site(name=f"{prefix}tip", pos=[end2, 0, 0], size=[ROD_RADIUS * 1.5, 0, 0])
     if motors:
         for i in (1, 2):
-            act = spec.add_actuator(name=f"tau{i}", target=f"theta{i}")
+            act = spec.add_actuator(name=f"{prefix}tau{i}", target=f"{prefix}theta{i}")
             act.trntype = mujoco.mjtTrn.mjTRN_JOINT
             act.set_to_motor()
-    return spec
 
 
 def _fields(beam: LinkBeam) -> dict[str, float]:

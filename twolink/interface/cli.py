@@ -43,7 +43,13 @@ from twolink.interface.cli_options import (
     set_option,
     workers_option,
 )
-from twolink.interface.cli_output import done_line, format_metrics, own_output, sweep_exits
+from twolink.interface.cli_output import (
+    done_line,
+    format_metrics,
+    format_tip_metrics,
+    own_output,
+    sweep_exits,
+)
 from twolink.interface.cli_output import fail_input as _fail_input
 
 
@@ -197,7 +203,15 @@ def run(
                 "of the (e, de) input box; there the fuzzy term is 0 (CTC alone acts)",
                 err=True,
             )
-    traj = run_scenario(s, controller, plant)
+    tip, bent = None, None
+    if s.links is None:
+        traj = run_scenario(s, controller, plant)
+    else:  # links that bend: the tip's measures and the bent arm's points too
+        from twolink.simulation.links_sim import run_links, scenario_tip_metrics
+
+        link_run = run_links(s, controller)
+        traj, tip = link_run.trajectory, scenario_tip_metrics(s, link_run).to_dict()
+        bent = {"bent": link_run.points}
     metrics = measure(s, traj, controller)
     folder = write_run(
         folder,
@@ -207,10 +221,14 @@ def run(
         plots=not no_plots,
         trace=not no_trace,
         controller=controller,
+        more_metrics={"tip": tip} if tip is not None else None,
+        more_extras=bent,
     )
     from twolink.simulation.outcome import SuccessSpec, classify_run, reasons, settling_window
 
     click.echo(format_metrics(metrics))
+    if tip is not None:
+        click.echo(format_tip_metrics(tip))
     spec = SuccessSpec()
     click.echo(
         f"outcome: {classify_run(s, metrics, spec)} (spec: the reference finished, every "

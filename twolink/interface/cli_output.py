@@ -63,6 +63,20 @@ def format_metrics(metrics) -> str:
     return "\n".join(lines)
 
 
+def format_tip_metrics(tip: dict[str, float]) -> str:
+    """The tip's measures of links that bend (their keys, as in ``metrics.json``'s ``tip``):
+    one line each, with the symbol, in mm and ms where the key is in m and s."""
+    from twolink.simulation.vocabulary import TIP_METRICS, format_value
+
+    lines = [f"{'tip metric':26s} {'symbol':10s} {'value':>10s}"]
+    for m in TIP_METRICS:
+        scale, unit = {"m": (1e3, "mm"), "s": (1e3, "ms")}[m.unit]
+        cell = format_value(tip[m.key] * scale, 4)
+        cell += f" {unit}" if cell != "—" else ""
+        lines.append(f"{m.key:26s} {m.symbol:10s} {cell:>10s}")
+    return "\n".join(lines)
+
+
 # Python's start-up and its imports before twolink's take well under this (about 0.1-2 s)
 START_UP_BOUND_S = 5.0
 

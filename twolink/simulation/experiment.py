@@ -251,10 +251,18 @@ def iter_scenarios(
         raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
     controllers = controllers or [build_controller(s) for s in scenarios]
     if model_g is None:
-        model_g = model_gravity([s.plant_params.g for s in scenarios])
+        model_g = model_gravity([s.plant_params.g for s in scenarios if s.links is None])
+    bending = [i for i, s in enumerate(scenarios) if s.links is not None]
+    if bending:  # links that bend: their own batches (twolink.simulation.links_sim)
+        if backend != "cpu":
+            raise ValueError(f"links that bend ([arm.links]) run on the cpu backend, not {backend}")
+        from twolink.simulation.links_sim import iter_links_scenarios
+
+        yield from iter_links_scenarios(scenarios, controllers, bending)
     groups: dict[tuple[float, float, Sensor], list[int]] = {}
     for i, s in enumerate(scenarios):
-        groups.setdefault((s.timestep, s.control_dt, s.sensor), []).append(i)
+        if s.links is None:
+            groups.setdefault((s.timestep, s.control_dt, s.sensor), []).append(i)
     for (timestep, control_dt, sensor), members in groups.items():
         cost = max(_arm_bytes(scenarios[i], control_dt, record_bytes) for i in members)
         size = max(1, BATCH_RECORD_BYTES // cost)

@@ -11,7 +11,8 @@ called ``controller(t, q, qd, bends, bend_rates)`` with the hinge angles and rat
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -138,6 +139,13 @@ class TipMetrics:
     residual_vibration: float
     vibration_settling_time: float
 
+    def to_dict(self) -> dict[str, float]:
+        """Each measure by its key in outputs (:data:`twolink.simulation.vocabulary.TIP_METRICS`,
+        unit included: ``tip_error_m``, ...)."""
+        from twolink.simulation.vocabulary import TIP_METRICS
+
+        return {m.key: float(getattr(self, m.source)) for m in TIP_METRICS}
+
 
 def tip_metrics(
     run: LinkRun, p: ArmParams, rest_time: float, band: float = 1e-3, window: float = 0.5
@@ -162,16 +170,67 @@ def tip_metrics(
     return TipMetrics(float(off_ref.max()), float(off_ref[-1]), residual, settle)
 
 
+def scenario_tip_metrics(s: Scenario, run: LinkRun) -> TipMetrics:
+    """:func:`tip_metrics` of a scenario's run: against the plant's rigid rods (where its
+    straight links would put the tip), at rest from the reference's end on
+    (:func:`twolink.simulation.outcome.reference_end`), the default band and window."""
+    from twolink.simulation.outcome import reference_end
+
+    return tip_metrics(run, s.plant_params, reference_end(s.reference))
+
+
 def run_links(s: Scenario, controller: Controller) -> LinkRun:
     """A scenario with ``[arm.links]``: its plant's links (:func:`plant_links`,
     its gravity and payload) from straight and at rest at ``q0``, ``qd0``, a physics step
     that divides ``control_dt`` (:func:`control_timestep`, at most ``timestep``)."""
     links = plant_links(s)
-    dt = control_timestep(links, s.control_dt)
+    plant = LinkPlant.build(links, s.plant_params.g, s.plant.payload, timestep=links_timestep(s))
+    return simulate_links(plant, controller, s.duration, s.control_dt, s.q0, s.qd0)
+
+
+def links_timestep(s: Scenario) -> float:
+    """The physics step of a scenario's bending links: :func:`control_timestep`, at most
+    the scenario's ``timestep``, a whole fraction of ``control_dt`` either way."""
+    dt = control_timestep(plant_links(s), s.control_dt)
     if dt > s.timestep:
         dt = s.control_dt / math.ceil(s.control_dt / s.timestep - 1e-9)
-    plant = LinkPlant.build(links, s.plant_params.g, s.plant.payload, timestep=dt)
-    return simulate_links(plant, controller, s.duration, s.control_dt, s.q0, s.qd0)
+    return dt
+
+
+LINKS_BATCH = 64  # arms per model: past it a batch saves nothing (bench_flexible_links.py)
+
+
+def iter_links_scenarios(
+    scenarios: Sequence[Scenario], controllers: Sequence[Controller], members: Sequence[int]
+):
+    """``(i, trajectory)`` of the scenarios ``members`` (all with ``[arm.links]``), run in
+    batches (:func:`simulate_links_batch`) of the arms that share a physics step, control
+    period, gravity and duration (at most :data:`LINKS_BATCH` arms a model): each equals
+    :func:`run_links`'s trajectory."""
+    groups: dict[tuple[float, float, float, float], list[int]] = {}
+    for i in members:
+        s = scenarios[i]
+        key = (links_timestep(s), s.control_dt, s.plant_params.g, s.duration)
+        groups.setdefault(key, []).append(i)
+    batches = [
+        (key, members[start : start + LINKS_BATCH])
+        for key, members in groups.items()
+        for start in range(0, len(members), LINKS_BATCH)
+    ]
+    for (dt, control_dt, g, duration), batch in batches:
+        arms = [(plant_links(scenarios[i]), scenarios[i].plant.payload) for i in batch]
+        runs = simulate_links_batch(
+            arms,
+            [controllers[i] for i in batch],
+            duration,
+            control_dt,
+            dt,
+            g,
+            q0=[scenarios[i].q0 for i in batch],
+            qd0=[scenarios[i].qd0 for i in batch],
+        )
+        for i, run in zip(batch, runs, strict=True):
+            yield i, run.trajectory
 
 
 # ----------------------------------------------------------------------------- [arm.links]
@@ -216,6 +275,10 @@ def check_links(top, scenario, flexible_kinds: tuple[str, ...]):
     """``scenario`` back, where its bending links (if any) are runnable; else the error that
     names the key: such a run starts straight, sees the truth, with a law of the hub angles."""
     if scenario.links is None:
+        if "ei" in scenario.plant.scale:
+            top.fail(
+                "plant.scale.ei", "scales the bending links ([arm.links]), and this arm has none"
+            )
         return scenario
     for key, there in (
         ("plant.flexibility", scenario.plant.flexibility is not None),
@@ -232,5 +295,154 @@ def check_links(top, scenario, flexible_kinds: tuple[str, ...]):
 
 def plant_links(s) -> FlexibleLinks | None:
     """The simulated arm's bending links: ``[arm.links]`` on the rods of the scenario's
-    ``plant_params`` (ρ A = m / l, L = l); None where the links are rigid."""
-    return None if s.links is None else s.links.with_arm(s.plant_params)
+    ``plant_params`` (ρ A = m / l, L = l), each E I times ``[plant.scale]`` ``ei``; None
+    where the links are rigid."""
+    if s.links is None:
+        return None
+    links = s.links.with_arm(s.plant_params)
+    factor = s.plant.scale.get("ei", 1.0)
+    if factor == 1.0:
+        return links
+    stiffer = [replace(b, ei=b.ei * factor) for b in links.links]
+    return replace(links, link1=stiffer[0], link2=stiffer[1])
+
+
+# ------------------------------------------------------------------------- the batch engine
+
+
+class LinkBatch:
+    """Many flexible-link arms in one MuJoCo model, stepped in lockstep: the batch engine
+    (:mod:`twolink.simulation.batch`) for links that bend. Arm i's names carry the prefix
+    ``arm{i}_``; its hub and hinge addresses come from its joints' names (the arms may
+    have different N). The arms are separate trees without contacts, so each moves as
+    alone. Torques enter as applied forces at the hubs, as the single arm's gear-1
+    motors add them."""
+
+    def __init__(
+        self, arms: Sequence[tuple[FlexibleLinks, float]], g: float, timestep: float
+    ) -> None:
+        from twolink.arm.links import add_links_arm
+        from twolink.arm.plant import mujoco, new_spec
+
+        if not arms:
+            raise ValueError("a batch needs at least one arm")
+        spec = new_spec(timestep, g, "twolink_links_batch")
+        for i, (links, payload) in enumerate(arms):
+            add_links_arm(spec, links, payload, prefix=f"arm{i}_", visual=False, motors=False)
+        self.model = spec.compile()
+        self.data = mujoco.MjData(self.model)
+        self.dt = float(self.model.opt.timestep)
+        self.segments = [links.segments for links, _ in arms]
+        m = self.model
+        self.hubs = np.array([[m.joint(f"arm{i}_theta{k}").dofadr[0] for k in (1, 2)]
+                              for i in range(len(arms))])  # fmt: skip
+        self.bends = [
+            np.array(
+                [
+                    [m.joint(f"arm{i}_bend{k}_{j}").dofadr[0] for j in range(1, n + 1)]
+                    for k in (1, 2)
+                ]
+            )  # fmt: skip
+            for i, n in enumerate(self.segments)
+        ]
+        # Each arm's bodies in tree order (hubs, hinges) and its tip site: its points.
+        self.bodies = [
+            np.array([m.body(f"arm{i}_link{k}_{j}").id for k in (1, 2) for j in range(n + 1)])
+            for i, n in enumerate(self.segments)
+        ]
+        self.tips = np.array([m.site(f"arm{i}_tip").id for i in range(len(arms))])
+        # every dof of arm i (to freeze it): its hubs and hinges
+        self.dofs = [np.concatenate([self.hubs[i], b.ravel()]) for i, b in enumerate(self.bends)]
+
+    def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
+        """Time 0, arm i's hubs at ``q0[i]``, ``qd0[i]``, its links straight and at rest.
+        (qpos and qvel share addresses: hinge joints only.)"""
+        from twolink.arm.plant import mujoco
+
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.qpos[self.hubs] = q0
+        self.data.qvel[self.hubs] = qd0
+        mujoco.mj_forward(self.model, self.data)
+
+    def freeze(self, i: int) -> None:
+        """Hold arm i straight at rest at zero with no torque."""
+        self.data.qpos[self.dofs[i]] = 0.0
+        self.data.qvel[self.dofs[i]] = 0.0
+        self.data.qfrc_applied[self.hubs[i]] = 0.0
+
+    def points(self, i: int) -> np.ndarray:
+        """Arm i's hubs, hinges and tip in the paper's plane (after the kinematics)."""
+        p = np.concatenate([self.data.xpos[self.bodies[i]], self.data.site_xpos[[self.tips[i]]]])
+        return p[:, [0, 2]]
+
+
+def simulate_links_batch(
+    arms: Sequence[tuple[FlexibleLinks, float]],
+    controllers: Sequence[Controller],
+    duration: float,
+    control_dt: float,
+    timestep: float,
+    g: float = 0.0,
+    q0=None,
+    qd0=None,
+    bounds: Bounds = Bounds(),  # noqa: B008 - frozen, as simulate()'s
+) -> list[LinkRun]:
+    """:func:`simulate_links` for many arms ``(links, payload)`` at once, arm i under
+    ``controllers[i]``, all at one ``timestep`` and gravity ``g``, from hubs at ``q0[i]``,
+    ``qd0[i]`` (default 0). An arm that leaves its bounds stops there as "diverged", as
+    alone, and is then frozen; the others run on."""
+    from twolink.arm.plant import mujoco
+
+    batch = LinkBatch(arms, g, timestep)
+    n_arms = len(arms)
+    q0 = np.zeros((n_arms, 2)) if q0 is None else np.asarray(q0, dtype=float)
+    qd0 = np.zeros((n_arms, 2)) if qd0 is None else np.asarray(qd0, dtype=float)
+    n, substeps = control_steps(duration, control_dt, batch.dt)
+    batch.reset(q0, qd0)
+    for c in controllers:
+        c.reset()
+    aware = [bool(getattr(c, "needs_links", False)) for c in controllers]
+    rows: list[list] = [[] for _ in range(n_arms)]
+    kept: list[list] = [[] for _ in range(n_arms)]
+    ended = [(STATUS_OK, "")] * n_arms
+    active = list(range(n_arms))
+    data = batch.data
+    for k in range(n + 1):
+        t = k * control_dt
+        mujoco.mj_kinematics(batch.model, data)
+        for i in list(active):
+            (q1, q2), (w1, w2) = data.qpos[batch.hubs[i]], data.qvel[batch.hubs[i]]
+            q1, q2, w1, w2 = float(q1), float(q2), float(w1), float(w2)
+            stop = None
+            bends = data.qpos[batch.bends[i]]
+            if not (max(abs(q1), abs(q2)) < bounds.angle and max(abs(w1), abs(w2)) < bounds.rate):
+                stop = (STATUS_DIVERGED, state_message(t, q1, q2, w1, w2))
+                if not rows[i]:
+                    rows[i].append((t, q1, q2, w1, w2, math.nan, math.nan))
+                    kept[i].append((batch.points(i), bends.copy()))
+            else:
+                if aware[i]:
+                    rates = data.qvel[batch.bends[i]]
+                    tau = controllers[i](t, (q1, q2), (w1, w2), bends.copy(), rates.copy())
+                else:
+                    tau = controllers[i](t, (q1, q2), (w1, w2))
+                tau1, tau2 = float(tau[0]), float(tau[1])
+                rows[i].append((t, q1, q2, w1, w2, tau1, tau2))
+                kept[i].append((batch.points(i), bends.copy()))
+                data.qfrc_applied[batch.hubs[i]] = (tau1, tau2)
+                if not (abs(tau1) < bounds.torque and abs(tau2) < bounds.torque):
+                    stop = (STATUS_DIVERGED, torque_message(t, tau1, tau2))
+            if stop is not None:
+                ended[i] = stop
+                active.remove(i)
+                batch.freeze(i)
+        if k == n or not active:
+            break
+        for _ in range(substeps):
+            mujoco.mj_step(batch.model, data)
+    runs = []
+    for i in range(n_arms):
+        traj = _trajectory(rows[i], [], ended[i][0], ended[i][1], controllers[i])
+        points = np.array([p for p, _ in kept[i]])
+        runs.append(LinkRun(traj, points[:, -1].copy(), np.array([b for _, b in kept[i]]), points))
+    return runs

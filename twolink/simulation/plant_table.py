@@ -23,6 +23,7 @@ TomlTable = Any
 SPRING_STARTS = ("holding", "relaxed")
 ARM_SCALE_KEYS = ("g", "l1", "l2", "m1", "m2")  # [plant.scale] factors on [arm]
 JOINT_SCALE_KEYS = ("j", "k")  # [plant.scale] factors on [plant.flexibility]: model error
+LINK_SCALE_KEYS = ("ei",)  # [plant.scale] factor on [arm.links] ei: the links' stiffness
 
 
 @dataclass(frozen=True)
@@ -42,7 +43,7 @@ def read_plant(t: TomlTable) -> PlantConfig:
     """``[plant]`` of a scenario (docs/scenarios.md)."""
     scale_t = t.table("scale")
     scale = {}
-    known = sorted(ARM_SCALE_KEYS + JOINT_SCALE_KEYS)
+    known = sorted(ARM_SCALE_KEYS + JOINT_SCALE_KEYS + LINK_SCALE_KEYS)
     for key in list(scale_t.data):
         if key not in known:
             scale_t.fail(key, f"unknown key (known here: {known})")

@@ -30,6 +30,7 @@ __all__ = [
     "split_by_scale",
     "METRICS",
     "STEP_KEYS",
+    "TIP_METRICS",
     "Metric",
     "format_value",
     "joint_values",
@@ -186,6 +187,14 @@ METRICS: tuple[Metric, ...] = (
     Metric("max_twist_rad", "twist", "rad", "max_twist"),  # flexible joints; NaN if rigid
 )
 STEP_KEYS = tuple(m.key for m in METRICS if m.source.startswith("step."))
+# The tip of links that bend ([arm.links]): the arm's measures, not a joint's; ``source``
+# is a field of twolink.simulation.links_sim.TipMetrics. NaN (null) for rigid links.
+TIP_METRICS: tuple[Metric, ...] = (
+    Metric("tip_error_m", "max|Δtip|", "m", "tip_error"),
+    Metric("final_tip_error_m", "|Δtip|(T)", "m", "final_tip_error"),
+    Metric("residual_vibration_m", "w res", "m", "residual_vibration"),
+    Metric("vibration_settling_time_s", "Ts tip", "s", "vibration_settling_time"),
+)
 # The paper's claim (section 4): FCM reduces peak, delay, rise and settling time and
 # overshoot, and steady-state error, compared with CTC. Which of the manifest's
 # controllers play the two roles is the manifest's ``proposed`` and ``baseline``.
@@ -199,7 +208,7 @@ CLAIMED_BETTER = (
     "steady_state_error_rad",
 )
 
-_BY_KEY = {m.key: m for m in METRICS}
+_BY_KEY = {m.key: m for m in METRICS + TIP_METRICS}
 
 
 def metric(key: str) -> Metric:

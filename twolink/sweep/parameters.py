@@ -34,6 +34,7 @@ PARAMETERS: Mapping[str, str] = {
     "zeta_joint": "nonnegative",  # the joints' damping ratio: d = 2 zeta sqrt(k j)
     "k_scale": "positive",  # plant.scale.k: the plant's stiffness / the controllers' model
     "j_scale": "positive",  # plant.scale.j: the same for the rotor inertia
+    "ei_scale": "positive",  # plant.scale.ei: the bending links' E I / the laws' model
     "wn": "positive",  # the controllers' bandwidth [rad/s], zeta = 1
     **FRICTION_NAMES,  # joint friction over the base's [plant.friction]
 }  # fmt: skip

@@ -265,7 +265,7 @@ class SweepPlan:
         """The scenario data of a sample: the base with the drawn plant."""
         plant: dict[str, Any] = {}
         scale = {n: v for n, v in values.items() if n in SCALE_PARAMETERS}
-        for joint_scale in ("k", "j"):  # model error of the joints
+        for joint_scale in ("k", "j", "ei"):  # model error of the joints, the links
             if f"{joint_scale}_scale" in values:
                 scale[joint_scale] = values[f"{joint_scale}_scale"]
         if "mass" in values:  # the model mismatch of both links at once

@@ -30,6 +30,7 @@ from twolink.foundation.io import (
 )
 from twolink.simulation.config import BUILTIN_RULE_BASES, Scenario, resolve_rule_base
 from twolink.simulation.experiment import TRACE_EVERY, RunMetrics, trace_extras
+from twolink.simulation.metrics import to_jsonable
 from twolink.simulation.outcome import classify_run
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import CONTROLLER_LABELS
@@ -103,6 +104,8 @@ def write_run(
     prefix: str = "run",
     name: str | None = None,
     centre_labels: Any = (),
+    more_metrics: dict[str, Any] | None = None,
+    more_extras: dict[str, Any] | None = None,
 ) -> Path:
     """Write one run's folder: config.toml, trajectory.npz, metrics.json, PNG plots and a
     rerun recording ``trace.rrd`` (of the run under ``prefix``).
@@ -113,7 +116,9 @@ def write_run(
     Only the run's own files are replaced: a folder holding anything else is refused
     (:class:`~twolink.foundation.io.ForeignOutput`). ``name`` is the controller's name in
     the outputs (default: its kind's label); ``centre_labels`` name the FCM ``centres`` in
-    the recording (the reproduction: each centre's kept rule)."""
+    the recording (the reproduction: each centre's kept rule). ``more_metrics`` join
+    ``metrics.json`` (links that bend: the tip's measures), ``more_extras`` the recording's
+    extras (links that bend: ``bent``, their points)."""
     out = Path(out)
     name = name or CONTROLLER_LABELS.get(s.controller.kind, s.controller.kind)
     check_run_folder(out)
@@ -122,7 +127,8 @@ def write_run(
     with scratch_folder(out / "run") as tmp, _named_in(out):
         atomic_write_text(tmp / "config.toml", to_toml(portable_config(s, out)))
         traj.save(tmp / "trajectory.npz")
-        atomic_write_json(tmp / "metrics.json", metrics.to_dict(name, classify_run(s, metrics)))
+        summary = metrics.to_dict(name, classify_run(s, metrics)) | to_jsonable(more_metrics or {})
+        atomic_write_json(tmp / "metrics.json", summary)
         if plots:  # matplotlib and rerun load only when asked for
             from twolink.figures.plots import save_run_plots
 
@@ -134,7 +140,7 @@ def write_run(
                 trace_extras(controller, traj, centres, centre_labels)
                 if controller is not None
                 else {}
-            )
+            ) | (more_extras or {})
             write_recording(
                 tmp / "trace.rrd", [(prefix, traj, s.plant_params, extras)], every=TRACE_EVERY
             )
