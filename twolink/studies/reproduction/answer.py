@@ -44,12 +44,15 @@ def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
             name: (f"claims{'' if name == study.baseline else '_matched'}{suffix}.csv", t)
             for name, t in study.claims.items()
         }
+        tuned = getattr(study, "tuned", {})  # the tuned laws' rows (claims_tuned*.csv)
+        files |= {name: (f"claims_tuned{suffix}.csv", t) for name, t in tuned.items()}
         name, defined = REGIME_NAMES.get(suffix, ("", ""))
         sweep = f"claims_study{suffix}"
         effort = {o: _effort_rows(study.every, study.proposed, o) for o in study.claims}
         out.append(
             Judged(study.label, study.plants, study.proposed, files, sweep, name, defined,
-                   effort={o: t for o, t in effort.items() if len(t)})
+                   effort={o: t for o, t in effort.items() if len(t)},
+                   ranking=getattr(study, "ranking", None))
         )  # fmt: skip
     return out
 
@@ -98,7 +101,11 @@ def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> l
         "training plants and on these (docs/reproduction.md; its rows include the effort)",
     }
     names = dict.fromkeys(n for s in studies for n in s.tables)
-    opponents = {n: what.get(n, "an opponent of the manifest") for n in names}
+    tuned = {n for s in studies for n, (f, _) in s.tables.items() if f.startswith("claims_tuned")}
+    law = 'a law of the field tuned by CTC-best\'s rule (docs/reproduction.md, "The ranking")'
+    opponents = {
+        n: law if n in tuned else what.get(n, "an opponent of the manifest") for n in names
+    }
     text = summary(studies, opponents, question(manifest))
     atomic_write_text(out / "summary.md", text)
     lines = text.splitlines()
