@@ -339,6 +339,12 @@ def test_the_scoreboard_ranks_by_median_iae_and_names_a_best_only_where_it_is_cl
     assert best_in(clear) == "fast"
     fig = scoreboard_figure([("quintic moves", board)])
     assert len(fig.axes) == 6 and "best: none clear" in fig.axes[0].get_title()
+    # every controller of the sweep is drawn; "(over effort)" only beside those named so
+    fig = scoreboard_figure([("quintic moves", board)], over={"quintic moves": {"fast"}})
+    names = [t.get_text() for t in fig.axes[0].get_yticklabels()]
+    assert sorted(names) == ["fast (over effort)", "same", "slow"]
+    fig = scoreboard_figure([("quintic moves", board)], over={"lab arm": {"fast"}})
+    assert "fast" in [t.get_text() for t in fig.axes[0].get_yticklabels()]
 
 
 def test_the_first_line_says_what_off_target_counts_and_whether_it_is_expected():

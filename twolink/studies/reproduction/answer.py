@@ -132,8 +132,13 @@ def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:
     tables = [(s.label, {n: t for n, (_, t) in s.tables.items()}) for s in studies]
     plots.save_figure(answer.answer_figure(tables, proposed, title), out / ANSWER_FIGURE)
     boards = [(s.name or s.label, scoreboard(load_results(out / s.sweep))) for s in studies]
+    over = {
+        s.name or s.label: set(s.ranking.loc[~s.ranking["within"].astype(bool), "controller"])
+        for s in studies
+        if s.ranking is not None
+    }
     title = f"Every controller of the claims studies, {plants} plants per regime"
-    plots.save_figure(scoreboard_figure(boards, title), out / SCOREBOARD_FIGURE)
+    plots.save_figure(scoreboard_figure(boards, title, over), out / SCOREBOARD_FIGURE)
     profiles = []
     for s in studies:
         results = load_results(out / s.sweep)
