@@ -436,7 +436,10 @@ def test_an_opponent_over_the_effort_is_never_the_strongest_at_equal_effort():
     assert strongest(regime) == "CTC-best"
     assert list(over_budget(regime)["controller"]) == ["SL-best", "SMC-best"]
     said = " ".join(regime_sentences(regime))
-    assert "CTC-best is the strongest opponent within FCM-CTC's effort." in said
+    assert (
+        "CTC-best is the strongest opponent within FCM-CTC's effort: median IAE1 + IAE2 "
+        "20 mrad·s against FCM-CTC's 80 mrad·s, 4th of 5."
+    ) in said
     assert "SL-best and SMC-best are lower still but spend more than FCM-CTC." in said
     assert "SL-best is the strongest" not in said
     assert "FCM-CTC beats CTC-best on 1 of 12 step metrics" in said  # against the strongest
@@ -448,7 +451,7 @@ def test_the_ranking_follows_the_index_and_places_the_proposed_one_among_all():
     said = ranking_sentence(_ranked_regime(OVER))
     assert said == (
         "Lowest median IAE1 + IAE2: SL-best 5, SMC-best 10 and CTC-best 20 mrad·s; "
-        "FCM-CTC 80 mrad·s, 4 of 5."
+        "FCM-CTC 80 mrad·s, 4th of 5."
     )
     # a unit is said once per run of values that share it, never dropped where it changes
     mixed = _ranked_regime([("FCM-CTC", 2.4, True), ("SL-best", 0.0013, True)])
@@ -464,9 +467,15 @@ def test_a_law_that_failed_on_plants_is_said_to_fail_not_to_spend_more():
 
 def test_with_no_opponent_within_the_effort_none_is_the_strongest():
     rows = [("FCM-CTC", 0.08, True), ("CTC", 0.09, False), ("SL-best", 0.005, False)]
-    said = " ".join(regime_sentences(_ranked_regime(rows, ("CTC", "SL-best"))))
+    from twolink.studies.judgments.plain import ranking_sentence
+
+    regime = _ranked_regime(rows, ("CTC", "SL-best"))
+    said = " ".join(regime_sentences(regime))
     assert "No judged opponent is within FCM-CTC's effort." in said
-    assert "SL-best 5, FCM-CTC 80 and CTC 90 mrad·s (FCM-CTC 2 of 3)." in said  # said once
+    # FCM-CTC among the three: its value said once
+    assert ranking_sentence(regime).endswith(
+        "SL-best 5, FCM-CTC 80 and CTC 90 mrad·s (FCM-CTC 2nd of 3)."
+    )
     assert "SL-best is lower but spends more than FCM-CTC." in said
     assert "strongest" not in said and "lower still" not in said
 
@@ -474,11 +483,11 @@ def test_with_no_opponent_within_the_effort_none_is_the_strongest():
 def test_a_controller_the_answer_does_not_judge_is_ranked_but_never_the_strongest():
     """PD-G has the lowest index but no claims table: it heads the ranking, and the
     strongest opponent is the lowest judged one."""
-    from twolink.studies.judgments.plain import strongest
+    from twolink.studies.judgments.plain import ranking_sentence, strongest
 
     regime = _ranked_regime([*OVER, ("PD-G", 0.001, True)])
     assert strongest(regime) == "CTC-best"
-    assert regime_sentences(regime)[0].startswith("Lowest median IAE1 + IAE2: PD-G 1, SL-best 5")
+    assert ranking_sentence(regime).startswith("Lowest median IAE1 + IAE2: PD-G 1, SL-best 5")
 
 
 def test_three_ranked_regimes_with_five_opponents_stay_within_the_answers_words():
@@ -489,3 +498,12 @@ def test_three_ranked_regimes_with_five_opponents_stay_within_the_answers_words(
     said = answer(studies)
     assert sum(len(s.split()) for s in said) <= MAX_WORDS
     assert all("lower still but spend more" in s for s in said[:3])
+
+
+def test_the_proposed_controllers_place_is_an_english_ordinal():
+    from twolink.studies.judgments.plain import ranking_sentence
+
+    for k, nth in ((1, "1st"), (2, "2nd"), (3, "3rd"), (11, "11th"), (12, "12th"), (21, "21st")):
+        rows = [(f"L{i}", 0.001 * i, True) for i in range(1, k)] + [("FCM-CTC", 0.5, True)]
+        said = ranking_sentence(_ranked_regime(rows, ("L1",) if k > 1 else ("CTC",)))
+        assert f" {nth} of {k}" in said, said

@@ -323,7 +323,7 @@ def ranking_conclusion(studies: Sequence[ClaimsStudy]) -> str | None:
         tables = {**s.claims, **s.tuned}
         effort = {s.baseline: _pair(s.every, s.proposed, s.baseline)}
         regime = Regime(s.label, s.plants, s.proposed, tables, ranking=s.ranking, effort=effort)
-        said = [ranking_sentence(regime), *strongest_sentences(regime)]
+        said = [ranking_sentence(regime), *strongest_sentences(regime, indices=False)]
         over = over_budget(regime)
         if len(over):
             said += strongest_sentences(regime, str(over.iloc[0]["controller"]))

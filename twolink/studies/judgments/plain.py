@@ -23,10 +23,10 @@ Where a regime has its ranking (``ranking.csv``: per controller its ``index``, t
 IAE1 + IAE2 over the plants, and ``within``, its effort medians within the proposed
 controller's), the words follow it by one rule each:
 
-- **the ranking**: the three lowest indices, in the index's order, and the proposed
-  controller's place among all controllers;
+- **the ranking** (the conclusions'): the three lowest indices, in the index's order, and
+  the proposed controller's place among all controllers;
 - **the strongest opponent within the effort**: the judged opponent with the lowest index
-  among those ``within``;
+  among those ``within``, with its index, the proposed controller's and its place;
 - **lower still but spends more**: a judged opponent below it that is not ``within`` (one
   that failed on a plant "fails on k plants" instead); where no judged opponent is
   ``within``, "lower but spends more": one below the proposed controller.
@@ -301,15 +301,14 @@ def _values(pairs: Sequence[tuple[str, float]], key: str) -> str:
 
 def ranking_sentence(regime: Regime, top: int = 3) -> str:
     """'Lowest median IAE1 + IAE2: SL-best 1.3, CTC-I-best 3.3 and CTC-DOB-best 5.5 mrad·s;
-    FCM-CTC 81 mrad·s, 8 of 10.' (the index's order, ties at the same place; the proposed
+    FCM-CTC 81 mrad·s, 8th of 10.' (the index's order, ties at the same place; the proposed
     controller's place in brackets where it is among the three)."""
     t = _ranked(regime)
     lead = [(r.controller, float(r.index)) for r in t.head(top).itertuples()]
     mine = t[t["controller"] == regime.proposed]
     said = f"Lowest median IAE1 + IAE2: {_values(lead, 'iae_rad_s')}"
     if len(mine):
-        index = float(mine["index"].iloc[0])
-        place = f"{1 + int((t['index'] < index).sum())} of {len(t)}"
+        index, place = _place(regime, regime.proposed)
         if regime.proposed in (n for n, _ in lead):  # its value said already
             return f"{said} ({regime.proposed} {place})."
         said += f"; {regime.proposed} {_amount('iae_rad_s', index)}, {place}"
@@ -336,10 +335,22 @@ def _spends(regime: Regime) -> str:
     return "; ".join(parts) + "."
 
 
-def strongest_sentences(regime: Regime, opponent: str | None = None) -> list[str]:
-    """Who the strongest opponent is (:func:`strongest`; with a ranking, those below it
+def _place(regime: Regime, name: str) -> tuple[float, str]:
+    """A controller's index and its place among the ranked ones ('8th of 10')."""
+    t = _ranked(regime)
+    index = float(t.loc[t["controller"] == name, "index"].iloc[0])
+    k = 1 + int((t["index"] < index).sum())
+    nth = "th" if k % 100 in (11, 12, 13) else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+    return index, f"{k}{nth} of {len(t)}"
+
+
+def strongest_sentences(
+    regime: Regime, opponent: str | None = None, indices: bool = True
+) -> list[str]:
+    """Who the strongest opponent is (:func:`strongest`; with a ranking, its index against
+    the proposed controller's and its place unless not ``indices``, and those below it
     that spend more, :func:`over_budget`) and who wins against it; ``opponent``: another
-    judged opponent instead, said with its place."""
+    judged opponent instead."""
     best = strongest(regime)
     o = opponent or best
     if o is None:
@@ -348,9 +359,12 @@ def strongest_sentences(regime: Regime, opponent: str | None = None) -> list[str
     if o != best:
         called = ""
     elif ranked:
-        called = " ".join(
-            x for x in (f"{o} is the strongest opponent within {p}'s effort.", _spends(regime)) if x
-        )
+        called = f"{o} is the strongest opponent within {p}'s effort."
+        if indices and (_ranked(regime)["controller"] == p).any():
+            (mine, place), (theirs, _) = _place(regime, p), _place(regime, o)
+            iae = [_amount("iae_rad_s", x) for x in (theirs, mine)]
+            called = f"{called[:-1]}: median IAE1 + IAE2 {iae[0]} against {p}'s {iae[1]}, {place}."
+        called = " ".join(x for x in (called, _spends(regime)) if x)
     else:
         iae = [_amount("iae_rad_s", regime.iae[x]) for x in (o, p)]
         called = (
@@ -360,13 +374,12 @@ def strongest_sentences(regime: Regime, opponent: str | None = None) -> list[str
 
 
 def regime_sentences(regime: Regime) -> list[str]:
-    """One regime: the ranking (:func:`ranking_sentence`, where known), then who wins
-    against the paper's baseline (the first table) and against the strongest opponent
-    (:func:`strongest_sentences`; every opponent where no ranking nor IAE is known), in
-    :func:`pair_sentences`' words."""
+    """One regime: who wins against the paper's baseline (the first table) and against the
+    strongest opponent (:func:`strongest_sentences`; every opponent where no ranking nor
+    IAE is known), in :func:`pair_sentences`' words."""
     names, p = list(regime.tables), regime.proposed
     best, ranked = strongest(regime), regime.ranking is not None
-    out = [ranking_sentence(regime)] if ranked else []
+    out = []
     if ranked and best is None:
         none = f"No judged opponent is within {p}'s effort."
         out += [x for x in (none, _spends(regime)) if x]

@@ -28,7 +28,7 @@ __all__ = [
 ANSWER_FIGURE = "figures/answer.png"
 PROFILES_FIGURE = "figures/profiles.png"
 SCOREBOARD_FIGURE = "figures/scoreboard.png"
-MAX_WORDS = 440  # the answer's words: three regimes, the ranking and two opponents each
+MAX_WORDS = 460  # the answer's words: three regimes, the baseline and the strongest each
 
 
 @dataclass(frozen=True)
