@@ -293,7 +293,7 @@ def test_the_ranking_conclusion_names_the_strongest_within_the_effort_and_the_lo
     assert "effort: median IAE1 + IAE2" not in said  # the indices said once, in the ranking
     assert "SL-best is lower still but spends more than FCM-CTC." in said
     assert "SL-best beats FCM-CTC on 2 of" in said  # Ts 50 ms sooner on both joints
-    assert "SL-best's θ1 Ts is 50 ms lower on the typical plant" in said
+    assert "on the typical plant" not in said  # the sizes: the answer's and the tables'
     assert "SL-best is the strongest" not in said
     # within the effort, SL-best is the strongest and nothing is said apart
     within = ranking.assign(within=True)

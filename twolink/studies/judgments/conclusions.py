@@ -17,9 +17,9 @@ metric, worse on none):
   opponent (on the typical plant);
 - on the lab arm (friction and a disturbance), who beats whom among the proposed
   controller, the baseline, the integral one and the opponents;
-- per regime with a ranking (``ranking.csv``), which law wins there: the lowest indices,
-  the strongest opponent within the proposed controller's effort and who wins against it,
-  and the lowest one that spends more, at its effort (:func:`ranking_conclusion`).
+- per regime with a ranking (``ranking.csv``), which law wins there: the strongest
+  opponent within the proposed controller's effort, its index and who wins against it,
+  and against the lowest one that spends more, at its effort (:func:`ranking_conclusion`).
 
 The opponents are whatever the study names (:class:`ClaimsStudy`), so the sentences keep
 working when a stronger linear opponent replaces CTC-matched.
@@ -307,8 +307,8 @@ def ranking_conclusion(studies: Sequence[ClaimsStudy]) -> str | None:
     """Which law wins where, per study with a ranking, in
     :mod:`twolink.studies.judgments.plain`'s words: the three lowest indices and the
     proposed controller's place; the strongest opponent within its effort, those lower
-    that spend more, and who wins against it; then against the lowest that spends more,
-    at its effort. None where no study has a ranking."""
+    that spend more, and who wins against it and against the lowest that spends more (on
+    how many metrics, at what effort). None where no study has a ranking."""
     from twolink.studies.judgments.plain import (
         Regime,
         over_budget,
@@ -323,18 +323,16 @@ def ranking_conclusion(studies: Sequence[ClaimsStudy]) -> str | None:
         tables = {**s.claims, **s.tuned}
         effort = {s.baseline: _pair(s.every, s.proposed, s.baseline)}
         regime = Regime(s.label, s.plants, s.proposed, tables, ranking=s.ranking, effort=effort)
-        said = [ranking_sentence(regime), *strongest_sentences(regime, indices=False)]
+        # the three lowest, who the strongest is and who wins: the sizes are the answer's
+        said = [ranking_sentence(regime), *strongest_sentences(regime, indices=False)[:2]]
         over = over_budget(regime)
         if len(over):
-            said += strongest_sentences(regime, str(over.iloc[0]["controller"]))
+            said += strongest_sentences(regime, str(over.iloc[0]["controller"]))[:1]
         label = s.label[0].upper() + s.label[1:]
         parts.append(f"*{label}.* " + " ".join(said))
     if not parts:
         return None
-    head = (
-        "**Which law wins where** (`ranking.csv`, `claims_tuned*.csv`; the index: median "
-        "IAE1 + IAE2 over the plants)."
-    )
+    head = "**Which law wins where** (`ranking.csv`, `claims_tuned*.csv`)."
     return " ".join([head, *parts])
 
 
