@@ -35,7 +35,8 @@ def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
     """Each claims study (:class:`twolink.studies.judgments.conclusions.ClaimsStudy`, in
     :func:`twolink.studies.judgments.claims_studies.run_claims`' order: the claims sweep,
     each raw-steps variant, the lab arm) with its files: ``claims[_V].csv`` against the baseline,
-    ``claims_matched[_V].csv`` against the other opponent, ``claims_study[_V]/``."""
+    ``claims_matched[_V].csv`` against the other opponent, ``claims_tuned[_V].csv`` against
+    each tuned law, ``claims_study[_V]/``; and its ``ranking.csv`` rows."""
     suffixes = ["", *(f"_{v.name}" for v in manifest.variants if v.raw_steps)]
     suffixes += ["_lab"] * sum(bool(getattr(s, "lab", False)) for s in studies)  # the lab arm
     out = []
