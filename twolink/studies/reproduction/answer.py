@@ -130,7 +130,12 @@ def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:
 
     plants = ", ".join(sorted({str(s.plants) for s in studies}))
     title = f"Does {proposed} lower the paper's step metrics? {plants} plants per panel"
-    tables = [(s.label, {n: t for n, (_, t) in s.tables.items()}) for s in studies]
+    # the forest plot: the baseline and CTC-best (the tuned laws are the scoreboard's; six
+    # opponents a panel would hide each other's verdicts)
+    tables = [
+        (s.label, {n: t for n, (f, t) in s.tables.items() if not f.startswith("claims_tuned")})
+        for s in studies
+    ]
     plots.save_figure(answer.answer_figure(tables, proposed, title), out / ANSWER_FIGURE)
     boards = [(s.name or s.label, scoreboard(load_results(out / s.sweep))) for s in studies]
     over = {
