@@ -339,6 +339,12 @@ def test_the_scoreboard_ranks_by_median_iae_and_names_a_best_only_where_it_is_cl
     assert best_in(clear) == "fast"
     fig = scoreboard_figure([("quintic moves", board)])
     assert len(fig.axes) == 6 and "best: none clear" in fig.axes[0].get_title()
+    # every controller of the sweep is drawn; "(over effort)" only beside those named so
+    fig = scoreboard_figure([("quintic moves", board)], over={"quintic moves": {"fast"}})
+    names = [t.get_text() for t in fig.axes[0].get_yticklabels()]
+    assert sorted(names) == ["fast (over effort)", "same", "slow"]
+    fig = scoreboard_figure([("quintic moves", board)], over={"lab arm": {"fast"}})
+    assert "fast" in [t.get_text() for t in fig.axes[0].get_yticklabels()]
 
 
 def test_the_first_line_says_what_off_target_counts_and_whether_it_is_expected():
@@ -400,3 +406,104 @@ def test_the_readme_is_a_front_door():
     assert readme.index("<!-- answer: start -->") < readme.index("docs/images/scoreboard.png")
     for link in re.findall(r"\]\((docs/[^)#]+)", readme):
         assert (repo / link).is_file(), link
+
+
+def _ranking(rows):
+    """ranking.csv's columns the words read: (controller, index, within[, failed])."""
+    cols = ["controller", "index", "within", "failed"]
+    return pd.DataFrame([(*r, 0)[:4] for r in rows], columns=cols)
+
+
+def _ranked_regime(rows, names=("CTC", "CTC-best", "SL-best", "SMC-best")):
+    typical, est = ["equivalent"] * 11 + ["better"], [0.0] * 11 + [-0.05]
+    t = _plain_table(typical, est, difference_min=-1.0, difference_max=1.0)
+    tables = dict.fromkeys(names, t)
+    return Regime("lab arm", 200, "FCM-CTC", tables, ranking=_ranking(rows))
+
+
+# in the table's order on purpose: the words must follow the index, not the rows
+OVER = [("FCM-CTC", 0.08, True), ("CTC", 0.09, True), ("CTC-best", 0.02, True),
+        ("SL-best", 0.005, False), ("SMC-best", 0.01, False)]  # fmt: skip
+
+
+def test_an_opponent_over_the_effort_is_never_the_strongest_at_equal_effort():
+    """The lowest index is SL-best's, but its effort is over FCM-CTC's: CTC-best is the
+    strongest within the effort, and SL-best and SMC-best are "lower still but spend
+    more"."""
+    from twolink.studies.judgments.plain import over_budget, strongest
+
+    regime = _ranked_regime(OVER)
+    assert strongest(regime) == "CTC-best"
+    assert list(over_budget(regime)["controller"]) == ["SL-best", "SMC-best"]
+    said = " ".join(regime_sentences(regime))
+    assert (
+        "CTC-best is the strongest opponent within FCM-CTC's effort: median IAE1 + IAE2 "
+        "20 mrad·s against FCM-CTC's 80 mrad·s, 4th of 5."
+    ) in said
+    assert "SL-best and SMC-best are lower still but spend more than FCM-CTC." in said
+    assert "SL-best is the strongest" not in said
+    assert "FCM-CTC beats CTC-best on 1 of 12 step metrics" in said  # against the strongest
+
+
+def test_the_ranking_follows_the_index_and_places_the_proposed_one_among_all():
+    from twolink.studies.judgments.plain import ranking_sentence
+
+    said = ranking_sentence(_ranked_regime(OVER))
+    assert said == (
+        "Lowest median IAE1 + IAE2: SL-best 5, SMC-best 10 and CTC-best 20 mrad·s; "
+        "FCM-CTC 80 mrad·s, 4th of 5."
+    )
+    # a unit is said once per run of values that share it, never dropped where it changes
+    mixed = _ranked_regime([("FCM-CTC", 2.4, True), ("SL-best", 0.0013, True)])
+    assert ranking_sentence(mixed).startswith("Lowest median IAE1 + IAE2: SL-best 1.3 mrad·s")
+
+
+def test_a_law_that_failed_on_plants_is_said_to_fail_not_to_spend_more():
+    rows = [("FCM-CTC", 0.08, True), ("CTC", 0.09, True), ("CTC-best", 0.02, True),
+            ("SL-best", 0.005, False, 3)]  # fmt: skip
+    said = " ".join(regime_sentences(_ranked_regime(rows, ("CTC", "CTC-best", "SL-best"))))
+    assert "SL-best fails on 3 plants." in said and "spend" not in said
+
+
+def test_with_no_opponent_within_the_effort_none_is_the_strongest():
+    rows = [("FCM-CTC", 0.08, True), ("CTC", 0.09, False), ("SL-best", 0.005, False)]
+    from twolink.studies.judgments.plain import ranking_sentence
+
+    regime = _ranked_regime(rows, ("CTC", "SL-best"))
+    said = " ".join(regime_sentences(regime))
+    assert "No judged opponent is within FCM-CTC's effort." in said
+    # FCM-CTC among the three: its value said once
+    assert ranking_sentence(regime).endswith(
+        "SL-best 5, FCM-CTC 80 and CTC 90 mrad·s (FCM-CTC 2nd of 3)."
+    )
+    assert "SL-best is lower but spends more than FCM-CTC." in said
+    assert "strongest" not in said and "lower still" not in said
+
+
+def test_a_controller_the_answer_does_not_judge_is_ranked_but_never_the_strongest():
+    """PD-G has the lowest index but no claims table: it heads the ranking, and the
+    strongest opponent is the lowest judged one."""
+    from twolink.studies.judgments.plain import ranking_sentence, strongest
+
+    regime = _ranked_regime([*OVER, ("PD-G", 0.001, True)])
+    assert strongest(regime) == "CTC-best"
+    assert ranking_sentence(regime).startswith("Lowest median IAE1 + IAE2: PD-G 1, SL-best 5")
+
+
+def test_three_ranked_regimes_with_five_opponents_stay_within_the_answers_words():
+    t = _plain_table(["better", "worse"] + ["equivalent"] * 10, [-0.05, 0.05] + [0.0] * 10)
+    names = ("CTC", "CTC-best", "SL-best", "SMC-best")
+    tables = {n: (f"{n}.csv", t) for n in names}
+    studies = [Judged("lab arm", 200, "FCM-CTC", tables, ranking=_ranking(OVER))] * 3
+    said = answer(studies)
+    assert sum(len(s.split()) for s in said) <= MAX_WORDS
+    assert all("lower still but spend more" in s for s in said[:3])
+
+
+def test_the_proposed_controllers_place_is_an_english_ordinal():
+    from twolink.studies.judgments.plain import ranking_sentence
+
+    for k, nth in ((1, "1st"), (2, "2nd"), (3, "3rd"), (11, "11th"), (12, "12th"), (21, "21st")):
+        rows = [(f"L{i}", 0.001 * i, True) for i in range(1, k)] + [("FCM-CTC", 0.5, True)]
+        said = ranking_sentence(_ranked_regime(rows, ("L1",) if k > 1 else ("CTC",)))
+        assert f" {nth} of {k}" in said, said

@@ -264,3 +264,41 @@ def test_the_lab_arm_has_its_own_sentence_after_the_regimes():
     out = sentences(["a line"], [s, lab])
     assert out[-1] == lab_sentence(lab)
     assert sum("The lab arm" in x for x in out) == 1  # not among the regimes' claims
+
+
+def _ranked_study(ranking: pd.DataFrame | None) -> ClaimsStudy:
+    """The study with CTC-best as its other opponent and a tuned law SL-best, which
+    settles 50 ms sooner than CTC (the data of :func:`results`)."""
+    import dataclasses
+
+    s = study("CTC-best", same=False)
+    tuned = {"SL-best": paired_claims(results("SL-best"), "FCM-CTC", "SL-best")}
+    return dataclasses.replace(s, tuned=tuned, ranking=ranking)
+
+
+def test_the_ranking_conclusion_names_the_strongest_within_the_effort_and_the_lower_law():
+    """SL-best has the lowest index but spends more: CTC-best is the strongest at the
+    proposed controller's effort; SL-best is said apart, with who wins against it."""
+    from twolink.studies.judgments.conclusions import ranking_conclusion
+
+    ranking = pd.DataFrame({
+        "controller": ["FCM-CTC", "CTC", "CTC-best", "SL-best"],
+        "index": [0.08, 0.09, 0.02, 0.005], "within": [True, True, True, False],
+        "failed": 0,
+    })  # fmt: skip
+    said = ranking_conclusion([_ranked_study(ranking)])
+    assert said.startswith("**Which law wins where**")
+    assert "*Quintic moves.* Lowest median IAE1 + IAE2: SL-best 5, CTC-best 20" in said
+    assert "CTC-best is the strongest opponent within FCM-CTC's effort." in said
+    assert "effort: median IAE1 + IAE2" not in said  # the indices said once, in the ranking
+    assert "SL-best is lower still but spends more than FCM-CTC." in said
+    assert "SL-best beats FCM-CTC on 2 of" in said  # Ts 50 ms sooner on both joints
+    assert "on the typical plant" not in said  # the sizes: the answer's and the tables'
+    assert "SL-best is the strongest" not in said
+    # within the effort, SL-best is the strongest and nothing is said apart
+    within = ranking.assign(within=True)
+    said = ranking_conclusion([_ranked_study(within)])
+    assert "SL-best is the strongest opponent within FCM-CTC's effort." in said
+    assert "spend" not in said
+    assert ranking_conclusion([_ranked_study(None)]) is None
+    assert said in sentences([], [_ranked_study(within)])

@@ -93,8 +93,9 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     # the conclusions: at most MOST sentences, from the same table
     conclusions = report[report.index("## Conclusions") : report.index("## Appendix")]
     assert len(conclusions.strip().splitlines()) <= 1 + 1 + MOST
-    # read in a few minutes (issue 46): 1,160 words before the shares left the sentences
-    assert len(conclusions.split()) <= 800, len(conclusions.split())
+    # read in a few minutes (issue 46): 1,160 words before the shares left the sentences;
+    # about 800 for the claims, 200 more for which law wins where (the ranking's item)
+    assert len(conclusions.split()) <= 1000, len(conclusions.split())
     results = load_results(reproduction.out / "claims_study")
     names = {"CTC", "PD-G", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "CTC-best"}
     assert len(results) == 1200 and set(results["controller"]) == names

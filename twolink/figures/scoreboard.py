@@ -5,12 +5,14 @@ Per regime one row of panels, one per joint and column of the scoreboard table
 and Σ|Δτ|): each controller's median over the plants with its interval; the lowest
 median of a panel filled and named where its interval is clear of every other's.
 Controllers run down each row in the table's order (the lowest median IAE1 + IAE2 per
-plant on top). Drawn from the table, never recomputed.
+plant on top). Every controller of the sweep is drawn, the tuned laws included; one whose
+effort is over the proposed controller's (``ranking.csv``'s ``within``) is named
+"(over effort)" beside its name. Drawn from the tables, never recomputed.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Collection, Mapping, Sequence
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -19,7 +21,7 @@ from matplotlib.figure import Figure
 
 from twolink.simulation.vocabulary import controller_styles, metric
 
-__all__ = ["best_in", "scoreboard_figure"]
+__all__ = ["OVER", "best_in", "scoreboard_figure"]
 
 
 def best_in(panel: pd.DataFrame) -> str | None:
@@ -37,8 +39,16 @@ def best_in(panel: pd.DataFrame) -> str | None:
     return str(finite.loc[k, "controller"])
 
 
-def scoreboard_figure(regimes: Sequence[tuple[str, pd.DataFrame]], title: str = "") -> Figure:
-    """One row of panels per (label, scoreboard table)."""
+OVER = " (over effort)"  # beside a controller whose effort is over the proposed one's
+
+
+def scoreboard_figure(
+    regimes: Sequence[tuple[str, pd.DataFrame]],
+    title: str = "",
+    over: Mapping[str, Collection[str]] | None = None,
+) -> Figure:
+    """One row of panels per (label, scoreboard table); ``over``: label -> the controllers
+    whose effort is over the proposed controller's there (named :data:`OVER`)."""
     keys = list(dict.fromkeys(k for _, t in regimes for k in t["metric"]))
     columns = [(k, j) for k in keys for j in (1, 2)]
     n = max(t["controller"].nunique() for _, t in regimes)
@@ -63,7 +73,9 @@ def scoreboard_figure(regimes: Sequence[tuple[str, pd.DataFrame]], title: str = 
             ax.set_title(
                 f"θ{joint} {m.symbol} [{m.unit}]\nbest: {best or 'none clear'}", fontsize=8
             )
-            ax.set_yticks(y, order if c == 0 else [], fontsize=8)
+            spends = (over or {}).get(label, ())
+            names = [f"{n}{OVER}" if n in spends else n for n in order]
+            ax.set_yticks(y, names if c == 0 else [], fontsize=8)
             ax.set_ylim(-0.6, len(order) - 0.4)
             ax.tick_params(axis="x", labelsize=7)
             ax.grid(axis="x", alpha=0.3)

@@ -99,8 +99,8 @@ def run_claims(manifest: Manifest, out: Path, pool: Any, progress: bool) -> tupl
     ):
         more, studies = _claims_study(judged, out, variant, opponent, plan, outcome, laws)
         sections += more
-        tables += studies
         rankings.append(ranking(outcome.results, judged.proposed, variant, opponent, laws))
+        tables += [dataclasses.replace(s, ranking=rankings[-1]) for s in studies]
     from twolink.foundation.io import atomic_write_text
 
     every = pd.concat(rankings, ignore_index=True)
@@ -178,9 +178,11 @@ def _claims_study(
     sections += opponent_section(opponent, manifest) + report.claims_section(
         fair, against, plan.samples, source, met, f"{regime or 'quintic moves'}, {OPPONENT}", sensor
     )
+    tuned: dict[str, Any] = {}
     if laws:  # FCM-CTC against each tuned law, and each against CTC-best, effort judged too
-        sections += _tuned_study(manifest, out, suffix, plan, outcome, laws, refs, met, source,
-                                 regime, sensor)  # fmt: skip
+        more, tuned = _tuned_study(manifest, out, suffix, plan, outcome, laws, refs, met, source,
+                                   regime, sensor)  # fmt: skip
+        sections += more
     if variant is LAB:
         sections += hunting_section()
     label = regime or "the claims study's quintic moves"
@@ -195,6 +197,7 @@ def _claims_study(
         every=every,
         integral=integral,
         lab=variant is LAB,
+        tuned=tuned,
     )
     return sections, [study]
 
@@ -211,10 +214,11 @@ def _tuned_study(
     source: str,
     regime: str,
     sensor: str,
-) -> list[str]:
+) -> tuple[list[str], dict[str, Any]]:
     """``claims_tuned[_VARIANT].csv``: :func:`paired_claims_many`'s rows of the proposed
     controller against each tuned law and of each law against CTC-best, on the claim
-    metrics and the effort metrics; the report's sections on them."""
+    metrics and the effort metrics; the report's sections on them, and per law the
+    proposed controller's rows against it."""
     from twolink.foundation.io import atomic_write_text
     from twolink.studies.judgments.claims import CLAIM_METRICS, paired_claims_many
     from twolink.studies.reproduction import report
@@ -239,7 +243,8 @@ def _tuned_study(
             rows(p, t.name), against, plan.samples, source, met, f"{label}, {t.name}", sensor
         )
     versus = {t.name: rows(t.name, OPPONENT) for t in laws}
-    return sections + report.winners_section(versus, OPPONENT, met, plan.samples, label)
+    mine = {t.name: rows(p, t.name) for t in laws}
+    return sections + report.winners_section(versus, OPPONENT, met, plan.samples, label), mine
 
 
 def tuned_opponents(manifest: Manifest, variant: Any = None) -> list[Any]:

@@ -16,7 +16,10 @@ metric, worse on none):
 - whether the controller with integral action beats the proposed controller and every
   opponent (on the typical plant);
 - on the lab arm (friction and a disturbance), who beats whom among the proposed
-  controller, the baseline, the integral one and the opponents.
+  controller, the baseline, the integral one and the opponents;
+- per regime with a ranking (``ranking.csv``), which law wins there: the strongest
+  opponent within the proposed controller's effort, its index and who wins against it,
+  and against the lowest one that spends more, at its effort (:func:`ranking_conclusion`).
 
 The opponents are whatever the study names (:class:`ClaimsStudy`), so the sentences keep
 working when a stronger linear opponent replaces CTC-matched.
@@ -34,6 +37,7 @@ __all__ = [
     "MOST",
     "ClaimsStudy",
     "lab_sentence",
+    "ranking_conclusion",
     "limit_cycle_sentence",
     "search_sentence",
     "study_sentence",
@@ -41,7 +45,7 @@ __all__ = [
 ]
 
 LISTED = 3  # better or worse rows named in a clause; beyond, counted and the largest named
-MOST = 9  # sentences: 8, and one for the lab arm (issue 47)
+MOST = 10  # items: the paper's, the claims', the lab arm's, the ranking's, the search's
 
 
 @dataclasses.dataclass(frozen=True)
@@ -70,6 +74,11 @@ class ClaimsStudy:
     lab : bool
         The lab arm's study (friction and a disturbance): said in its own sentence
         (:func:`lab_sentence`), apart from the claim's regimes.
+    tuned : mapping
+        Tuned law -> the proposed controller against it (``claims_tuned*.csv``'s rows,
+        effort included), in the ranking's words (:func:`tuned_sentence`).
+    ranking : DataFrame or None
+        The regime's ``ranking.csv`` rows (index, effort, within, rank), or None.
     """
 
     label: str
@@ -82,6 +91,8 @@ class ClaimsStudy:
     every: pd.DataFrame
     integral: str | None = None
     lab: bool = False
+    tuned: Mapping[str, pd.DataFrame] = dataclasses.field(default_factory=dict)
+    ranking: pd.DataFrame | None = None
 
 
 def _name(r: Any) -> str:
@@ -292,6 +303,39 @@ def lab_sentence(study: ClaimsStudy) -> str:
     return f"**{label}, {study.plants} plants.** " + " ".join(said)
 
 
+def ranking_conclusion(studies: Sequence[ClaimsStudy]) -> str | None:
+    """Which law wins where, per study with a ranking, in
+    :mod:`twolink.studies.judgments.plain`'s words: the three lowest indices and the
+    proposed controller's place; the strongest opponent within its effort, those lower
+    that spend more, and who wins against it and against the lowest that spends more (on
+    how many metrics, at what effort). None where no study has a ranking."""
+    from twolink.studies.judgments.plain import (
+        Regime,
+        over_budget,
+        ranking_sentence,
+        strongest_sentences,
+    )
+
+    parts = []
+    for s in studies:
+        if s.ranking is None:
+            continue
+        tables = {**s.claims, **s.tuned}
+        effort = {s.baseline: _pair(s.every, s.proposed, s.baseline)}
+        regime = Regime(s.label, s.plants, s.proposed, tables, ranking=s.ranking, effort=effort)
+        # the three lowest, who the strongest is and who wins: the sizes are the answer's
+        said = [ranking_sentence(regime), *strongest_sentences(regime, indices=False)[:2]]
+        over = over_budget(regime)
+        if len(over):
+            said += strongest_sentences(regime, str(over.iloc[0]["controller"]))[:1]
+        label = s.label[0].upper() + s.label[1:]
+        parts.append(f"*{label}.* " + " ".join(said))
+    if not parts:
+        return None
+    head = "**Which law wins where** (`ranking.csv`, `claims_tuned*.csv`)."
+    return " ".join([head, *parts])
+
+
 def variant_sentence(
     title: str,
     experiments: int,
@@ -413,6 +457,7 @@ def sentences(
     out += [study_sentence(s, first=k == 0) for k, s in enumerate(studies)]
     out += [x for x in (limit_cycle_sentence(studies), integral_sentence(studies)) if x]
     out += [lab_sentence(s) for s in lab]
+    out += [x for x in (ranking_conclusion([*studies, *lab]),) if x]
     out += list(closing)
     out = list(dict.fromkeys(out))
     if len(out) > MOST:

@@ -18,6 +18,18 @@ A size is the typical plant's shift (``estimate``) in the metric's own unit, wit
 plants on which the winner is ahead by more than the tolerance. A time judged by its
 distance to the moving reference's own (``reference``) is "closer to the move's own",
 not "lower". Opponents are the tables' own: the words hold for any number of them.
+
+Where a regime has its ranking (``ranking.csv``: per controller its ``index``, the median
+IAE1 + IAE2 over the plants, and ``within``, its effort medians within the proposed
+controller's), the words follow it by one rule each:
+
+- **the ranking** (the conclusions'): the three lowest indices, in the index's order, and
+  the proposed controller's place among all controllers;
+- **the strongest opponent within the effort**: the judged opponent with the lowest index
+  among those ``within``, with its index, the proposed controller's and its place;
+- **lower still but spends more**: a judged opponent below it that is not ``within`` (one
+  that failed on a plant "fails on k plants" instead); where no judged opponent is
+  ``within``, "lower but spends more": one below the proposed controller.
 """
 
 from __future__ import annotations
@@ -36,8 +48,12 @@ __all__ = [
     "effort_words",
     "holds",
     "pair_sentences",
+    "ranking_sentence",
     "regime_sentences",
     "same_controller",
+    "strongest",
+    "strongest_sentences",
+    "over_budget",
 ]
 
 
@@ -59,6 +75,7 @@ class Regime:
     tables: Mapping[str, pd.DataFrame]
     iae: Mapping[str, float] = field(default_factory=dict)
     effort: Mapping[str, pd.DataFrame] = field(default_factory=dict)
+    ranking: pd.DataFrame | None = None
 
 
 def _name(r) -> str:
@@ -233,32 +250,145 @@ def holds(table: pd.DataFrame) -> bool:
     return bool(len(_typical(step, "better"))) and not len(_typical(step, "worse"))
 
 
+def _ranked(regime: Regime) -> pd.DataFrame:
+    """The ranking's rows with an index, the lowest first (the index's order, not the
+    table's)."""
+    t = regime.ranking
+    t = t[np.isfinite(t["index"].to_numpy(float))]
+    return t.sort_values("index", kind="stable")
+
+
+def _judged(regime: Regime) -> pd.DataFrame:
+    """The ranked rows of the judged opponents."""
+    t = _ranked(regime)
+    return t[t["controller"].isin(list(regime.tables)) & (t["controller"] != regime.proposed)]
+
+
 def strongest(regime: Regime) -> str | None:
-    """The opponent with the lowest median IAE1 + IAE2, where known."""
+    """The judged opponent with the lowest index within the proposed controller's effort
+    (the ranking's ``within``); without a ranking, the lowest median IAE1 + IAE2."""
+    if regime.ranking is not None:
+        mine = _judged(regime)
+        mine = mine[mine["within"].astype(bool)]
+        return None if mine.empty else str(mine.iloc[0]["controller"])
     known = {o: regime.iae[o] for o in regime.tables if regime.iae and o in regime.iae}
     known = {o: v for o, v in known.items() if np.isfinite(v)}
     return min(known, key=known.get) if known else None
 
 
-def regime_sentences(regime: Regime) -> list[str]:
-    """One regime: who wins against the paper's baseline (the first table) and against
-    the strongest opponent by median IAE1 + IAE2 (:func:`strongest`; every opponent where
-    that is not known), in :func:`pair_sentences`' words."""
-    names = list(regime.tables)
+def over_budget(regime: Regime) -> pd.DataFrame:
+    """The judged opponents not within the effort whose index is below the strongest
+    within it (below the proposed controller's, where none is), the lowest first."""
+    if regime.ranking is None:
+        return pd.DataFrame(columns=["controller", "index", "within", "failed"])
+    mine = _judged(regime)
+    out = mine[~mine["within"].astype(bool)]
+    ranked = _ranked(regime)
+    below = ranked.loc[ranked["controller"] == (strongest(regime) or regime.proposed), "index"]
+    return out[out["index"] < float(below.iloc[0])] if len(below) else out
+
+
+def _values(pairs: Sequence[tuple[str, float]], key: str) -> str:
+    """'SL-best 1.3 and CTC-I-best 3.3 mrad·s': each value in its unit, a unit said once at
+    the end of a run of values that share it."""
+    said = [(n, *_amount(key, v).rpartition(" ")[::2]) for n, v in pairs]
+    words = [
+        f"{n} {v}" + ("" if k + 1 < len(said) and said[k + 1][2] == u else f" {u}")
+        for k, (n, v, u) in enumerate(said)
+    ]
+    return _names(words)
+
+
+def ranking_sentence(regime: Regime, top: int = 3) -> str:
+    """'Lowest median IAE1 + IAE2: SL-best 1.3, CTC-I-best 3.3 and CTC-DOB-best 5.5 mrad·s;
+    FCM-CTC 81 mrad·s, 8th of 10.' (the index's order, ties at the same place; the proposed
+    controller's place in brackets where it is among the three)."""
+    t = _ranked(regime)
+    lead = [(r.controller, float(r.index)) for r in t.head(top).itertuples()]
+    mine = t[t["controller"] == regime.proposed]
+    said = f"Lowest median IAE1 + IAE2: {_values(lead, 'iae_rad_s')}"
+    if len(mine):
+        index, place = _place(regime, regime.proposed)
+        if regime.proposed in (n for n, _ in lead):  # its value said already
+            return f"{said} ({regime.proposed} {place})."
+        said += f"; {regime.proposed} {_amount('iae_rad_s', index)}, {place}"
+    return said + "."
+
+
+def _spends(regime: Regime) -> str:
+    """What the opponents below the strongest within the effort do instead."""
+    over = over_budget(regime)
+    if over.empty:
+        return ""
+    failed = over["failed"].fillna(0).astype(int) if "failed" in over else 0 * over["index"]
+    spend = [r.controller for r, k in zip(over.itertuples(), failed, strict=True) if not k]
+    fail = [f"{r.controller} fails on {k} plants" for r, k in
+            zip(over.itertuples(), failed, strict=True) if k]  # fmt: skip
+    parts = []
+    if spend:
+        verb = "is" if len(spend) == 1 else "are"
+        s = "s" if len(spend) == 1 else ""
+        still = "lower still" if strongest(regime) is not None else "lower"
+        parts.append(f"{_names(spend)} {verb} {still} but spend{s} more than "
+                     f"{regime.proposed}")  # fmt: skip
+    parts += fail
+    return "; ".join(parts) + "."
+
+
+def _place(regime: Regime, name: str) -> tuple[float, str]:
+    """A controller's index and its place among the ranked ones ('8th of 10')."""
+    t = _ranked(regime)
+    index = float(t.loc[t["controller"] == name, "index"].iloc[0])
+    k = 1 + int((t["index"] < index).sum())
+    nth = "th" if k % 100 in (11, 12, 13) else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+    return index, f"{k}{nth} of {len(t)}"
+
+
+def strongest_sentences(
+    regime: Regime, opponent: str | None = None, indices: bool = True
+) -> list[str]:
+    """Who the strongest opponent is (:func:`strongest`; with a ranking, its index against
+    the proposed controller's and its place unless not ``indices``, and those below it
+    that spend more, :func:`over_budget`) and who wins against it; ``opponent``: another
+    judged opponent instead."""
     best = strongest(regime)
-    said = names if best is None else list(dict.fromkeys([names[0], best]))
-    out = []
-    for o in said:
+    o = opponent or best
+    if o is None:
+        return []
+    p, ranked = regime.proposed, regime.ranking is not None
+    if o != best:
         called = ""
-        if o == best:
-            iae = [_amount("iae_rad_s", regime.iae[x]) for x in (o, regime.proposed)]
-            called = (
-                f"{o} is the strongest opponent: median IAE1 + IAE2 {iae[0]} against "
-                f"{regime.proposed}'s {iae[1]}."
-            )
-        out += pair_sentences(
-            regime.tables[o], regime.proposed, o, regime.plants, regime.effort.get(o), called
+    elif ranked:
+        called = f"{o} is the strongest opponent within {p}'s effort."
+        if indices and (_ranked(regime)["controller"] == p).any():
+            (mine, place), (theirs, _) = _place(regime, p), _place(regime, o)
+            iae = [_amount("iae_rad_s", x) for x in (theirs, mine)]
+            called = f"{called[:-1]}: median IAE1 + IAE2 {iae[0]} against {p}'s {iae[1]}, {place}."
+        called = " ".join(x for x in (called, _spends(regime)) if x)
+    else:
+        iae = [_amount("iae_rad_s", regime.iae[x]) for x in (o, p)]
+        called = (
+            f"{o} is the strongest opponent: median IAE1 + IAE2 {iae[0]} against {p}'s {iae[1]}."
         )
+    return pair_sentences(regime.tables[o], p, o, regime.plants, regime.effort.get(o), called)
+
+
+def regime_sentences(regime: Regime) -> list[str]:
+    """One regime: who wins against the paper's baseline (the first table) and against the
+    strongest opponent (:func:`strongest_sentences`; every opponent where no ranking nor
+    IAE is known), in :func:`pair_sentences`' words."""
+    names, p = list(regime.tables), regime.proposed
+    best, ranked = strongest(regime), regime.ranking is not None
+    out = []
+    if ranked and best is None:
+        none = f"No judged opponent is within {p}'s effort."
+        out += [x for x in (none, _spends(regime)) if x]
+    said = names if best is None and not ranked else list(dict.fromkeys([names[0], best]))
+    for o in (o for o in said if o is not None):
+        if o == best:
+            out += strongest_sentences(regime)
+        else:
+            out += pair_sentences(regime.tables[o], p, o, regime.plants, regime.effort.get(o))
     return out
 
 

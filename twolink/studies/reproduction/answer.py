@@ -35,7 +35,8 @@ def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
     """Each claims study (:class:`twolink.studies.judgments.conclusions.ClaimsStudy`, in
     :func:`twolink.studies.judgments.claims_studies.run_claims`' order: the claims sweep,
     each raw-steps variant, the lab arm) with its files: ``claims[_V].csv`` against the baseline,
-    ``claims_matched[_V].csv`` against the other opponent, ``claims_study[_V]/``."""
+    ``claims_matched[_V].csv`` against the other opponent, ``claims_tuned[_V].csv`` against
+    each tuned law, ``claims_study[_V]/``; and its ``ranking.csv`` rows."""
     suffixes = ["", *(f"_{v.name}" for v in manifest.variants if v.raw_steps)]
     suffixes += ["_lab"] * sum(bool(getattr(s, "lab", False)) for s in studies)  # the lab arm
     out = []
@@ -44,12 +45,15 @@ def judged(manifest: Manifest, studies: Sequence[Any]) -> list[Judged]:
             name: (f"claims{'' if name == study.baseline else '_matched'}{suffix}.csv", t)
             for name, t in study.claims.items()
         }
+        tuned = getattr(study, "tuned", {})  # the tuned laws' rows (claims_tuned*.csv)
+        files |= {name: (f"claims_tuned{suffix}.csv", t) for name, t in tuned.items()}
         name, defined = REGIME_NAMES.get(suffix, ("", ""))
         sweep = f"claims_study{suffix}"
         effort = {o: _effort_rows(study.every, study.proposed, o) for o in study.claims}
         out.append(
             Judged(study.label, study.plants, study.proposed, files, sweep, name, defined,
-                   effort={o: t for o, t in effort.items() if len(t)})
+                   effort={o: t for o, t in effort.items() if len(t)},
+                   ranking=getattr(study, "ranking", None))
         )  # fmt: skip
     return out
 
@@ -98,7 +102,11 @@ def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> l
         "training plants and on these (docs/reproduction.md; its rows include the effort)",
     }
     names = dict.fromkeys(n for s in studies for n in s.tables)
-    opponents = {n: what.get(n, "an opponent of the manifest") for n in names}
+    tuned = {n for s in studies for n, (f, _) in s.tables.items() if f.startswith("claims_tuned")}
+    law = 'a law of the field tuned by CTC-best\'s rule (docs/reproduction.md, "The ranking")'
+    opponents = {
+        n: law if n in tuned else what.get(n, "an opponent of the manifest") for n in names
+    }
     text = summary(studies, opponents, question(manifest))
     atomic_write_text(out / "summary.md", text)
     lines = text.splitlines()
@@ -122,11 +130,21 @@ def answer_figures(out: Path, studies: Sequence[Judged], proposed: str) -> None:
 
     plants = ", ".join(sorted({str(s.plants) for s in studies}))
     title = f"Does {proposed} lower the paper's step metrics? {plants} plants per panel"
-    tables = [(s.label, {n: t for n, (_, t) in s.tables.items()}) for s in studies]
+    # the forest plot: the baseline and CTC-best (the tuned laws are the scoreboard's; six
+    # opponents a panel would hide each other's verdicts)
+    tables = [
+        (s.label, {n: t for n, (f, t) in s.tables.items() if not f.startswith("claims_tuned")})
+        for s in studies
+    ]
     plots.save_figure(answer.answer_figure(tables, proposed, title), out / ANSWER_FIGURE)
     boards = [(s.name or s.label, scoreboard(load_results(out / s.sweep))) for s in studies]
+    over = {
+        s.name or s.label: set(s.ranking.loc[~s.ranking["within"].astype(bool), "controller"])
+        for s in studies
+        if s.ranking is not None
+    }
     title = f"Every controller of the claims studies, {plants} plants per regime"
-    plots.save_figure(scoreboard_figure(boards, title), out / SCOREBOARD_FIGURE)
+    plots.save_figure(scoreboard_figure(boards, title, over), out / SCOREBOARD_FIGURE)
     profiles = []
     for s in studies:
         results = load_results(out / s.sweep)

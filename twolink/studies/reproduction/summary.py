@@ -28,7 +28,7 @@ __all__ = [
 ANSWER_FIGURE = "figures/answer.png"
 PROFILES_FIGURE = "figures/profiles.png"
 SCOREBOARD_FIGURE = "figures/scoreboard.png"
-MAX_WORDS = 360  # the answer's words: three regimes, two opponents each, read in two minutes
+MAX_WORDS = 460  # the answer's words: three regimes, the baseline and the strongest each
 
 
 @dataclass(frozen=True)
@@ -46,12 +46,13 @@ class Judged:
     defined: str = ""  # what the short name means (the terms); "" the label
     iae: Mapping[str, float] = field(default_factory=dict)  # controller -> median IAE1+IAE2
     effort: Mapping[str, pd.DataFrame] = field(default_factory=dict)  # opponent -> its rows
+    ranking: pd.DataFrame | None = None  # its ranking.csv rows (the strongest opponent)
 
     def regime(self) -> Regime:
         """The plain words' view of this regime."""
         tables = {o: t for o, (_, t) in self.tables.items()}
         name = self.name or self.label
-        return Regime(name, self.plants, self.proposed, tables, self.iae, self.effort)
+        return Regime(name, self.plants, self.proposed, tables, self.iae, self.effort, self.ranking)
 
 
 def sentence(study: Judged) -> str:
