@@ -19,7 +19,9 @@ to day by up to 1.8x, so the times are also printed as multiples of it.
 ``--shipped`` prints the three figures the main job is held to, in yardsticks, with the
 load average beside each: ``twolink reproduce --no-trace``, the full regime map
 (``twolink regimes``) and ``twolink regimes -n 30 --workers 2``; ``--repeats`` times each,
-their median. Limits on 2 cores: 6, 15 and 0.75 yardsticks.
+their median; ``--only 0,2`` picks figures. Limits on 2 cores: 6, 15 and 0.75 yardsticks.
+Each is also given in CPU seconds over the yardstick's CPU seconds, which a loaded
+machine disturbs less than wall time.
 """
 
 from __future__ import annotations
@@ -76,6 +78,15 @@ def timed(*args: str) -> float:
     return time.perf_counter() - start
 
 
+def timed_cpu(*args: str) -> tuple[float, float]:
+    """Wall and CPU seconds (every process of the command, sampled from /proc) of
+    ``twolink ARGS``."""
+    from profile_reproduce import run_profiled
+
+    run = run_profiled([sys.executable, "-m", "twolink", *args], None)
+    return run["end"] - run["start"], run["samples"][-1][1]
+
+
 def reproduce(manifest: Path | None, out: Path) -> float:
     extra = ["--manifest", str(manifest)] if manifest is not None else []
     return timed("reproduce", "--out", str(out), *extra)
@@ -93,21 +104,30 @@ def load() -> str:
     return "load " + "/".join(f"{x:.1f}" for x in os.getloadavg())
 
 
-def shipped(folder: Path, repeats: int) -> None:
-    """The three shipped figures, each in yardsticks timed just before and after it."""
-    print(f"{'command':<28} {'s (median)':>10} {'yardstick s':>11} {'yardsticks':>10}  limit")
-    for label, args, limit in SHIPPED:
-        unit, took, loads = [], [], []
+def shipped(folder: Path, repeats: int, only: tuple[int, ...]) -> None:
+    """The shipped figures (``only``: their indices), each in yardsticks timed just before
+    and after it; wall and CPU (the CPU one against the yardstick's own CPU time, which
+    other jobs on the machine disturb less)."""
+    from profile_reproduce import yardstick as yardsticks
+
+    print(
+        f"{'command':<28} {'wall s':>7} {'yardsticks':>10} {'CPU s':>7} {'CPU yardsticks':>14}"
+        "  limit (wall)"
+    )
+    for label, args, limit in (SHIPPED[i] for i in only):
+        unit, took, loads = [yardsticks()], [], []
         for i in range(repeats):
-            unit.append(yardstick())
             loads.append(load())
             out = folder / f"{args[0]}{len(took)}-{i}"
-            took.append(timed(args[0], "--out", str(out), *args[1:]))
-        unit.append(yardstick())
-        t, u = statistics.median(took), statistics.median(unit)
+            took.append(timed_cpu(args[0], "--out", str(out), *args[1:]))
+            unit.append(yardsticks())
+        wall = statistics.median(t for t, _ in took)
+        cpu = statistics.median(c for _, c in took)
+        u_wall = statistics.median(u for u, _ in unit)
+        u_cpu = statistics.median(c for _, c in unit)
         print(
-            f"{label:<28} {t:10.1f} {u:11.2f} {t / u:10.2f}  {limit:g}"
-            f"  ({', '.join(loads)}; runs {', '.join(f'{x:.1f}' for x in took)} s)"
+            f"{label:<28} {wall:7.1f} {wall / u_wall:10.2f} {cpu:7.1f} {cpu / u_cpu:14.2f}"
+            f"  {limit:g}  (yardstick {u_wall:.2f} s wall, {u_cpu:.2f} s CPU; {', '.join(loads)})"
         )
 
 
@@ -117,10 +137,15 @@ def main() -> None:
     parser.add_argument(
         "--shipped", action="store_true", help="the three shipped figures, in yardsticks"
     )
+    parser.add_argument(
+        "--only",
+        default="0,1,2",
+        help="--shipped: which (0 reproduce, 1 map, 2 -n 30)",
+    )
     args = parser.parse_args()
     if args.shipped:
         with tempfile.TemporaryDirectory() as tmp:
-            shipped(Path(tmp), args.repeats)
+            shipped(Path(tmp), args.repeats, tuple(int(i) for i in args.only.split(",")))
         return
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)

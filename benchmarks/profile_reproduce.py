@@ -66,10 +66,10 @@ def _tree_cpu(root: int) -> tuple[dict[int, float], int]:
     return {p: cpu[p] for p in mine if p in cpu}, len(mine & running)
 
 
-def run_profiled(command: list[str], log: Path, period: float = 0.2) -> dict:
-    """Run ``command`` with the step log into ``log``; its phases' start times, the CPU
-    samples (time, CPU seconds so far, processes runnable) and its wall time."""
-    env = dict(os.environ, TWOLINK_STEP_LOG=str(log))
+def run_profiled(command: list[str], log: Path | None, period: float = 0.2) -> dict:
+    """Run ``command`` with the step log into ``log`` (None: none); its phases' start
+    times, the CPU samples (time, CPU seconds so far, processes runnable), its wall time."""
+    env = dict(os.environ, **({"TWOLINK_STEP_LOG": str(log)} if log is not None else {}))
     start = time.time()
     proc = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     phases: list[tuple[float, str]] = []
