@@ -14,13 +14,22 @@ each step), as the time of 10^6 steps in this process: this VM's speed varies fr
 to day by up to 1.8x, so the times are also printed as multiples of it.
 
     python benchmarks/bench_reproduce.py              # issue scope, 3 runs
-    python benchmarks/bench_reproduce.py --shipped    # and the shipped reproduction once
+    python benchmarks/bench_reproduce.py --shipped    # the three shipped figures instead
+
+``--shipped`` prints the three figures the main job is held to, in yardsticks, with the
+load average beside each: ``twolink reproduce --no-trace``, the full regime map
+(``twolink regimes``) and ``twolink regimes -n 30 --workers 2``; ``--repeats`` times each,
+their median; ``--only 0,2`` picks figures. Limits on 2 cores: 6, 15 and 0.75 yardsticks.
+Each is also given in CPU seconds over the yardstick's CPU seconds, which a loaded
+machine disturbs less than wall time.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import re
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -61,26 +70,88 @@ def yardstick() -> float:
     return bare_step_us(repeats=5, steps=200_000)  # µs per step = s per 10^6 steps
 
 
-def reproduce(manifest: Path | None, out: Path) -> float:
-    command = [sys.executable, "-m", "twolink", "reproduce", "--out", str(out)]
-    if manifest is not None:
-        command += ["--manifest", str(manifest)]
+def timed(*args: str) -> float:
+    """Wall seconds of ``twolink ARGS`` in a subprocess, start-up included."""
+    command = [sys.executable, "-m", "twolink", *args]
     start = time.perf_counter()
     subprocess.run(command, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return time.perf_counter() - start
 
 
+def timed_cpu(*args: str) -> tuple[float, float]:
+    """Wall and CPU seconds (every process of the command, sampled from /proc) of
+    ``twolink ARGS``."""
+    from profile_reproduce import run_profiled
+
+    run = run_profiled([sys.executable, "-m", "twolink", *args], None)
+    return run["end"] - run["start"], run["samples"][-1][1]
+
+
+def reproduce(manifest: Path | None, out: Path) -> float:
+    extra = ["--manifest", str(manifest)] if manifest is not None else []
+    return timed("reproduce", "--out", str(out), *extra)
+
+
+# The shipped figures: (label, the command's arguments after its output folder, limit).
+SHIPPED = (
+    ("reproduce --no-trace", ("reproduce", "--no-trace"), 6.0),
+    ("regimes (the full map)", ("regimes",), 15.0),
+    ("regimes -n 30 --workers 2", ("regimes", "-n", "30", "--workers", "2"), 0.75),
+)
+
+
+def load() -> str:
+    return "load " + "/".join(f"{x:.1f}" for x in os.getloadavg())
+
+
+def shipped(folder: Path, repeats: int, only: tuple[int, ...]) -> None:
+    """The shipped figures (``only``: their indices), each in yardsticks timed just before
+    and after it; wall and CPU (the CPU one against the yardstick's own CPU time, which
+    other jobs on the machine disturb less)."""
+    from profile_reproduce import yardstick as yardsticks
+
+    print(
+        f"{'command':<28} {'wall s':>7} {'yardsticks':>10} {'CPU s':>7} {'CPU yardsticks':>14}"
+        "  limit (wall)"
+    )
+    for label, args, limit in (SHIPPED[i] for i in only):
+        unit, took, loads = [yardsticks()], [], []
+        for i in range(repeats):
+            loads.append(load())
+            out = folder / f"{args[0]}{len(took)}-{i}"
+            took.append(timed_cpu(args[0], "--out", str(out), *args[1:]))
+            unit.append(yardsticks())
+        wall = statistics.median(t for t, _ in took)
+        cpu = statistics.median(c for _, c in took)
+        u_wall = statistics.median(u for u, _ in unit)
+        u_cpu = statistics.median(c for _, c in unit)
+        print(
+            f"{label:<28} {wall:7.1f} {wall / u_wall:10.2f} {cpu:7.1f} {cpu / u_cpu:14.2f}"
+            f"  {limit:g}  (yardstick {u_wall:.2f} s wall, {u_cpu:.2f} s CPU; {', '.join(loads)})"
+        )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--shipped", action="store_true", help="also the shipped reproduction")
+    parser.add_argument(
+        "--shipped", action="store_true", help="the three shipped figures, in yardsticks"
+    )
+    parser.add_argument(
+        "--only",
+        default="0,1,2",
+        help="--shipped: which (0 reproduce, 1 map, 2 -n 30)",
+    )
     args = parser.parse_args()
+    if args.shipped:
+        with tempfile.TemporaryDirectory() as tmp:
+            shipped(Path(tmp), args.repeats, tuple(int(i) for i in args.only.split(",")))
+        return
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         manifest = scope_manifest(folder)
         before = yardstick()
         scope = [reproduce(manifest, folder / f"scope{i}") for i in range(args.repeats)]
-        shipped = reproduce(None, folder / "shipped") if args.shipped else None
         after = yardstick()
     unit = (before + after) / 2
     print(f"yardstick: 10^6 bare single-arm mj_steps {before:.2f} s before, {after:.2f} s after")
@@ -89,8 +160,6 @@ def main() -> None:
         + ", ".join(f"{t:.1f} s ({t / unit:.2f}x)" for t in scope)
         + " (target 10 s)"
     )
-    if shipped is not None:
-        print(f"reproduce, shipped: {shipped:.1f} s ({shipped / unit:.2f}x)")
 
 
 if __name__ == "__main__":

@@ -182,3 +182,21 @@ def test_scenario_disturbance_keys():
 def test_scenario_disturbance_errors_name_the_file_and_key(table, key, problem):
     with pytest.raises(ConfigError, match=rf"theta1_step.toml: .*{key}.*{problem}"):
         load_scenario(BASE, {"disturbance": table})
+
+
+def test_batch_arms_with_different_disturbances_each_get_their_own():
+    """Arms sharing a disturbance are evaluated together (one torque per physics step);
+    arms with another one, interleaved with them, still get their own (as alone, to the
+    batch engine's rounding: tests/test_batch.py)."""
+    p = ArmParams()
+    ramp = Disturbance(steps=(TorqueStep(1, 0.3, 1.5),), sines=(SineLoad(2, 0.5, 1.0),))
+    kick = Disturbance(impulses=(TorqueImpulse(1, 0.4, 0.2),))
+    arms = [Arm(p, disturbance=ramp), Arm(p, disturbance=kick), Arm(p, disturbance=ramp)]
+    arms.append(Arm(p, Flexibility(), disturbance=kick))
+    laws = [ComputedTorque(p, REF, kp=16.0, kd=8.0) for _ in arms]
+    batch = simulate_batch(BatchPlant(arms), laws, [1.0] * len(arms))
+    for i, a in enumerate(arms):
+        plant = Plant.build(a.params, a.flexibility, disturbance=a.disturbance)
+        single = simulate(plant, ComputedTorque(p, REF, kp=16.0, kd=8.0), 1.0)
+        b = batch.trajectory(i)
+        np.testing.assert_allclose(b.q, single.q, rtol=0, atol=1e-12, err_msg=f"arm {i}")

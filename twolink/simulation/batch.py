@@ -25,6 +25,7 @@ one arm never resets the rest. An arm whose run is over is frozen the same way.
 
 from __future__ import annotations
 
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -43,6 +44,7 @@ from twolink.arm.plant import (
     warning_notes,
 )
 from twolink.controllers.base import Controller
+from twolink.simulation import steplog
 from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import (
     STATUS_DIVERGED,
@@ -160,6 +162,14 @@ class BatchPlant:
         # adds applied, then actuator forces, and one of the two is zero either way.)
         self.force_index = self.motor_v_index
         self.disturbed = [(i, a.disturbance) for i, a in enumerate(arms) if a.disturbance]
+        # Arms with equal disturbances, rigid or flexible, in groups: each group's torque
+        # is evaluated once per physics step (a sweep's arms usually share one).
+        groups: dict[tuple[Disturbance, bool], list[int]] = {}
+        for i, d in self.disturbed:
+            groups.setdefault((d, bool(self.flexible[i])), []).append(i)
+        self._disturbance_groups = [
+            (d, flexible, idx, self.v_index[idx]) for (d, flexible), idx in groups.items()
+        ]
         self._built = tuple(  # the masses as built: a payload picked up is put down at reset
             a.copy() for a in (self.model.body_mass, self.model.body_ipos, self.model.body_inertia)
         )
@@ -181,15 +191,16 @@ class BatchPlant:
         force = self.data.qfrc_applied
         force[self.force_index] = tau if self.stribeck is None else tau + self.stribeck_relief()
         t = self.data.time
-        for i, d in self.disturbed:  # a flexible arm's links carry nothing else
+        for d, flexible, arms, links in self._disturbance_groups:
             if d.picks_up(t, self.dt):
-                body = self.model.body(f"arm{i}_link2").id
-                lump_point_mass(self.model, body, d.pickup.mass, self.arms[i].params.l2)
-            torque = d.torque(t, self.dt)
-            if self.flexible[i]:
-                force[self.v_index[i]] = torque
+                for i in arms:
+                    body = self.model.body(f"arm{i}_link2").id
+                    lump_point_mass(self.model, body, d.pickup.mass, self.arms[i].params.l2)
+            torque = d.torque(t, self.dt)  # (2,): the same on every arm of the group
+            if flexible:  # a flexible arm's links carry nothing else
+                force[links] = torque
             else:
-                force[self.v_index[i]] += torque
+                force[links] += torque
 
     def stribeck_relief(self) -> np.ndarray:
         """The Stribeck forces (N, 2) at the motors' joints now:
@@ -320,6 +331,7 @@ def simulate_batch(
     qmax, wmax, tmax = run.bounds.angle, run.bounds.rate, run.bounds.torque
     active, tau = run.active, run.tau
     ends = set(steps.tolist())  # instants where some arm's run is over
+    started, advanced = time.time(), len(times)  # control periods stepped (the step log's)
     for k in range(len(times)):
         t = float(times[k])
         q, qd = qpos[q_index], qvel[v_index]
@@ -351,13 +363,26 @@ def simulate_batch(
         run.tau_record[k] = tau
         if not np.abs(tau).max() < tmax or k in ends:
             if not run.stop(k, t, steps):
+                advanced = k
                 break
             stopped = True
         if stopped:
             plant.freeze(np.flatnonzero(~active))
             tau[~active] = 0.0
         _advance(plant, tau, substeps, applied)
-    return run.result(times, controllers)
+    result = run.result(times, controllers)
+    if steplog.enabled():
+        _log_steps(result, started, advanced, substeps)
+    return result
+
+
+def _log_steps(result: BatchResult, started: float, advanced: int, substeps: int) -> None:
+    """The batch in the step log (:mod:`twolink.simulation.steplog`)."""
+    digests = [
+        steplog.arm_digest(result.q[:n, i], result.tau[:n, i])
+        for i, n in enumerate(result.length.tolist())
+    ]
+    steplog.record("batch", started, advanced * substeps, result.length, substeps, digests)
 
 
 def _advance(plant: BatchPlant, tau: np.ndarray, substeps: int, applied: bool) -> None:

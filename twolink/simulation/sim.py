@@ -9,6 +9,7 @@ when the state or torque becomes non-finite or leaves sane bounds.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -19,6 +20,7 @@ import numpy as np
 from twolink.arm.plant import Plant, warning_notes
 from twolink.controllers.base import Controller
 from twolink.foundation.io import atomic_path
+from twolink.simulation import steplog
 from twolink.simulation.sensor import Sensor
 
 if TYPE_CHECKING:
@@ -229,8 +231,14 @@ def simulate(
     ask = _asking(plant, controller, n, control_dt, noise, sensor)
     plant.reset(q0, qd0, motor_q=motor_q0)
     controller.reset()
+    started = time.time()
     records = _run(plant, ask, n, substeps, control_dt, bounds)
-    return _trajectory(*records, controller, warnings=tuple(warning_notes(plant.data)))
+    traj = _trajectory(*records, controller, warnings=tuple(warning_notes(plant.data)))
+    if steplog.enabled():  # the run in the step log: its control periods, all stepped
+        kept = np.array([len(traj.t)])
+        digest = [steplog.arm_digest(traj.q, traj.tau)]
+        steplog.record("single", started, (kept[0] - 1) * substeps, kept, substeps, digest)
+    return traj
 
 
 def _run(
