@@ -1,7 +1,7 @@
 """Where ``twolink reproduce`` spends its time: a profile, phase by phase.
 
 Runs the shipped reproduction once in a subprocess (``--no-trace``, a fresh output
-folder), with the step log on (:mod:`twolink.simulation.steplog`), and prints:
+folder), with the step log on (:mod:`twolink.foundation.steplog`), and prints:
 
 - per phase ("[2/4] +7.8 s runs: ..." on stderr): its wall time and share, the CPU the
   command's processes used over it as a share of wall x cores, and its serial share (the

@@ -97,8 +97,11 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     # about 800 for the claims, 200 more for which law wins where (the ranking's item)
     assert len(conclusions.split()) <= 1000, len(conclusions.split())
     results = load_results(reproduction.out / "claims_study")
-    names = {"CTC", "PD-G", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "CTC-best"}
-    assert len(results) == 1200 and set(results["controller"]) == names
+    from twolink.studies.designs.searched_opponent import TUNED
+
+    # the sweep's own five, CTC-best and the tuned laws: 200 plants each
+    names = {"CTC", "PD-G", "CTC-I", "FCM-CTC", "FCM-CTC-continuous", "CTC-best", *TUNED}
+    assert len(results) == 200 * len(names) and set(results["controller"]) == names
     saved = pd.read_csv(reproduction.out / "claims.csv")
     from twolink.studies.judgments.claims_studies import reference_values
     from twolink.sweep import load_sweep

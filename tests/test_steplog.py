@@ -5,9 +5,9 @@ from __future__ import annotations
 
 import json
 
+from twolink.foundation.steplog import ENV
 from twolink.simulation.config import load_scenario, merge
 from twolink.simulation.experiment import run_scenario, run_scenarios
-from twolink.simulation.steplog import ENV
 
 BASE = "runs/paper/theta1_step.toml"
 

@@ -44,7 +44,7 @@ from twolink.arm.plant import (
     warning_notes,
 )
 from twolink.controllers.base import Controller
-from twolink.simulation import steplog
+from twolink.foundation import steplog
 from twolink.simulation.sensor import Sensor
 from twolink.simulation.sim import (
     STATUS_DIVERGED,
@@ -370,19 +370,19 @@ def simulate_batch(
             plant.freeze(np.flatnonzero(~active))
             tau[~active] = 0.0
         _advance(plant, tau, substeps, applied)
-    result = run.result(times, controllers)
-    if steplog.enabled():
-        _log_steps(result, started, advanced, substeps)
-    return result
+    return _logged(run.result(times, controllers), started, advanced, substeps)
 
 
-def _log_steps(result: BatchResult, started: float, advanced: int, substeps: int) -> None:
-    """The batch in the step log (:mod:`twolink.simulation.steplog`)."""
+def _logged(result: BatchResult, started: float, advanced: int, substeps: int) -> BatchResult:
+    """``result``, written to the step log where it is on (:mod:`twolink.foundation.steplog`)."""
+    if not steplog.enabled():
+        return result
     digests = [
         steplog.arm_digest(result.q[:n, i], result.tau[:n, i])
         for i, n in enumerate(result.length.tolist())
     ]
     steplog.record("batch", started, advanced * substeps, result.length, substeps, digests)
+    return result
 
 
 def _advance(plant: BatchPlant, tau: np.ndarray, substeps: int, applied: bool) -> None:

@@ -19,8 +19,8 @@ import numpy as np
 
 from twolink.arm.plant import Plant, warning_notes
 from twolink.controllers.base import Controller
+from twolink.foundation import steplog
 from twolink.foundation.io import atomic_path
-from twolink.simulation import steplog
 from twolink.simulation.sensor import Sensor
 
 if TYPE_CHECKING:
