@@ -14,6 +14,7 @@ import pytest
 
 from twolink import sweep as sw
 from twolink.arm.params import ArmParams, Friction
+from twolink.arm.plant import Plant
 from twolink.controllers import batch as batch_module
 from twolink.controllers.observer import DisturbanceObserverCTC
 from twolink.simulation.batch import Arm, BatchPlant
@@ -122,3 +123,18 @@ def test_a_friction_arm_runs_the_same_alone_and_in_a_batch():
     alone = _run(BatchPlant(arms[:1]), 1500)
     for n in (6, 60):
         np.testing.assert_array_equal(_run(BatchPlant(arms[:n]), 1500), alone)
+
+
+def test_a_friction_arm_runs_the_same_as_a_plant_and_in_a_batch():
+    """A single Plant with a Stribeck dip sums the dip and the torques as the batch does,
+    so the two run the same to the bit (MuJoCo adds applied, then actuator forces)."""
+    arm = _arms(1)[0]
+    plant = Plant.build(arm.params, friction=arm.friction)
+    batch = BatchPlant([arm])
+    for k in range(1500):
+        t = k * plant.dt
+        tau = (19.6 * np.cos(plant.data.qpos[0]) + 3 * np.sin(3 * t), 5 * np.sin(2 * t))
+        plant.step(*tau)
+        batch.apply(np.array([tau]))
+        mujoco.mj_step(batch.model, batch.data)
+        np.testing.assert_array_equal(plant.data.qpos[:2], batch.data.qpos[batch.q_index[0]])
