@@ -9,7 +9,8 @@ MuJoCo's -y axis, which makes a positive angle lift the link, as in the paper.
 
 Rigid arm: ``qpos == [theta1, theta2]`` (theta1 from the horizontal, theta2 relative
 to link 1), ``ctrl == [tau1, tau2]`` in N m, RK4, no damping, friction, armature,
-limits or contacts.
+limits or contacts. (With a Stribeck dip, :meth:`Plant.step` puts the torques in
+``qfrc_applied`` beside it, as the batch engine does, and ``ctrl`` is zero.)
 
 Flexible arm (Spong's model): two extra hinges carry motor rotors of inertia J. The
 rotors' masses sit on their axes and their kinetic energy comes from their own spin
