@@ -51,6 +51,7 @@ __all__ = [
     "BatchSlidingMode",
     "ReferenceTable",
     "batch_laws",
+    "batched",
 ]
 
 
@@ -448,6 +449,12 @@ class _ArmByArm:
             else:
                 out.append(c(t, tuple(qi.tolist()), tuple(wi.tolist())))
         return np.array(out, dtype=float).reshape(-1, 2)
+
+
+def batched(c: Controller) -> bool:
+    """Whether :func:`batch_laws` gives ``c`` a batch law, which keeps each arm's state in
+    its own row. False: ``c`` is called arm by arm, so every arm needs its own object."""
+    return _group_key(c)[0] is not _ArmByArm
 
 
 def _group_key(c: Controller) -> tuple[Any, ...]:

@@ -9,7 +9,8 @@ MuJoCo's -y axis, which makes a positive angle lift the link, as in the paper.
 
 Rigid arm: ``qpos == [theta1, theta2]`` (theta1 from the horizontal, theta2 relative
 to link 1), ``ctrl == [tau1, tau2]`` in N m, RK4, no damping, friction, armature,
-limits or contacts.
+limits or contacts. (With a Stribeck dip, :meth:`Plant.step` puts the torques in
+``qfrc_applied`` beside it, as the batch engine does, and ``ctrl`` is zero.)
 
 Flexible arm (Spong's model): two extra hinges carry motor rotors of inertia J. The
 rotors' masses sit on their axes and their kinetic energy comes from their own spin
@@ -108,7 +109,12 @@ def build_spec(
     """
     spec = new_spec(timestep, p.g, "twolink_flexible" if flexibility else "twolink")
     add_arm(spec, p, flexibility, payload, friction=friction)
+    if friction is not None:
+        solve_arms_apart(spec)
     return spec
+
+
+SOLVER_TOLERANCE = 1e-15  # the friction solve's: Newton stops at its exact optimum
 
 
 def new_spec(timestep: float, g: float, name: str = "twolink") -> mujoco.MjSpec:
@@ -127,6 +133,16 @@ def new_spec(timestep: float, g: float, name: str = "twolink") -> mujoco.MjSpec:
     # A diverging run must show as NaN to the simulation loop, not silently restart.
     spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_AUTORESET
     return spec
+
+
+def solve_arms_apart(spec: mujoco.MjSpec) -> None:
+    """Set the constraint solver (joint friction's) to solve each arm of a model as if it
+    were alone (docs/batch.md, "Independent arms"): Newton per island (one arm each), a cold
+    start (MuJoCo picks the warm start for all arms at once) and sparse algebra at every
+    size (dense sums differ in the last bit), to ``SOLVER_TOLERANCE``."""
+    spec.option.disableflags |= mujoco.mjtDisableBit.mjDSBL_WARMSTART
+    spec.option.jacobian = mujoco.mjtJacobian.mjJAC_SPARSE
+    spec.option.tolerance = SOLVER_TOLERANCE
 
 
 def add_arm(
@@ -424,9 +440,11 @@ class Plant:
         ctrl[1] = tau2
         if self._applied:  # held over the step, from its start
             applied = self.data.qfrc_applied
-            if self._stribeck:
+            if self._stribeck:  # the torques join the dip, summed as the batch engine does
                 dofs = self._friction_dofs
-                applied[dofs] = self.friction.stribeck_relief(self.data.qvel[dofs])
+                relief = self.friction.stribeck_relief(self.data.qvel[dofs])
+                applied[dofs] = np.array((tau1, tau2)) + relief
+                ctrl[:2] = 0.0
             if self.disturbance is not None:
                 if not self._stribeck or self.flexible:
                     applied[:2] = 0.0

@@ -40,6 +40,7 @@ from twolink.arm.plant import (
     lump_point_mass,
     mujoco,
     new_spec,
+    solve_arms_apart,
     warning_counts,
     warning_notes,
 )
@@ -91,6 +92,8 @@ def batch_model(
     ValueError (no tilt adds gravity)."""
     g_model = model_gravity([a.params.g for a in arms]) if model_g is None else model_g
     spec = new_spec(timestep, g_model, name)
+    if any(a.friction is not None for a in arms):
+        solve_arms_apart(spec)  # friction's solver sees each arm alone
     for i, a in enumerate(arms):
         # No geoms (nothing renders a batch) and no actuators (see force_index): each
         # costs ~5 % of a step.

@@ -4,6 +4,7 @@ tasks and writes the chunk files."""
 
 from __future__ import annotations
 
+import copy
 import math
 import os
 import time
@@ -11,6 +12,7 @@ from concurrent import futures
 from dataclasses import dataclass
 from typing import Any
 
+from twolink.controllers.batch import batched
 from twolink.simulation.config import scenario_from_dict
 from twolink.simulation.experiment import (
     build_controller,
@@ -64,9 +66,12 @@ def run_chunk(plan: SweepPlan, chunk: int, backend: str = "cpu") -> ChunkResult:
 
     The controllers are built once per chunk, and once per swept ``wn`` (they are modelled
     on the nominal arm, which does not change; a flexible-joint controller is given each
-    sample's joints, ``with_joints``); every (sample, controller) is one arm of the batch engine
-    (:func:`twolink.simulation.experiment.iter_scenarios`). A sample that raises or diverges gives
-    rows with status "error" or "diverged" and the message; it never stops the chunk.
+    sample's joints, ``with_joints``). A law without a batch form is called arm by arm and
+    keeps its state (integrator, estimate, observer) itself, so each arm gets its own copy
+    (:func:`twolink.controllers.batch.batched`). Every (sample, controller) is one arm of
+    the batch engine (:func:`twolink.simulation.experiment.iter_scenarios`). A sample that
+    raises or diverges gives rows with status "error" or "diverged" and the message; it
+    never stops the chunk.
     ``backend``: iter_scenarios'.
     """
     start = time.perf_counter()
@@ -121,6 +126,8 @@ def _chunk_arms(
             else:
                 if getattr(controller, "needs_motor", False):  # models the sample's joints
                     controller = controller.with_joints(s.plant.flexibility)
+                if not batched(controller):  # called arm by arm: its state is this arm's
+                    controller = copy.deepcopy(controller)
                 arms.append((len(rows), s, controller))
                 rows.append((i, name, head))
     return rows, arms
