@@ -45,6 +45,7 @@ from twolink.studies.designs.effort import EFFORT_KEYS
 __all__ = [
     "Regime",
     "claim_line",
+    "claim_word",
     "effort_words",
     "holds",
     "pair_sentences",
@@ -413,7 +414,20 @@ def claim_line(regimes: Sequence[Regime]) -> str:
             said = f"on {_names(held)} only"
         answers.setdefault(said, []).append(o)
     parts = [f"Against {_names(os)} it holds {said}." for said, os in answers.items()]
-    return f"**The paper's claim** ({proposed} lowers the step metrics). " + " ".join(parts)
+    word = claim_word(list(answers))
+    head = f"**Does {proposed} lower the step metrics? {word}.**"
+    return head + " " + " ".join(parts)
+
+
+def claim_word(said: Sequence[str]) -> str:
+    """The claim's answer in one word, from where it holds against each opponent: "Yes"
+    where it holds in every regime against every opponent, "No" where it holds in none
+    against any, "In part" otherwise."""
+    if set(said) == {"in every regime"}:
+        return "Yes"
+    if set(said) == {"in no regime"}:
+        return "No"
+    return "In part"
 
 
 def _flexible(variant) -> bool:

@@ -70,15 +70,16 @@ def sentence(study: Judged) -> str:
 
 
 def answer(studies: Sequence[Judged]) -> list[str]:
-    """The answer's paragraphs: one per regime, in the tables' order, who wins and by how
-    much (:func:`~twolink.studies.judgments.plain.regime_sentences`), then whether the
-    paper's claim holds (:func:`~twolink.studies.judgments.plain.claim_line`)."""
-    out = []
+    """The answer's paragraphs: first whether the paper's claim holds, in a word and per
+    opponent (:func:`~twolink.studies.judgments.plain.claim_line`), then one per regime, in
+    the tables' order, who wins and by how much
+    (:func:`~twolink.studies.judgments.plain.regime_sentences`)."""
+    out = [claim_line([s.regime() for s in studies])]
     for s in studies:
         name = s.name or s.label
         head = f"**{name[:1].upper()}{name[1:]}, {s.plants} plants.**"
         out.append(" ".join([head, *regime_sentences(s.regime())]))
-    return [*out, claim_line([s.regime() for s in studies])]
+    return out
 
 
 def terms(proposed: str, opponents: Mapping[str, str], studies: Sequence[Judged]) -> str:
