@@ -131,8 +131,10 @@ def test_the_report_opens_with_the_claims_judged_on_the_claims_sweeps_plants(rep
     pd.testing.assert_frame_equal(fair, again, check_dtype=False)
     assert set(fair["metric"]) >= {"torque_peak_Nm", "torque_variation_Nm"}
     assert "### Against the best linear loop at FCM-CTC's effort (CTC-best)" in report
-    (quintic,) = [x for x in conclusions.splitlines() if "claims study's quintic moves**" in x]
-    assert "against CTC, met" in quintic and "against CTC-best, met" in quintic
+    (quintic,) = [x for x in conclusions.splitlines() if "claims study's quintic moves, 200" in x]
+    met = results[results["outcome"] == "met spec"].groupby("controller").size()
+    said = f"Met the spec: FCM-CTC {met['FCM-CTC']}, CTC {met['CTC']}, CTC-best {met['CTC-best']}."
+    assert said in quintic, quintic
     raw = load_results(reproduction.out / "claims_study_raw")
     assert "CTC-best" in set(raw["controller"])
     fair_raw = pd.read_csv(reproduction.out / "claims_matched_raw.csv")
