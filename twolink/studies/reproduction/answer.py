@@ -103,10 +103,10 @@ def write_summary(out: Path, manifest: Manifest, studies: Sequence[Judged]) -> l
     }
     names = dict.fromkeys(n for s in studies for n in s.tables)
     tuned = {n for s in studies for n, (f, _) in s.tables.items() if f.startswith("claims_tuned")}
-    law = 'a law of the field tuned by CTC-best\'s rule (docs/reproduction.md, "The ranking")'
-    opponents = {
-        n: law if n in tuned else what.get(n, "an opponent of the manifest") for n in names
-    }
+    from twolink.studies.designs.searched_opponent import TUNED
+
+    what |= {n: f"{TUNED.get(n, n)}, tuned by CTC-best's rule" for n in tuned}
+    opponents = {n: what.get(n, "an opponent of the manifest") for n in names}
     text = summary(studies, opponents, question(manifest))
     atomic_write_text(out / "summary.md", text)
     lines = text.splitlines()
