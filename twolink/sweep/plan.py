@@ -323,7 +323,9 @@ class SweepPlan:
             )
         else:
             ends = (p.low, p.high)
-        return max((arm.scaled(g=f).g for f in ends), key=abs)
+        from twolink.simulation.batch import model_gravity  # one rule for every set of arms
+
+        return model_gravity([arm.scaled(g=f).g for f in ends])
 
     def controller_data(self, name: str, values: Mapping[str, float] = {}) -> dict[str, Any]:  # noqa: B006
         """The base scenario with controller ``name``'s overrides (and a sample's ``wn``)."""
