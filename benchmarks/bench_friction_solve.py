@@ -1,7 +1,8 @@
 """What joint friction costs the batch engine's step: the lab arm's 40 drawn plants
 stepped 2,000 times in one MuJoCo model, under the shipped friction solve, under other
-solver settings, and without friction (the baseline). Prints µs per arm-step and the
-ratio to the baseline timed in the same run.
+solver settings, and without friction (the baseline). Each is timed ROUNDS times,
+interleaved (one timing is noisy on a shared machine); prints the median µs per
+arm-step, its range, and the median's ratio to the baseline's.
 
     python benchmarks/bench_friction_solve.py
 """
@@ -19,13 +20,12 @@ from twolink.simulation.config import scenario_from_dict
 from twolink.simulation.experiment import _arm
 from twolink.sweep.plan import load_sweep
 
-ARMS, STEPS = 40, 2000
+ARMS, STEPS, ROUNDS = 40, 2000, 5
 
 
 def step_cost(arms, model_g: float) -> float:
     """µs per arm-step of ``arms`` in one batch model, a fixed torque pattern applied."""
     m = batch.batch_model(arms, 0.001, model_g=model_g)
-    m = m[0] if isinstance(m, tuple) else m
     d = mujoco.MjData(m)
     phase = np.arange(m.nv)
     start = time.perf_counter()
@@ -63,13 +63,24 @@ def main() -> None:
         "MuJoCo's defaults": lambda spec: None,
     }
     g = plan.model_gravity()
-    base = step_cost([dataclasses.replace(a, friction=None) for a in arms], g)
-    print(f"no friction (baseline): {base:.2f} µs/arm-step")
-    for label, solve in settings.items():
-        batch.solve_arms_apart = solve
-        cost = step_cost(arms, g)
-        print(f"{label}: {cost:.2f} µs/arm-step, {cost / base:.2f}x the baseline")
-    batch.solve_arms_apart = shipped
+    bare = [dataclasses.replace(a, friction=None) for a in arms]
+    costs: dict[str, list[float]] = {"no friction (baseline)": []} | {k: [] for k in settings}
+    try:
+        for _ in range(ROUNDS):
+            batch.solve_arms_apart = shipped
+            costs["no friction (baseline)"].append(step_cost(bare, g))
+            for label, solve in settings.items():
+                batch.solve_arms_apart = solve  # what batch_model calls to set the friction solve
+                costs[label].append(step_cost(arms, g))
+    finally:
+        batch.solve_arms_apart = shipped
+    base = float(np.median(costs["no friction (baseline)"]))
+    for label, c in costs.items():
+        med = float(np.median(c))
+        print(
+            f"{label}: {med:.2f} µs/arm-step (range {min(c):.2f}-{max(c):.2f}), "
+            f"{med / base:.2f}x the baseline"
+        )
 
 
 if __name__ == "__main__":
