@@ -56,6 +56,31 @@ def test_the_tolerance_decides_a_choice():
     assert not effort.within_budget([[np.nan, 0, 0, 0]], BUDGET, TOL)[0]
 
 
+def test_the_search_checks_the_judged_plants_against_fcm_ctcs_effort_there(monkeypatch):
+    """The search's own call of the rule, its runs faked: FCM-CTC's Σ|Δτ|₁ is 240 N·m on
+    the training plants and 230 where judged. The best loop spends 236 where judged
+    (within 240 + 1, over 230 + 1): refused there, and the next one (229) is chosen."""
+    train_fcm, judged_fcm = [28.5, 8.0, 240.0, 76.0], [28.5, 8.0, 230.0, 76.0]
+    loops = [
+        {"x": [1.0], "cost": 0.05, "values": [28.0, 7.9, 239.0, 75.0]},
+        {"x": [2.0], "cost": 0.06, "values": [28.0, 7.9, 230.0, 75.0]},
+    ]
+    where_judged = {1.0: [28.0, 7.9, 236.0, 75.0], 2.0: [28.0, 7.9, 229.0, 75.0]}
+    found = {"family": "CTC", "torque_limit": [1.0, 1.0], "budget": train_fcm, "loops": loops}
+    monkeypatch.setattr(search, "setup", lambda spec, regime: "training plants")
+    monkeypatch.setattr(ops, "search_family", lambda spec, stp, regime, family: found)
+    monkeypatch.setattr(ops, "judged_setup", lambda spec, regime: "judged plants")
+    monkeypatch.setattr(search, "designed_table", lambda: np.zeros(1))
+    monkeypatch.setattr(search, "evaluate_tables", lambda stp, t, how: np.array([judged_fcm]))
+    monkeypatch.setattr(ops, "_entry", lambda candidate: candidate["x"][0])
+    monkeypatch.setattr(
+        ops, "evaluate_loops", lambda stp, xs: np.array([where_judged[x] for x in xs])
+    )
+    done = ops._search_and_judge(None, "quintic", ("CTC",))
+    assert done["chosen"]["x"] == [2.0] and done["chosen"]["judged"] == where_judged[2.0]
+    assert [r["x"] for r in done["refused"]] == [[1.0]]
+
+
 def test_the_optimiser_finds_a_known_optimum_under_the_effort_constraint():
     """A cheap synthetic objective with the search's shape: an index that falls with ωn and
     an effort that grows with it, feasibility first; the constrained optimum is known in
