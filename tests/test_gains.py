@@ -205,19 +205,33 @@ def test_cli_runs_a_small_study_and_refuses_bad_input(tmp_path):
     assert refused.exit_code == 2 and "--set" in refused.output
 
 
+def test_the_gain_study_runs_its_plants_at_the_sweeps_gravity(monkeypatch):
+    """Every chunk runs at the sweep's model gravity (SweepPlan.model_gravity, the largest
+    |g| the sweep can draw), not at the largest g of the plants drawn: a plant runs to the
+    bit as the sweep runs it."""
+    study = gains.load_gain_study(overrides={**SMALL, "plants": 2})
+    seen = []
+    monkeypatch.setattr(gains, "_run_chunk", lambda source, part, g: seen.append(g) or [])
+    gains.run_gain_study(study)
+    drawn = [
+        gains.scenario_from_dict(d, study.source).plant_params.g for _, d in gains._plans(study)
+    ]
+    sweep_g = load_sweep(study.sweep, {"samples": study.plants}).model_gravity()
+    assert seen and set(seen) == {sweep_g} and sweep_g > max(drawn)
+
+
 def test_a_gain_run_does_not_depend_on_its_chunk():
-    """One model gravity for every chunk (the study's largest |g|): a run's row is the same
-    whether it runs among all the study's plants or alone with a plant of smaller g (the
-    chunk's own largest |g| would tilt it differently, and the lab's numbers with it)."""
-    from twolink.simulation.batch import model_gravity
+    """One model gravity for every chunk (the sweep's): a run's row is the same whether it
+    runs among all the study's plants or alone with a plant of smaller g (the chunk's own
+    largest |g| would tilt it differently, and the lab's numbers with it)."""
     from twolink.simulation.config import scenario_from_dict
 
     study = gains.load_gain_study()
     items = list(gains._plans(study))
     g = [scenario_from_dict(d, study.source).plant_params.g for _, d in items]
-    model_g = model_gravity(g)
+    model_g = load_sweep(study.sweep, {"samples": study.plants}).model_gravity()
     low = [i for i in range(len(items)) if g[i] < 9.7][:2]  # a chunk without the largest g
-    high = [i for i in range(len(items)) if g[i] == model_g][:1]
+    high = [i for i in range(len(items)) if g[i] == max(g)][:1]
     pick = [items[i] for i in low]
     alone = gains._run_chunk(study.source, pick, model_g)
     beside = gains._run_chunk(study.source, pick + [items[i] for i in high], model_g)[:2]

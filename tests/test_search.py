@@ -75,9 +75,10 @@ def test_the_designed_table_through_the_search_is_the_sweeps_fcm_ctc():
     plan = frontier.training_plan(
         fspec, "raw", {"FCM-CTC": {"kind": "fcm_ctc", "rule_base": "designed"}}
     )
-    # under the sweep's model gravity, as the sweep runs each plant (the lab encoder turns a
-    # last-bit difference of another gravity into a count: docs/batch.md)
-    stp = dataclasses.replace(search.setup(spec, "raw"), model_g=plan.model_gravity())
+    # the setup's gravity is the sweep's, so each plant runs as in the sweep (the lab encoder
+    # turns a last-bit difference of another gravity into a count: docs/batch.md)
+    stp = search.setup(spec, "raw")
+    assert stp.model_g == plan.model_gravity()
     mine = search.evaluate_tables(stp, search.designed_table()[None], "mamdani")[0]
     res = frontier._run(plan, None)
     row = frontier.summarise(res).iloc[0]

@@ -146,12 +146,10 @@ def test_the_ranking_orders_by_index_and_says_who_is_over_the_effort():
 def test_a_law_with_a_state_runs_each_plant_as_if_alone(kind):
     """Two plants evaluated together give the medians of each plant run alone: no two arms
     share an adaptive estimate, an observer or an integral (the batch models' gravity the
-    same for both: the larger |g| of the two plants)."""
-    from twolink.simulation.batch import model_gravity
-
+    same for both: the sweep's)."""
     spec = search.load_spec(overrides={"plants": 2, "regimes": ["quintic"]})
     stp = search.setup(spec, "quintic")
-    g = model_gravity([s.plant_params.g for s in stp.scenarios])
+    g = stp.model_g
     both = ops.evaluate_loops(stp, [{"kind": kind}])[0]
     alone = [
         ops.evaluate_loops(search.Setup((s,), stp.fcm, g, stp.plan), [{"kind": kind}])

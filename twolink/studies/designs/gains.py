@@ -264,14 +264,14 @@ def run_gain_study(study: GainStudy, pool: Any = None, progress: bool = False) -
     """
     from tqdm import tqdm
 
-    from twolink.simulation.batch import model_gravity
+    from twolink.sweep import load_sweep
 
     items = list(_plans(study))
     chunks = max(1, 4 * getattr(pool, "workers", 1))
     size = -(-len(items) // chunks)
     parts = [items[i : i + size] for i in range(0, len(items), size)]
-    # one gravity for every chunk, from all the runs: a run does not depend on its chunk
-    model_g = model_gravity([scenario_from_dict(d, study.source).plant_params.g for _, d in items])
+    # the sweep's gravity for every chunk: a plant runs as in the sweep, whatever its chunk
+    model_g = load_sweep(study.sweep, {"samples": study.plants}).model_gravity()
     rows: list[dict[str, Any]] = []
     with tqdm(total=len(items), unit="run", disable=not progress, desc="gain study") as bar:
         if pool is None:

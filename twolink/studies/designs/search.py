@@ -202,8 +202,8 @@ class Setup:
 
     scenarios: tuple[Any, ...]
     fcm: dict[str, Any]
-    # the batch models' gravity: None, the largest |g| of these plants (as the shipped
-    # search ran); the sweep's own (plan.model_gravity()) runs each plant as the sweep does
+    # the batch models' gravity: the sweep's (plan.model_gravity()), so each plant runs
+    # as in the sweep; None: the largest |g| of these plants (a set not drawn from a plan)
     model_g: float | None = None
     plan: Any = None
 
@@ -238,7 +238,7 @@ def setup_of(plan: Any, proposed: str, plants: int) -> Setup:
         "kd": c.kd,
         "torque_limit": c.torque_limit,
     }
-    return Setup(tuple(scenarios), fcm, plan=plan)
+    return Setup(tuple(scenarios), fcm, plan.model_gravity(), plan)
 
 
 def evaluate_tables(stp: Setup, tables: np.ndarray, inference: str) -> np.ndarray:
