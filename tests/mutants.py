@@ -94,6 +94,26 @@ def fresh_copy(where: Path, tests: tuple[str, ...]) -> list[str]:
     return newer
 
 
+# An editable install maps twolink.controllers, .runs and .models to the clone's folders:
+# in a copy, this sitecustomize points them at the copy's.
+HOOK = f"""import sys
+for finder in sys.meta_path:
+    mapping = getattr(sys.modules.get(finder.__module__), "MAPPING", None)
+    if isinstance(mapping, dict):
+        for name, path in list(mapping.items()):
+            mapping[name] = path.replace({str(REPO)!r}, {{root!r}}, 1)
+"""
+
+
+def hooked(root: Path) -> dict:
+    """The environment that runs python in ``root`` on the copy's packages only."""
+    hook = root / ".mutants_hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(HOOK.format(root=str(root)))
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
+    return {**env, "PYTHONPATH": f"{hook}{os.pathsep}{root}"}
+
+
 def mutate(root: Path, m: Mutant) -> int:
     """Apply ``m`` in ``root``; the line of HEAD it changes."""
     file = root / m.path
@@ -106,8 +126,12 @@ def mutate(root: Path, m: Mutant) -> int:
 
 
 def imported(root: Path, env: dict) -> str:
-    """The file ``import twolink`` loads, run in ``root``."""
-    code = "import twolink; print(twolink.__file__)"
+    """The folder ``import twolink`` and ``twolink.controllers`` load from, run in ``root``
+    (their common path)."""
+    code = (
+        "import os, twolink, twolink.controllers as c\n"
+        "print(os.path.commonpath([twolink.__file__, c.__file__]))"
+    )
     out = subprocess.run([PYTHON, "-c", code], cwd=root, env=env, capture_output=True, text=True)
     return out.stdout.strip()
 
@@ -127,16 +151,14 @@ def main() -> int:
     if not mutants:
         parser.error(f"no mutant {args.only!r}; the names: {[m.name for m in MUTANTS]}")
     start = time.monotonic()
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONPATH"}
     every = tuple(dict.fromkeys(t for m in mutants for t in m.tests))
     with tempfile.TemporaryDirectory(prefix="twolink-mutant-") as tmp:
         root = Path(tmp)
         newer = fresh_copy(root, every)
-        if not imported(root, env).startswith(tmp):
-            env["PYTHONPATH"] = str(root)
+        env = hooked(root)
         where = imported(root, env)
-        if not where.startswith(tmp):
-            sys.exit(f"import twolink in {root} loads {where}, not the copy there")
+        if where != str(root):
+            sys.exit(f"import twolink in {root} loads from {where!r}, not the copy there")
         code, failed = run_tests(root, every, env)
         if code != 0:
             sys.exit(f"HEAD itself fails (exit {code}): {failed or 'see pytest'}; no table")
@@ -146,16 +168,13 @@ def main() -> int:
             root = Path(tmp)
             fresh_copy(root, m.tests)
             line = mutate(root, m)
-            if "PYTHONPATH" in env:
-                env["PYTHONPATH"] = str(root)
-            code, failed = run_tests(root, m.tests, env)
+            code, failed = run_tests(root, m.tests, hooked(root))
         killed = code == 1 and bool(failed)  # 1: tests failed (2-5: an error, no verdict)
         survivors += not killed
         result = "killed" if killed else "survived" if code == 0 else f"error (exit {code})"
         by = "<br>".join(f.removeprefix("tests/") for f in failed) or "—"
         rows.append(f"| {m.name} | {m.path}:{line} | {by} | {result} |")
-    how = "with PYTHONPATH set" if "PYTHONPATH" in env else "as the working folder"
-    print(f"`import twolink` in a copy loads the copy, {how} ({where}).")
+    print(f"`import twolink` and `twolink.controllers` in a copy load the copy's ({where}).")
     print(f"Unmutated, the {len(every)} tests below pass there.")
     if newer:
         print(f"Test files taken from the working tree (they differ from HEAD): {newer}")

@@ -85,6 +85,34 @@ def test_a_cache_folder_that_cannot_be_made_turns_caching_off_with_a_note(tmp_pa
     assert blocker.read_text() == "not a folder\n"
 
 
+# Root writes through a read-only mode, so as root the writes under the folder meet the
+# EACCES that a user's would (numba probes with tempfile.TemporaryFile, as twolink does).
+_READ_ONLY = """import errno, tempfile
+_made = tempfile.TemporaryFile
+def _denied(*args, dir=None, **kwargs):
+    if str(dir).startswith({folder!r}):
+        raise PermissionError(errno.EACCES, "Permission denied", dir)
+    return _made(*args, dir=dir, **kwargs)
+tempfile.TemporaryFile = _denied
+"""
+
+
+@pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
+def test_a_read_only_cache_folder_turns_caching_off_with_a_note(tmp_path):
+    folder = tmp_path / "cache"
+    folder.mkdir()
+    folder.chmod(0o555)
+    before = _beside()
+    done = _warm({"XDG_CACHE_HOME": str(folder)}, _READ_ONLY.format(folder=str(folder)))
+    folder.chmod(0o755)
+    assert done.returncode == 0, done.stderr
+    notes = [x for x in done.stderr.splitlines() if x.startswith("note: numba's cache")]
+    assert len(notes) == 1 and "not cached" in notes[0] and "Traceback" not in done.stderr
+    assert str(folder) in notes[0] and "Permission denied" in notes[0], notes
+    assert _beside() == before
+    assert not list(folder.rglob("*.nb[ic]"))
+
+
 @pytest.mark.skipif(not kernels.available(), reason="numba is not installed")
 def test_a_full_cache_disk_turns_caching_off_with_a_note_and_the_kernels_still_run(tmp_path):
     # the folder can be made and probed, then numba's save meets ENOSPC (a disk that filled)
