@@ -20,6 +20,11 @@ from twolink.simulation.vocabulary import STEP_KEYS, metric
 from twolink.studies.reproduction.manifest import load_manifest
 from twolink.studies.reproduction.reproduce import reproduce
 
+# Every test here reads one full reproduction (about 3.5 min on 2 cores): the slow suite
+# runs them (.ci/run), so the default suite stays near 5 min. The default suite still
+# starts reproduce where it must stop cleanly (tests/test_nothing_lost*.py).
+pytestmark = pytest.mark.slow
+
 STEP_FIELDS = [f.name for f in fields(StepMetrics)]  # in STEP_KEYS order
 
 
