@@ -47,6 +47,7 @@ __all__ = [
     "LinkClaims",
     "judge_links",
     "link_claims",
+    "load_runs",
     "main",
     "measure_run",
     "plant_scenarios",
@@ -219,11 +220,16 @@ class LinkClaims:
 
 
 def link_claims(
-    plants: int = 100, sweep: Any = None, duration: float | None = None, workers: int = 1
+    plants: int = 100,
+    sweep: Any = None,
+    duration: float | None = None,
+    workers: int = 1,
+    keep: Path | None = None,
 ) -> LinkClaims:
     """Run :data:`LAWS` on the first ``plants`` plants of the sweep (default the shipped
     ``runs/sweeps/flexible_links.toml``; ``duration`` overrides the runs' length) on
-    ``workers`` processes, and judge them (:func:`judge_links`)."""
+    ``workers`` processes, and judge them (:func:`judge_links`); ``keep``: a CSV file the
+    runs are written to before they are judged."""
     start = time.perf_counter()
     plan, drawn = plant_scenarios(plants, sweep)
     if duration is not None:
@@ -240,6 +246,11 @@ def link_claims(
         chunks = [_plant_rows(t) for t in tasks]
     runs = pd.DataFrame([row for rows in chunks for row in rows])
     wall = time.perf_counter() - start
+    if keep is not None:
+        from twolink.foundation.io import atomic_write_text
+
+        keep.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(keep, runs.to_csv(index=False))
     return LinkClaims(runs, judge_links(runs), mode, wall, workers)
 
 
@@ -256,38 +267,45 @@ def judge_links(runs: pd.DataFrame, laws: Sequence[str] = LAWS[1:]) -> pd.DataFr
     from twolink.studies.judgments.claims_words import reading
 
     base = runs[runs["controller"] == BASELINE].set_index("sample").sort_index()
-    blocks, keys = [], []
+    tables = []
     for where, (low, high) in HALVES.items():
         inside = base.index[(base["ei_scale"] >= low) & (base["ei_scale"] < high)]
-        if not len(inside):
-            continue
-        for law in laws:
-            mine = runs[runs["controller"] == law].set_index("sample").reindex(inside)
-            blocks.append((mine[list(METRICS)].to_numpy(float).T,
-                           base.loc[inside, list(METRICS)].to_numpy(float).T))  # fmt: skip
-            keys.append((where, law, len(inside)))
-    width = len(METRICS)
-    out = judge_rows(
-        np.concatenate([a for a, _ in blocks]),
-        np.concatenate([b for _, b in blocks]),
-        np.tile([TOLERANCE[m] for m in METRICS], len(blocks)),
-        np.repeat(np.arange(len(blocks)), width),
-        np.tile([m in REACHED for m in METRICS], len(blocks)),
-        np.repeat([n for *_, n in keys], width),
-    )
-    at = [m.partition("_")[0] if m in HUBS else "tip" for m in METRICS]
-    key = [m.partition("_")[2] if m in HUBS else m for m in METRICS]
-    table = pd.DataFrame({
-        "where": np.repeat([k[0] for k in keys], width),
-        "law": np.repeat([k[1] for k in keys], width),
-        "opponent": BASELINE,
-        "at": np.tile(at, len(blocks)),
-        "metric": np.tile(key, len(blocks)),
-        **out,
-    })  # fmt: skip
+        if len(inside):
+            tables.append(_judge_half(runs, base.loc[inside], where, laws))
+    table = pd.concat(tables, ignore_index=True)
     words = table.rename(columns={"law": "proposed"}).assign(reference=math.nan)
     table["reading"] = reading(words)
     return table
+
+
+def _judge_half(
+    runs: pd.DataFrame, base: pd.DataFrame, where: str, laws: Sequence[str]
+) -> pd.DataFrame:
+    """:func:`judge_links`' rows of one half's plants (``base``: CTC's rows by sample)."""
+    a = []
+    for law in laws:
+        mine = runs[runs["controller"] == law].set_index("sample").reindex(base.index)
+        a.append(mine[list(METRICS)].to_numpy(float).T)
+    b = base[list(METRICS)].to_numpy(float).T
+    width, count = len(METRICS), len(laws)
+    out = judge_rows(
+        np.concatenate(a),
+        np.tile(b, (count, 1)),
+        np.tile([TOLERANCE[m] for m in METRICS], count),
+        np.repeat(np.arange(count), width),
+        np.tile([m in REACHED for m in METRICS], count),
+        np.full(count * width, len(base)),
+    )
+    at = [m.partition("_")[0] if m in HUBS else "tip" for m in METRICS]
+    key = [m.partition("_")[2] if m in HUBS else m for m in METRICS]
+    return pd.DataFrame({
+        "where": where,
+        "law": np.repeat(list(laws), width),
+        "opponent": BASELINE,
+        "at": np.tile(at, count),
+        "metric": np.tile(key, count),
+        **out,
+    })  # fmt: skip
 
 
 # ------------------------------------------------------------------------------ the table
@@ -330,20 +348,29 @@ def table_lines(claims: pd.DataFrame, where: str = "all") -> list[str]:
     return lines
 
 
-def shipped_paths() -> tuple[Path, Path]:
-    """The shipped verdicts and runs (runs/flexible_links/claims.csv, claims_runs.csv)."""
+def shipped_paths() -> tuple[Path, Path, Path]:
+    """The shipped verdicts, runs and their record (runs/flexible_links/claims.csv,
+    claims_runs.csv, claims.json)."""
     from twolink.foundation.shipped import runs_dir
 
-    return runs_dir().joinpath(*SHIPPED), runs_dir().joinpath(*SHIPPED_RUNS)
+    verdicts = runs_dir().joinpath(*SHIPPED)
+    return verdicts, runs_dir().joinpath(*SHIPPED_RUNS), verdicts.with_suffix(".json")
+
+
+def load_runs(path: Path) -> pd.DataFrame:
+    """A runs table written by :func:`main` (claims_runs.csv)."""
+    return pd.read_csv(path)
 
 
 def main(argv: list[str] | None = None) -> int:
     """``python -m twolink.studies.judgments.link_claims --out DIR`` (or ``--install``: into
-    runs/flexible_links/): the runs (claims_runs.csv), the verdicts (claims.csv) and the
-    tables of docs/flexible_links.md (claims.md)."""
+    runs/flexible_links/): the runs (claims_runs.csv), the verdicts (claims.csv), the
+    record (claims.json: plants, wall time, workers, the shaper's mode); the tables of
+    docs/flexible_links.md on stdout. ``--reuse`` judges the shipped runs again."""
     import argparse
+    import json
 
-    from twolink.foundation.io import atomic_write_text
+    from twolink.foundation.io import atomic_write_json, atomic_write_text
     from twolink.foundation.shipped import install_target
 
     parser = argparse.ArgumentParser(description=main.__doc__)
@@ -352,27 +379,36 @@ def main(argv: list[str] | None = None) -> int:
     where.add_argument("--install", action="store_true", help="rewrite the shipped result")
     parser.add_argument("--plants", type=int, default=100, help="plants drawn (default 100)")
     parser.add_argument("--workers", type=int, default=1, help="processes (default 1)")
+    parser.add_argument("--reuse", action="store_true", help="judge the shipped runs again")
     args = parser.parse_args(argv)
     if args.plants < 1 or args.workers < 1:
         parser.error("--plants and --workers must be at least 1")
     if args.install:
-        claims_path, runs_path = (install_target(p) for p in shipped_paths())
+        paths = tuple(install_target(p) for p in shipped_paths())
     else:
-        claims_path, runs_path = args.out / SHIPPED[1], args.out / SHIPPED_RUNS[1]
-    result = link_claims(args.plants, workers=args.workers)
+        paths = tuple(args.out / p.name for p in shipped_paths())
+    claims_path, runs_path, record_path = paths
+    if args.reuse:
+        shipped_claims, shipped_runs, shipped_record = shipped_paths()
+        runs = load_runs(shipped_runs)
+        record = json.loads(shipped_record.read_text())
+        claims = judge_links(runs)
+    else:
+        result = link_claims(args.plants, workers=args.workers, keep=runs_path)
+        runs, claims = result.runs, result.claims
+        f, z = result.mode
+        record = {"plants": args.plants, "laws": list(LAWS), "wall_s": result.wall_s,
+                  "workers": result.workers,
+                  "shaper": {"frequency_hz": f, "damping_ratio": z}}  # fmt: skip
     claims_path.parent.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(runs_path, result.runs.to_csv(index=False))
-    atomic_write_text(claims_path, result.claims.to_csv(index=False))
-    f, z = result.mode
-    head = (
-        f"{args.plants} plants, {len(LAWS)} laws, {result.wall_s:.0f} s on "
-        f"{result.workers} worker(s); shaped at {f:.3f} Hz, ζ = {z:.3f}"
-    )
-    md = [head, ""]
+    atomic_write_text(runs_path, runs.to_csv(index=False))
+    atomic_write_text(claims_path, claims.to_csv(index=False))
+    atomic_write_json(record_path, record)
+    f, z = record["shaper"]["frequency_hz"], record["shaper"]["damping_ratio"]
+    print(f"{record['plants']} plants, {len(LAWS)} laws, {record['wall_s']:.0f} s on "
+          f"{record['workers']} worker(s); shaped at {f:.3f} Hz, ζ = {z:.3f}")  # fmt: skip
     for half in HALVES:
-        md += [f"### {half}", "", *table_lines(result.claims, half), ""]
-    atomic_write_text(claims_path.with_suffix(".md"), "\n".join(md))
-    print(head)
+        print("", f"### {half}", "", *table_lines(claims, half), sep="\n")
     print(claims_path)
     return 0
 
