@@ -112,9 +112,10 @@ def test_a_law_against_itself_is_equal_and_a_known_shift_reads_as_that_size(ship
         assert r["estimate"] == pytest.approx(size, rel=1e-9)
         assert r["ci_low"] == pytest.approx(size, rel=1e-9)
         assert _row(claims, "small", "tip", metric)["verdict"] == EQUAL
-    assert "worse by more than 0.5 mm on 100 of 100" in _row(
-        claims, "worse", "tip", "residual_vibration_m"
-    )["reading"]
+    assert (
+        "worse by more than 0.5 mm on 100 of 100"
+        in _row(claims, "worse", "tip", "residual_vibration_m")["reading"]
+    )
     assert _row(claims, "worse", "tip", "tip_error_m")["verdict"] == EQUAL  # untouched
     split = _row(claims, "both ways", "tip", "residual_vibration_m")
     assert split["verdict"] == SPLIT and (split["better"], split["worse"]) == (n // 2, n // 2)
@@ -143,6 +144,8 @@ def test_the_halves_split_the_plants_by_ei_scale(shipped_runs):
     assert sizes == {"all": len(base), "ei_scale < 1": soft, "ei_scale >= 1": len(base) - soft}
     assert set(claims["law"]) == set(lc.LAWS[1:]) and set(claims["opponent"]) == {"CTC"}
     assert len(claims) == len(lc.HALVES) * len(lc.LAWS[1:]) * len(lc.METRICS)
+    fcm = shipped_runs[shipped_runs["controller"] == "FCM-CTC"]
+    assert (fcm["fuzzy_active_share"] == 0).all()  # docs: its rule base never fires here
 
 
 def test_the_shipped_verdicts_are_the_judgment_of_the_shipped_runs(tmp_path):
