@@ -81,14 +81,15 @@ CELL_EFFECTS = {
 }
 
 # Display units for small amounts: (unit, below, factor, shown unit)
-_SMALL = {"rad": (0.1, 1e3, "mrad"), "s": (1.0, 1e3, "ms"), "rad·s": (0.1, 1e3, "mrad·s")}
+_SMALL = {"rad": (0.1, 1e3, "mrad"), "s": (1.0, 1e3, "ms"), "rad·s": (0.1, 1e3, "mrad·s"),
+          "m": (0.1, 1e3, "mm")}  # fmt: skip
 
 
 @functools.cache
 def _units() -> dict[str, str]:
-    from twolink.simulation.vocabulary import METRICS
+    from twolink.simulation.vocabulary import METRICS, TIP_METRICS
 
-    return {m.key: m.unit for m in METRICS}
+    return {m.key: m.unit for m in METRICS + TIP_METRICS}
 
 
 def amount(key: str, value: float, digits: int = 3) -> str:
