@@ -145,7 +145,8 @@ class BatchRuleTableCTC(BatchComputedTorque):
             u = np.empty_like(x)
             for rows, ev in self.groups:
                 u[rows] = ev.evaluate(self.tables[rows], x[rows], dx[rows])
-        return self.torque(m, a + self.kp * e + self.kd * de + self.ku * u), state
+        # the scalar law's order of sums (controllers/batch.py): bit for bit its torque
+        return self.torque(m, a + (self.kp * e + self.kd * de) + self.ku * u), state
 
 
 class RuleTableCTC(FuzzyComputedTorque):
