@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from twolink.arm.links import FlexibleLinks, LinkBeam, LinkLayout, build_links_model, linear_modes
+from twolink.arm.links import FlexibleLinks, LinkBeam, build_links_model, linear_modes
+from twolink.arm.links import law_gain as links_law_gain
 from twolink.controllers.flexible_links import StrainRateFeedback
 from twolink.foundation.references import ArmReference, Step
 
@@ -19,19 +20,8 @@ LINKS = FlexibleLinks(
 
 
 def law_gain(law, nv: int) -> np.ndarray:
-    """The law's torques as a linear map of MuJoCo's state (δqpos, qvel) at rest, read
-    from the law itself one state at a time (it is linear there: no gravity)."""
-    layout = LinkLayout(N)
-    gain = np.zeros((2, 2 * nv))
-    for col in range(2 * nv):
-        x = np.zeros(2 * nv)
-        x[col] = 1.0
-        qpos, qvel = x[:nv], x[nv:]
-        hubs = list(layout.hubs)
-        bends = np.stack([qpos[b] for b in layout.bends])
-        rates = np.stack([qvel[b] for b in layout.bends])
-        gain[:, col] = law(0.0, qpos[hubs], qvel[hubs], bends, rates)
-    return gain
+    """:func:`twolink.arm.links.law_gain` on this file's N segments."""
+    return links_law_gain(law, N, nv)
 
 
 def closed_loop(ks: float):

@@ -373,6 +373,23 @@ def rigid_tip(p: ArmParams, q) -> np.ndarray:
     return np.stack([p.l1 * np.cos(a) + p.l2 * np.cos(b), p.l1 * np.sin(a) + p.l2 * np.sin(b)], -1)
 
 
+def law_gain(law, segments: int, nv: int) -> np.ndarray:
+    """A links-aware law's torques as a linear map of MuJoCo's state (δqpos, qvel) at rest,
+    (2, 2 nv), read from the law one state at a time (it is linear there without gravity):
+    the ``feedback`` of :func:`linear_modes`."""
+    layout = LinkLayout(segments)
+    hubs = list(layout.hubs)
+    gain = np.zeros((2, 2 * nv))
+    for col in range(2 * nv):
+        x = np.zeros(2 * nv)
+        x[col] = 1.0
+        qpos, qvel = x[:nv], x[nv:]
+        bends = np.stack([qpos[b] for b in layout.bends])
+        rates = np.stack([qvel[b] for b in layout.bends])
+        gain[:, col] = law(0.0, qpos[hubs], qvel[hubs], bends, rates)
+    return gain
+
+
 def linear_modes(model: mujoco.MjModel, data: mujoco.MjData | None = None, feedback=None):
     """The model's oscillating modes at its state in ``data`` (default: at rest at
     ``qpos0``), from MuJoCo's own linearisation (``mjd_transitionFD``, centred

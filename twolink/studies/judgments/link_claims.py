@@ -101,29 +101,11 @@ def plant_scenarios(plants: int, sweep: Any = None) -> tuple[Any, list[tuple[dic
     return plan, out
 
 
-def _law_gain(law: Any, segments: int, nv: int) -> np.ndarray:
-    """A links-aware law's torques as a linear map of MuJoCo's state (δqpos, qvel) at
-    rest, read from the law one state at a time (it is linear there without gravity)."""
-    from twolink.arm.links import LinkLayout
-
-    layout = LinkLayout(segments)
-    gain = np.zeros((2, 2 * nv))
-    hubs = list(layout.hubs)
-    for col in range(2 * nv):
-        x = np.zeros(2 * nv)
-        x[col] = 1.0
-        qpos, qvel = x[:nv], x[nv:]
-        bends = np.stack([qpos[b] for b in layout.bends])
-        rates = np.stack([qvel[b] for b in layout.bends])
-        gain[:, col] = law(0.0, qpos[hubs], qvel[hubs], bends, rates)
-    return gain
-
-
 def shaper_mode(nominal: Any, ks: float = KS) -> tuple[float, float]:
     """(f [Hz], ζ) the shaper is tuned to: of the nominal loop's two slowest modes (the
     hubs' loop, split by the links; MuJoCo's linearisation at rest, the laws' own links,
     no payload), the less damped one, the mode that swings the tip."""
-    from twolink.arm.links import build_links_model, linear_modes
+    from twolink.arm.links import build_links_model, law_gain, linear_modes
     from twolink.controllers.flexible_links import TwoTimeScaleControl
     from twolink.foundation.references import ArmReference, Step
 
@@ -133,7 +115,7 @@ def shaper_mode(nominal: Any, ks: float = KS) -> tuple[float, float]:
         links, still, kp=nominal.controller.kp, kd=nominal.controller.kd, ks=ks, g=0.0
     )
     model = build_links_model(links, g=0.0, timestep=1e-5, visual=False)
-    w, z = linear_modes(model, feedback=_law_gain(law, links.segments, model.nv))
+    w, z = linear_modes(model, feedback=law_gain(law, links.segments, model.nv))
     k = int(np.argmin(z[:2]))
     return float(w[k] / (2 * math.pi)), float(z[k])
 
@@ -233,7 +215,7 @@ def link_claims(
     start = time.perf_counter()
     plan, drawn = plant_scenarios(plants, sweep)
     if duration is not None:
-        drawn = [(v, _with_duration(s, duration)) for v, s in drawn]
+        drawn = [(v, replace(s, duration=duration)) for v, s in drawn]
     mode = shaper_mode(plan.nominal_scenario())
     built = laws(plan, mode)
     tasks = [(i, v, s, built) for i, (v, s) in enumerate(drawn)]
@@ -252,10 +234,6 @@ def link_claims(
         keep.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_text(keep, runs.to_csv(index=False))
     return LinkClaims(runs, judge_links(runs), mode, wall, workers)
-
-
-def _with_duration(s: Any, duration: float) -> Any:
-    return replace(s, duration=duration)
 
 
 def judge_links(runs: pd.DataFrame, laws: Sequence[str] = LAWS[1:]) -> pd.DataFrame:
