@@ -458,6 +458,39 @@ def static_tip_deflection(beam: LinkBeam, segments: int, force: float) -> float:
     return float(data.site_xpos[tip][2])
 
 
+REST_ITERATIONS = 60  # of the fixed point below: a contraction; a fixed count keeps batch = alone
+
+
+def rest_shape(model: mujoco.MjModel, data: mujoco.MjData, bends: np.ndarray) -> None:
+    """Set the hinge angles at the addresses ``bends`` to the links' rest shape at the
+    hub angles in ``data.qpos``: where each hinge's spring holds the weight beyond it,
+    k φ = −G(φ) (gravity's generalised force, MuJoCo's bias at rest). Straight links
+    where gravity is off. The fixed point φ ← −G(φ) / k contracts while the springs are
+    much stiffer than gravity's pull (about m g L); ValueError where it has not settled."""
+    bends = np.asarray(bends).ravel()
+    data.qpos[bends] = 0.0
+    if not model.opt.gravity.any():
+        return
+    saved = data.qvel.copy()
+    data.qvel[:] = 0.0
+    k = model.jnt_stiffness[model.dof_jntid[bends]]
+    change = np.inf
+    for _ in range(REST_ITERATIONS):
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        mujoco.mj_comVel(model, data)
+        mujoco.mj_rne(model, data, 0, data.qfrc_bias)
+        new = -data.qfrc_bias[bends] / k
+        change = float(np.max(np.abs(new - data.qpos[bends])))
+        data.qpos[bends] = new
+    data.qvel[:] = saved
+    if not change < 1e-9:
+        raise ValueError(
+            f"the links do not come to rest under gravity (the rest shape moves {change:.3g} "
+            "rad in its last iteration): they are too soft to hold themselves up"
+        )
+
+
 @dataclass
 class LinkPlant:
     """A flexible-link arm in MuJoCo and its state: hub angles ``q``, ``qd`` (the arm's
@@ -490,9 +523,11 @@ class LinkPlant:
         return cls(model, links.segments)
 
     def reset(self, q=(0.0, 0.0), qd=(0.0, 0.0)) -> None:
-        """Time 0, the hubs at ``q``, ``qd``, the links straight and at rest."""
+        """Time 0, the hubs at ``q``, ``qd``, the links in their rest shape there
+        (:func:`rest_shape`: straight without gravity)."""
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[self.hubs] = q
+        rest_shape(self.model, self.data, np.r_[self.layout.bends[0], self.layout.bends[1]])
         self.data.qvel[self.hubs] = qd
         mujoco.mj_forward(self.model, self.data)
 

@@ -224,6 +224,7 @@ def iter_scenarios(
     controllers: Sequence[Controller] | None = None,
     backend: str = "cpu",
     model_g: float | None = None,
+    link_runs: bool = False,
 ) -> Iterator[tuple[int, Trajectory | Exception]]:
     """Simulate many scenarios on the batch engine (:mod:`twolink.simulation.batch`), yielding
     ``(i, trajectory)`` as each batch ends: arm i is ``scenarios[i]`` under
@@ -234,16 +235,15 @@ def iter_scenarios(
     cannot be built (MuJoCo refuses it) yields its exception; the others still run.
     ``backend``: "cpu" (MuJoCo, :mod:`twolink.simulation.batch`), or "mjx" / "mjx-float32"
     (MuJoCo's accelerator backend, :mod:`twolink.simulation.mjx_engine`, in float64 /
-    float32).
+    float32). ``link_runs``: a bending-link arm yields its whole
+    :class:`twolink.simulation.links_sim.LinkRun` (the tip too), not its trajectory.
 
     ``model_g``: the gravity of every batch's model, which an arm off it is tilted against
     (:func:`twolink.simulation.batch.batch_model`); None: the largest |g| of all
-    ``scenarios``, not of one batch, so no arm's run depends on how the arms were split
-    into batches. A caller that splits one set of runs over several calls (a sweep's
-    chunks and their parts) passes the same ``model_g`` to each, so that an arm's run
-    depends on its own scenario alone (a sweep's:
-    :meth:`twolink.sweep.plan.SweepPlan.model_gravity`). An arm of larger |g| than
-    ``model_g`` yields a ValueError.
+    ``scenarios``, so no arm's run depends on how the arms were split into batches. A
+    caller that splits one set of runs over several calls (a sweep's chunks) passes the
+    same ``model_g`` to each (:meth:`twolink.sweep.plan.SweepPlan.model_gravity`). An arm
+    of larger |g| than ``model_g`` yields a ValueError.
     """
     from twolink.simulation.batch import model_gravity, record_bytes
 
@@ -258,7 +258,7 @@ def iter_scenarios(
             raise ValueError(f"links that bend ([arm.links]) run on the cpu backend, not {backend}")
         from twolink.simulation.links_sim import iter_links_scenarios
 
-        yield from iter_links_scenarios(scenarios, controllers, bending)
+        yield from iter_links_scenarios(scenarios, controllers, bending, whole=link_runs)
     groups: dict[tuple[float, float, Sensor], list[int]] = {}
     for i, s in enumerate(scenarios):
         if s.links is None:

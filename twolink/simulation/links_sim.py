@@ -64,9 +64,9 @@ def simulate_links(
     qd0=(0.0, 0.0),
     bounds: Bounds = Bounds(),  # noqa: B008 - frozen, as simulate()'s
 ) -> LinkRun:
-    """Run ``controller`` against the flexible-link ``plant`` from straight links at
-    rest (hubs at ``q0``, ``qd0``); ``control_dt`` a whole number of the plant's steps
-    (round it with :func:`control_timestep`)."""
+    """Run ``controller`` against the flexible-link ``plant`` from its links' rest shape
+    (hubs at ``q0``, ``qd0``; straight without gravity); ``control_dt`` a whole number of
+    the plant's steps (round it with :func:`control_timestep`)."""
     n, substeps = control_steps(duration, control_dt, plant.dt)
     plant.reset(q0, qd0)
     controller.reset()
@@ -126,8 +126,8 @@ class TipMetrics:
     final_tip_error : float
         That distance at the end of the run [m].
     residual_vibration : float
-        Largest deflection (the tip off the rigid arm's tip at the measured hub angles)
-        after the reference has come to rest [m].
+        Largest deflection (the tip off the rigid arm's tip at the measured hub angles,
+        less the links' static sag at the end pose) after the reference has come to rest [m].
     vibration_settling_time : float
         The first time after which the deflection stays within ``band`` of its mean
         over the run's last ``window`` seconds [s]; nan where it swings wider than
@@ -148,14 +148,20 @@ class TipMetrics:
 
 
 def tip_metrics(
-    run: LinkRun, p: ArmParams, rest_time: float, band: float = 1e-3, window: float = 0.5
+    run: LinkRun,
+    p: ArmParams,
+    rest_time: float,
+    band: float = 1e-3,
+    window: float = 0.5,
+    sag=(0.0, 0.0),
 ) -> TipMetrics:
     """:class:`TipMetrics` of ``run`` against the rigid arm ``p`` (the laws' model), the
     reference at rest from ``rest_time`` on; ``band`` [m] and ``window`` [s] for the
-    settling."""
+    settling. The deflection is taken about ``sag`` [m], the links' rest shape at the
+    end pose (:func:`rest_sag`): gravity's static bending is not a vibration."""
     t = run.trajectory.t
     off_ref = np.linalg.norm(run.tip - run.reference_tip(p), axis=1)
-    deflection = run.tip - run.rigid_tip(p)
+    deflection = run.tip - run.rigid_tip(p) - np.asarray(sag, dtype=float)
     after = t >= rest_time
     residual = float(np.linalg.norm(deflection[after], axis=1).max()) if after.any() else math.nan
     tail = t >= t[-1] - window
@@ -173,15 +179,31 @@ def tip_metrics(
 def scenario_tip_metrics(s: Scenario, run: LinkRun) -> TipMetrics:
     """:func:`tip_metrics` of a scenario's run: against the plant's rigid rods (where its
     straight links would put the tip), at rest from the reference's end on
-    (:func:`twolink.simulation.outcome.reference_end`), the default band and window."""
+    (:func:`twolink.simulation.outcome.reference_end`), about the links' sag at the
+    reference's end pose, the default band and window."""
     from twolink.simulation.outcome import reference_end
 
-    return tip_metrics(run, s.plant_params, reference_end(s.reference))
+    end = (s.reference.joint1.final, s.reference.joint2.final)
+    sag = (0.0, 0.0)
+    if all(math.isfinite(q) for q in end):
+        sag = rest_sag(plant_links(s), s.plant_params, s.plant.payload, end)
+    return tip_metrics(run, s.plant_params, reference_end(s.reference), sag=sag)
+
+
+def rest_sag(links: FlexibleLinks, p: ArmParams, payload: float, q) -> np.ndarray:
+    """The tip off the rigid rods ``p``'s tip [m] when the links rest at hub angles ``q``
+    under ``p.g`` (:func:`twolink.arm.links.rest_shape`): their static sag, zero without
+    gravity."""
+    if p.g == 0.0:
+        return np.zeros(2)
+    plant = LinkPlant.build(links, p.g, payload)
+    plant.reset(q)
+    return plant.tip - rigid_tip(p, q)
 
 
 def run_links(s: Scenario, controller: Controller) -> LinkRun:
     """A scenario with ``[arm.links]``: its plant's links (:func:`plant_links`,
-    its gravity and payload) from straight and at rest at ``q0``, ``qd0``, a physics step
+    its gravity and payload) from their rest shape at ``q0``, ``qd0``, a physics step
     that divides ``control_dt`` (:func:`control_timestep`, at most ``timestep``)."""
     links = plant_links(s)
     plant = LinkPlant.build(links, s.plant_params.g, s.plant.payload, timestep=links_timestep(s))
@@ -201,12 +223,15 @@ LINKS_BATCH = 64  # arms per model: past it a batch saves nothing (bench_flexibl
 
 
 def iter_links_scenarios(
-    scenarios: Sequence[Scenario], controllers: Sequence[Controller], members: Sequence[int]
+    scenarios: Sequence[Scenario],
+    controllers: Sequence[Controller],
+    members: Sequence[int],
+    whole: bool = False,
 ):
     """``(i, trajectory)`` of the scenarios ``members`` (all with ``[arm.links]``), run in
     batches (:func:`simulate_links_batch`) of the arms that share a physics step, control
     period, gravity and duration (at most :data:`LINKS_BATCH` arms a model): each equals
-    :func:`run_links`'s trajectory."""
+    :func:`run_links`'s trajectory (its whole :class:`LinkRun` where ``whole``)."""
     groups: dict[tuple[float, float, float, float], list[int]] = {}
     for i in members:
         s = scenarios[i]
@@ -230,7 +255,7 @@ def iter_links_scenarios(
             qd0=[scenarios[i].qd0 for i in batch],
         )
         for i, run in zip(batch, runs, strict=True):
-            yield i, run.trajectory
+            yield i, run if whole else run.trajectory
 
 
 # ----------------------------------------------------------------------------- [arm.links]
@@ -355,12 +380,15 @@ class LinkBatch:
         self.dofs = [np.concatenate([self.hubs[i], b.ravel()]) for i, b in enumerate(self.bends)]
 
     def reset(self, q0: np.ndarray, qd0: np.ndarray) -> None:
-        """Time 0, arm i's hubs at ``q0[i]``, ``qd0[i]``, its links straight and at rest.
-        (qpos and qvel share addresses: hinge joints only.)"""
+        """Time 0, arm i's hubs at ``q0[i]``, ``qd0[i]``, its links in their rest shape
+        there (:func:`twolink.arm.links.rest_shape`). (qpos and qvel share addresses:
+        hinge joints only.)"""
+        from twolink.arm.links import rest_shape
         from twolink.arm.plant import mujoco
 
         mujoco.mj_resetData(self.model, self.data)
         self.data.qpos[self.hubs] = q0
+        rest_shape(self.model, self.data, np.concatenate([b.ravel() for b in self.bends]))
         self.data.qvel[self.hubs] = qd0
         mujoco.mj_forward(self.model, self.data)
 

@@ -57,6 +57,16 @@ def describe_choices(
             if sc.plant.flexibility is not None
         }
     )
+    bending = sorted(
+        {
+            f"E I = {b.ei:g} N·m², hub inertia J = {b.hub_inertia:g} kg·m², tip mass "
+            f"{b.tip_mass:g} kg, material ζ = {b.damping_ratio:g}, N = {sc.links.segments} "
+            "pieces a link, from rest in their sag (the scenario keys of [arm.links])"
+            for sc in scenarios.values()
+            if sc.links is not None
+            for b in sc.links.links
+        }
+    )
     choices = {
         "arm": f"two uniform rods, m1 = {a.m1:g} kg, m2 = {a.m2:g} kg, L1 = {a.l1:g} m, "
         f"L2 = {a.l2:g} m, g = {a.g:g} m/s² (runs/paper/base.toml)",
@@ -88,6 +98,8 @@ def describe_choices(
     )
     if flex:
         choices["flexible joints"] = "; ".join(flex)
+    if bending:
+        choices["flexible links"] = "; ".join(bending)
     choices["simulation"] = (
         f"{first.duration:g} s, RK4 at {first.timestep * 1e3:g} ms, control every "
         f"{first.control_dt * 1e3:g} ms with zero-order hold"

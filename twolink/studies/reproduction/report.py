@@ -228,9 +228,19 @@ def commentary(
         "results, not tuned to match. Its Table 5/6 Mp values are negative (an "
         "undershoot, or a sign convention it does not state) and their ess column is "
         'mislabelled, so we print "—" for the paper\'s ess there.',
-        "- **Flexible joints**: the paper's model is rigid despite its title. On our "
-        "Spong-model arm (" + settings.get("flexible joints", "") + "), with both "
-        "controllers still using the rigid model: " + "; ".join(flexible) + ". The "
+        "- **Flexible joints"
+        + (" and links" if "flexible links" in settings else "")
+        + "**: the paper's model is rigid despite its title. On our Spong-model arm ("
+        + settings.get("flexible joints", "")
+        + ")"
+        + (
+            f" and on links that bend ({settings['flexible links']})"
+            if "flexible links" in settings
+            else ""
+        )
+        + ", with both controllers still using the rigid model: "
+        + "; ".join(flexible)
+        + ". The "
         "stiffness x bandwidth map above shows where each controller, the flexible-joint "
         "ones included, holds and where it goes unstable.",
     ]

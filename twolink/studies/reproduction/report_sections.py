@@ -162,3 +162,70 @@ def up_and_down(
         "|---|---|---|---|---|---|---|",
         *lines,
     ]
+
+
+def links_section(rows: list[dict[str, Any]], manifest: Any) -> list[str]:
+    """The tip's measures on each variant whose links bend (rows with ``tip_error_m``):
+    the paper's pair per experiment in mm and ms, and how often the proposed law is
+    better or worse than the baseline beyond the tip's tolerances
+    (:data:`twolink.studies.judgments.link_claims.TIP_TOLERANCES`; a tip that never
+    settled counts against its law, as in the link claims)."""
+    import math
+
+    from twolink.studies.judgments.link_claims import REACHED, TIP_TOLERANCES
+
+    P, B = manifest.proposed, manifest.baseline
+    lines: list[str] = []
+    for variant in manifest.variants:
+        pair = {
+            (r["experiment"], r["controller"]): r
+            for r in rows
+            if r["variant"] == variant.name and "tip_error_m" in r
+        }
+        if not pair:
+            continue
+        keys = [e.key for e in manifest.experiments if (e.key, P) in pair and (e.key, B) in pair]
+        table, counts = [], {m: [0, 0, 0] for m in TIP_TOLERANCES}
+        for key in keys:
+            cells = []
+            for m, tol in TIP_TOLERANCES.items():
+                a, b = pair[key, P][m], pair[key, B][m]
+                cells += [_shown(b, m), _shown(a, m)]
+                if math.isfinite(a) and math.isfinite(b):
+                    counts[m][0 if a < b - tol else 1 if a > b + tol else 2] += 1
+                elif m in REACHED and math.isfinite(a) != math.isfinite(b):
+                    counts[m][0 if math.isfinite(a) else 1] += 1  # never settled: worse
+            table.append(f"| {key} | " + " | ".join(cells) + " |")
+        said = "; ".join(
+            f"{name} better in {c[0]}, worse in {c[1]}, within {_shown(TIP_TOLERANCES[m], m)} "
+            f"{'s' if m.endswith('_s') else 'mm'} in {c[2]}"
+            for (m, c), name in zip(
+                counts.items(), ("tip error", "final tip error", "residual", "tip settling"),
+                strict=True,
+            )
+        )  # fmt: skip
+        lines += [
+            "",
+            f"## Beyond the paper: {variant.title}",
+            "",
+            f"The links bend; the laws still read the hub angles and model the rigid rods. "
+            f"The links start at rest in their sag. The tip's measures (docs/flexible_links.md, "
+            f'"Measures at the tip"), {B} then {P}, distances in mm, times in s. '
+            f"Against {B}, {P} is: {said} "
+            f"(of {len(keys)} experiments).",
+            "",
+            f"| experiment | max\\|Δtip\\| {B} | {P} | \\|Δtip\\|(T) {B} | {P} | w res {B} | {P} "
+            f"| Ts tip {B} | {P} |",
+            "|---|---|---|---|---|---|---|---|---|",
+            *table,
+        ]
+    return lines
+
+
+def _shown(value: float, key: str) -> str:
+    """A tip measure ``key``'s value: a distance in mm, a time in s, 3 digits; "—" where
+    undefined."""
+    from twolink.simulation.vocabulary import format_value
+
+    scale = 1.0 if key.endswith("_s") else 1e3
+    return format_value(value * scale if isinstance(value, float) else value)

@@ -12,6 +12,7 @@ leaves only whole files, and running it again completes it.
 from __future__ import annotations
 
 import functools
+import json
 import os
 import sys
 import time
@@ -29,6 +30,7 @@ from twolink.simulation.experiment import (
     iter_scenarios,
     measure,
 )
+from twolink.simulation.links_sim import LinkRun, scenario_tip_metrics
 from twolink.simulation.outcome import classify_run
 from twolink.simulation.sim import Trajectory
 from twolink.simulation.vocabulary import joint_values
@@ -42,6 +44,7 @@ from twolink.studies.reproduction.manifest import (
     load_manifest,
 )
 from twolink.studies.reproduction.quiet import quietly, warnings_section
+from twolink.studies.reproduction.report_sections import links_section
 from twolink.studies.reproduction.reproduce_figures import design_figures, response_figure
 from twolink.studies.reproduction.run_folder import portable_config, write_run
 
@@ -87,10 +90,14 @@ def _execute(
     controllers = [build_controller(s) for s in scenarios]
     rows: list[dict[str, Any]] = [{}] * len(specs)
     # written as each batch ends
-    for i, traj in iter_scenarios(scenarios, controllers, model_g=model_g):
+    for i, traj in iter_scenarios(scenarios, controllers, model_g=model_g, link_runs=True):
         spec, scenario, controller = specs[i], scenarios[i], controllers[i]
         if isinstance(traj, Exception):  # validated before: MuJoCo refused this arm
             raise traj
+        tip, bent = None, None
+        if isinstance(traj, LinkRun):  # links that bend: the tip's measures and shape too
+            tip, bent = scenario_tip_metrics(scenario, traj).to_dict(), {"bent": traj.points}
+            traj = traj.trajectory
         metrics = measure(scenario, traj, controller)
         write_run(
             out / spec.folder,
@@ -104,8 +111,10 @@ def _execute(
             centre_labels=spec.centre_labels,
             prefix=spec.folder,
             name=spec.controller,
+            more_metrics={"tip": tip} if tip is not None else None,
+            more_extras=bent,
         )
-        rows[i] = _row(spec, scenario, traj.status, metrics)
+        rows[i] = _row(spec, scenario, traj.status, metrics, tip)
     return rows
 
 
@@ -142,10 +151,13 @@ def _reference_kind(scenario: Scenario, joint: int) -> str:
     return "held" if held else ref.kind
 
 
-def _row(spec: RunSpec, scenario: Scenario, status: str, metrics: Any) -> dict[str, Any]:
+def _row(
+    spec: RunSpec, scenario: Scenario, status: str, metrics: Any, tip: dict | None = None
+) -> dict[str, Any]:
     """The metrics row of one run: the report's and metrics.csv's. Every metric of the
     experiment's joint, then the other joint's reference ("held" where it holds its start)
-    and its :data:`OTHER_JOINT_KEYS`, so both joints are reported."""
+    and its :data:`OTHER_JOINT_KEYS`, so both joints are reported; then the tip's measures
+    where the links bend (``tip``: :meth:`TipMetrics.to_dict`)."""
     joint = spec.experiment.joint
     other = joint_values(metrics, 3 - joint)
     return {
@@ -159,6 +171,7 @@ def _row(spec: RunSpec, scenario: Scenario, status: str, metrics: Any) -> dict[s
         **joint_values(metrics, joint),
         "other_reference": _reference_kind(scenario, 3 - joint),
         **{f"other_{key}": other[key] for key in OTHER_JOINT_KEYS},
+        **(tip or {}),
     }
 
 
@@ -183,9 +196,12 @@ def finished_row(spec: RunSpec, scenario: Scenario, out: Path, trace: bool) -> d
         if (folder / "config.toml").read_text() != to_toml(portable_config(scenario, folder)):
             return None
         traj = Trajectory.load(folder / "trajectory.npz")
+        tip = json.loads((folder / "metrics.json").read_text()).get("tip")
     except Exception:  # noqa: BLE001 (sealed yet unreadable, e.g. an older format: recompute)
         return None
-    return _row(spec, scenario, traj.status, measure(scenario, traj))
+    if scenario.links is not None and tip is None:
+        return None
+    return _row(spec, scenario, traj.status, measure(scenario, traj), tip)
 
 
 def run_all(
@@ -480,7 +496,7 @@ def _reproduce(
         sections += more
         validity = design_evidence.result()
         sections += design_section(result, specs, scenarios, rows, validity)
-        sections += _flexible_sections(out, study, mismatched, warned)
+        sections += _flexible_sections(out, study, mismatched, warned, rows, manifest)
         sections += warnings_section(warned)
         _say_warnings(warned, progress)
         for fut in drawing:
@@ -621,17 +637,22 @@ def _draw_responses(
 
 
 def _flexible_sections(
-    out: Path, study: Any, mismatched: Any, warned: list[tuple[str, list[str], list[str]]]
+    out: Path,
+    study: Any,
+    mismatched: Any,
+    warned: list[tuple[str, list[str], list[str]]],
+    rows: list[dict[str, Any]],
+    manifest: Manifest,
 ) -> list[str]:
     """The flexible-joint studies' report sections once they end (their warnings and
-    stopped runs into ``warned``)."""
+    stopped runs into ``warned``), then the bending links' (from the runs' ``rows``)."""
     sections: list[str] = []
     for name, fut in (("flexible_study", study), ("flexible_study_error", mismatched)):
         if fut is not None:
             more, lines = fut.result()
             sections += more
             warned.append((f"{name}/", lines, _stopped(out / name)))
-    return sections
+    return sections + links_section(rows, manifest)
 
 
 def centre_rules(result: Any) -> list[str]:
