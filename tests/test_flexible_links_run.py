@@ -244,3 +244,53 @@ def test_a_sweep_draws_the_links_stiffness_and_payload(tmp_path):
         assert s.links.link1.ei == 1e3  # the laws' model keeps the nominal links
         drawn.append(values["ei_scale"])
     assert len(set(drawn)) == 3 and all(0.5 <= v <= 2.0 for v in drawn)
+
+
+def _two_time_scale(**controller):
+    data = _data(hub_inertia=[0.4, 0.08], tip_mass=[0.5, 0.1])
+    data["controller"] = {"kind": "two_time_scale", **controller}
+    return data
+
+
+def test_a_scenarios_two_time_scale_law_is_the_librarys_on_its_nominal_links():
+    """``kind = "two_time_scale"``: TwoTimeScaleControl on ``[arm.links]`` (not the
+    plant's scaled links) with the scenario's gains and ``ks``; the run equals the
+    library law's to the bit."""
+    from twolink.arm.links import LinkPlant
+    from twolink.controllers.flexible_links import TwoTimeScaleControl
+    from twolink.simulation.links_sim import links_timestep, simulate_links
+
+    data = _two_time_scale(ks=[0.02, 0.005], kp=100.0, kd=20.0)
+    data["plant"] = {"scale": {"ei": 0.7}}
+    s = scenario_from_dict(data)
+    law = build_controller(s)
+    assert isinstance(law, TwoTimeScaleControl) and law.model == s.links
+    assert tuple(law.ks) == (0.02, 0.005)
+    by_hand = TwoTimeScaleControl(s.links, s.reference, kp=100.0, kd=20.0, ks=(0.02, 0.005))
+    plant = LinkPlant.build(plant_links(s), 0.0, timestep=links_timestep(s))
+    alone = simulate_links(plant, by_hand, s.duration, s.control_dt)
+    run = run_links(s, law)
+    assert np.array_equal(run.trajectory.tau, alone.trajectory.tau)
+    assert np.array_equal(run.tip, alone.tip)
+
+
+def test_the_two_time_scale_law_needs_bending_links_and_a_gain_of_the_right_sign():
+    rigid = _two_time_scale()
+    del rigid["arm"]["links"]
+    with pytest.raises(ConfigError, match=r"controller\.kind: .*needs \[arm\.links\]"):
+        scenario_from_dict(rigid)
+    with pytest.raises(ConfigError, match=r"controller\.ks: must be >= 0"):
+        scenario_from_dict(_two_time_scale(ks=-0.01))
+    # another kind neither reads nor writes ks: its resolved config (and digest) is unchanged
+    assert "ks" not in scenario_from_dict(_data()).to_dict()["controller"]
+    assert scenario_from_dict(_two_time_scale()).to_dict()["controller"]["ks"] == [0.01, 0.01]
+
+
+def test_a_bending_links_run_is_not_linearised_as_a_rigid_arm():
+    """The stability module models rigid links: a bending-link run's linear growth is
+    NaN ("not linearised"), not the rigid arm's."""
+    from twolink.simulation.experiment import measure
+
+    s = scenario_from_dict(_two_time_scale())
+    run = run_links(s, build_controller(s))
+    assert all(math.isnan(g) for g in measure(s, run.trajectory).linear_growth)

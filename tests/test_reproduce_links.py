@@ -94,3 +94,17 @@ def test_no_section_without_bending_links():
         {"variant": "rigid", "experiment": "table2", "controller": c} for c in ("CTC", "FCM-CTC")
     ]
     assert links_section(rows, load_manifest()) == []
+
+
+def test_the_section_shows_the_shipped_claims_on_drawn_plants():
+    import pandas as pd
+
+    from twolink.studies.judgments.link_claims import shipped_paths, table_lines
+
+    values = {m: (0.01, 0.01) for m in TIP}
+    text = links_section(_rows(values), load_manifest())
+    shipped = table_lines(pd.read_csv(shipped_paths()[0]))
+    assert "### The claims on drawn plants (shipped)" in text
+    start = text.index(shipped[0])
+    assert text[start : start + len(shipped)] == shipped
+    assert any(line.startswith("| two-time-scale + ZV | residual vibration |") for line in shipped)

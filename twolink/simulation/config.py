@@ -88,6 +88,7 @@ from twolink.foundation.shipped import locate, locate_beside, shipped_hint
 from twolink.simulation.field_keys import DEFAULTS as FIELD_DEFAULTS
 from twolink.simulation.field_keys import (
     FIELD_KINDS,
+    LINK_KINDS,
     check_field_keys,
     read_field_keys,
     write_field_keys,
@@ -109,16 +110,8 @@ FLEXIBLE_KINDS = (
     "flexible_fl_integral",
     "flexible_fl_kalman",
 )
-CONTROLLER_KINDS = (
-    "ctc",
-    "fuzzy_ctc",
-    "fcm_ctc",
-    "pd_gravity",
-    "ctc_integral",
-    "fuzzy_pd",
-    *FIELD_KINDS,
-    *FLEXIBLE_KINDS,
-)
+BASE_KINDS = ("ctc", "fuzzy_ctc", "fcm_ctc", "pd_gravity", "ctc_integral", "fuzzy_pd")
+CONTROLLER_KINDS = (*BASE_KINDS, *FIELD_KINDS, *FLEXIBLE_KINDS, *LINK_KINDS)
 FUZZY_KINDS = ("fuzzy_ctc", "fcm_ctc", "fuzzy_pd")  # controllers with a fuzzy engine
 RULE_BASE_KINDS = ("fcm_ctc", "fuzzy_pd")  # those whose rule base is the rule_base key
 FUZZY_MODES = ("add", "replace")
@@ -170,6 +163,7 @@ class ControllerConfig:
     eta: tuple[float, float] = FIELD_DEFAULTS["eta"]  # sliding_mode
     phi: tuple[float, float] | None = None  # sliding_mode; None: "auto"
     observer_time: float = FIELD_DEFAULTS["observer_time"]  # ctc_dob
+    ks: tuple[float, float] = FIELD_DEFAULTS["ks"]  # two_time_scale
 
 
 @dataclass(frozen=True)

@@ -17,11 +17,7 @@ import numpy as np
 from twolink.arm.plant import Plant, holding_motor_q
 from twolink.controllers.base import Controller
 from twolink.controllers.ctc import ComputedTorque
-from twolink.simulation.config import (
-    FLEXIBLE_KINDS,
-    Scenario,
-    resolve_rule_base,
-)
+from twolink.simulation.config import FLEXIBLE_KINDS, LINK_KINDS, Scenario, resolve_rule_base
 from twolink.simulation.metrics import (
     column_max,
     error_measures,
@@ -54,6 +50,10 @@ def build_controller(s: Scenario) -> Controller:
     common = dict(model=s.arm, reference=s.reference, kp=c.kp, kd=c.kd, torque_limit=c.torque_limit)
     if c.kind == "ctc":
         return ComputedTorque(**common)
+    if c.kind in LINK_KINDS:  # they model the links that bend: [arm.links]
+        from twolink.simulation.links_sim import links_law
+
+        return links_law(s, common)
     if c.kind in FLEXIBLE_KINDS:  # they model the joints with the plant's own (identified)
         from twolink.controllers import flexible
 
@@ -472,13 +472,14 @@ def measure(s: Scenario, traj: Trajectory, controller: Controller | None = None)
     """Step metrics per joint (towards the reference's final value, Ts both to the final
     value and to the target), error measures (integrals, max |e|), torque, oscillation,
     the settling window's error and growth, and the loop's linear growth rate at its rest
-    state (every law, every plant: :mod:`twolink.simulation.stability`), of ``controller``
+    state (every law, every plant but links that bend, whose NaN says "not linearised":
+    :mod:`twolink.simulation.stability` models rigid links), of ``controller``
     (default: the scenario's; a sweep's arms carry their own). :func:`measure_runs` measures
     many runs at once, linearising their loops together."""
     growth = math.nan
     if controller is None:
         controller = build_controller(s)
-    if traj.ok:  # every law, every plant (twolink.simulation.stability)
+    if traj.ok and s.links is None:  # every law, every rigid-link plant
         from twolink.simulation.stability import closed_loop_growth
 
         growth = closed_loop_growth(s, build_plant(s), controller, near=rest_guess(traj))
@@ -547,7 +548,7 @@ def measure_runs(
             measured.append(Measured.of(s, traj, controller))
         except Exception as exc:
             measured.append(exc)
-        if traj.ok:  # its linearisation's error, if any, comes first, as in measure
+        if traj.ok and s.links is None:  # its linearisation's error comes first, as in measure
             requests.append((s, controller, rest_guess(traj)))
             asked.append(i)
     growth: dict[int, Any] = dict(zip(asked, linearise_many(requests), strict=True))

@@ -1,6 +1,7 @@
 """The scenario keys of the field's laws (adaptive CTC, sliding mode, CTC with a
-disturbance observer): which kind reads which ``[controller]`` key, how each is read and
-checked, and how a resolved config writes them (only for the kind that reads them).
+disturbance observer, and the two-time-scale law of links that bend): which kind reads
+which ``[controller]`` key, how each is read and checked, and how a resolved config
+writes them (only for the kind that reads them).
 The scenario model (:mod:`twolink.simulation.config`) calls these."""
 
 from __future__ import annotations
@@ -13,19 +14,24 @@ from twolink.controllers.sliding import DEFAULT_ETA
 
 AUTO = "auto"
 FIELD_KINDS = ("adaptive_ctc", "sliding_mode", "ctc_dob")
+# Laws of links that bend (controllers/flexible_links.py): they model [arm.links]
+LINK_KINDS = ("two_time_scale",)
 FIELD_KEYS = {
     "adaptive_ctc": ("gamma",),
     "sliding_mode": ("eta", "phi"),
     "ctc_dob": ("observer_time",),
+    "two_time_scale": ("ks",),
 }
+DEFAULT_KS = (0.01, 0.01)  # s: the strain-rate gain of docs/flexible_links.md's linearisation
 DEFAULTS = {"gamma": DEFAULT_GAMMA, "eta": DEFAULT_ETA, "phi": None}
 DEFAULTS["observer_time"] = DEFAULT_OBSERVER_TIME
+DEFAULTS["ks"] = DEFAULT_KS
 
 
 def read_field_keys(t: Any) -> dict[str, Any]:
     """The field laws' keys of a ``[controller]`` table ``t`` (a ``TomlTable``), checked:
     ``gamma`` one number or one per regressor parameter (>= 0), ``eta`` >= 0, ``phi``
-    > 0 or ``"auto"`` (None), ``observer_time`` > 0."""
+    > 0 or ``"auto"`` (None), ``observer_time`` > 0, ``ks`` >= 0 (one or a pair)."""
     value = t.raw("gamma", DEFAULT_GAMMA)
     n = len(DEFAULT_GAMMA)
     if isinstance(value, int | float) and not isinstance(value, bool):
@@ -38,6 +44,7 @@ def read_field_keys(t: Any) -> dict[str, Any]:
         "eta": t.pair("eta", DEFAULT_ETA, minimum=0.0),
         "phi": None if phi == AUTO else t.pair("phi", (1.0, 1.0), positive=True),
         "observer_time": t.number("observer_time", DEFAULT_OBSERVER_TIME, positive=True),
+        "ks": t.pair("ks", DEFAULT_KS, minimum=0.0),
     }
 
 
@@ -55,8 +62,14 @@ def write_field_keys(ctrl: dict[str, Any], kind: str) -> None:
 
 def check_field_keys(top: Any, scenario: Any) -> None:
     """What the keys need of the rest of the scenario: an observer no faster than the
-    control period (the discrete observer is unstable below it)."""
+    control period (the discrete observer is unstable below it); links that bend for a
+    law that models them."""
     c = scenario.controller
+    if c.kind in LINK_KINDS and scenario.links is None:
+        top.fail(
+            "controller.kind",
+            f"{c.kind!r} models links that bend and reads their hinges: it needs [arm.links]",
+        )
     if c.kind == "ctc_dob" and c.observer_time < scenario.control_dt:
         top.fail(
             "controller.observer_time",

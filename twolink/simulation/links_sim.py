@@ -210,6 +210,16 @@ def run_links(s: Scenario, controller: Controller) -> LinkRun:
     return simulate_links(plant, controller, s.duration, s.control_dt, s.q0, s.qd0)
 
 
+def links_law(s: Scenario, common: dict[str, Any]) -> Controller:
+    """A scenario's law of links that bend (``[controller] kind`` in
+    :data:`twolink.simulation.field_keys.LINK_KINDS`), modelled on its nominal
+    ``[arm.links]``: ``two_time_scale`` is :class:`TwoTimeScaleControl` with the
+    controller's ``ks``. ``common``: the model, reference, gains and torque limit."""
+    from twolink.controllers.flexible_links import TwoTimeScaleControl
+
+    return TwoTimeScaleControl(**common | {"model": s.links}, ks=s.controller.ks, g=s.arm.g)
+
+
 def links_timestep(s: Scenario) -> float:
     """The physics step of a scenario's bending links: :func:`control_timestep`, at most
     the scenario's ``timestep``, a whole fraction of ``control_dt`` either way."""

@@ -24,6 +24,7 @@ on all plants and on each ``ei_scale`` half (:data:`HALVES`).
 from __future__ import annotations
 
 import copy
+import json
 import math
 import time
 from collections.abc import Sequence
@@ -324,6 +325,27 @@ def table_lines(claims: pd.DataFrame, where: str = "all") -> list[str]:
         counts = f"{better} / {worse} of {r.plants}"
         lines.append(f"| {r.law} | {_JOINTS[r.at]}{name} | {counts} | {shift} | {r.verdict} |")
     return lines
+
+
+def shipped_section() -> list[str]:
+    """The shipped claims on drawn plants as a report section (the reproduction shows
+    them beside its bending-link variant; rerunning them takes about 20 min on 2 cores)."""
+    verdicts, _, record = shipped_paths()
+    claims = pd.read_csv(verdicts)
+    plants = int(json.loads(record.read_text())["plants"])
+    return [
+        "",
+        "### The claims on drawn plants (shipped)",
+        "",
+        f"{plants} plants of `runs/sweeps/flexible_links.toml`: a horizontal arm whose links "
+        "bend, E I × 0.5-1.5 and a payload of 0-0.5 kg that no law models "
+        '(docs/flexible_links.md, "Claims on drawn plants"). Each law against CTC, paired '
+        "per plant; the shift is the law's value minus CTC's. Shipped in "
+        "`runs/flexible_links/claims.csv`; rerun with "
+        "`python -m twolink.studies.judgments.link_claims --install`.",
+        "",
+        *table_lines(claims),
+    ]
 
 
 def shipped_paths() -> tuple[Path, Path, Path]:

@@ -219,6 +219,10 @@ def links_section(rows: list[dict[str, Any]], manifest: Any) -> list[str]:
             "|---|---|---|---|---|---|---|---|---|",
             *table,
         ]
+    if lines:
+        from twolink.studies.judgments.link_claims import shipped_section
+
+        lines += shipped_section()
     return lines
 
 
