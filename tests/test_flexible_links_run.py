@@ -294,3 +294,13 @@ def test_a_bending_links_run_is_not_linearised_as_a_rigid_arm():
     s = scenario_from_dict(_two_time_scale())
     run = run_links(s, build_controller(s))
     assert all(math.isnan(g) for g in measure(s, run.trajectory).linear_growth)
+
+
+def test_the_mjx_backend_refuses_bending_links_naming_the_cpu_backend():
+    """MJX's step on the chain costs 116 to 92,212 times MuJoCo's (N = 1 to 3;
+    benchmarks/bench_mjx_links.py): the backend refuses them, before importing JAX."""
+    from twolink.simulation.experiment import iter_scenarios
+
+    s = scenario_from_dict(_data())
+    with pytest.raises(ValueError, match="run on the cpu backend, not mjx"):
+        next(iter_scenarios([s], backend="mjx"))
