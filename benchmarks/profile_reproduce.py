@@ -108,7 +108,13 @@ def read_log(log: Path) -> list[dict]:
 
 
 def regime(record: dict, sweeps: dict[str, str]) -> str:
-    """What an engine call computed: a sweep's folder, or the function that asked."""
+    """What an engine call computed: a sweep's folder, or the function that asked; "(links
+    that bend)" after it where the arms' links bend (a dearer arm-step: docs/flexible_links.md)."""
+    label = _regime(record, sweeps)
+    return label + " (links that bend)" if record.get("engine") == "links" else label
+
+
+def _regime(record: dict, sweeps: dict[str, str]) -> str:
     if record["sweep"]:
         name, digest = record["sweep"].split(":")
         return sweeps.get(digest, f"sweep {name}")

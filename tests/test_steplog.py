@@ -53,3 +53,22 @@ def test_the_same_run_has_the_same_digest_alone_and_in_a_batch(tmp_path, monkeyp
     assert single["engine"] == "single" and single["arms"] == 1
     assert single["physics_steps"] == batch["physics_steps"]
     assert single["digests"][0] == batch["digests"][0] != batch["digests"][1]
+
+
+def test_a_batch_of_bending_links_counts_its_physics_steps_times_its_arms(tmp_path, monkeypatch):
+    """The link batch (links_sim.simulate_links_batch) logs as the rigid one, engine
+    "links": its physics steps are the control periods times the substeps it needs."""
+    from twolink.simulation.links_sim import links_timestep
+
+    monkeypatch.setenv(ENV, str(tmp_path))
+    links = {"arm": {"links": {"ei": 800.0, "segments": 4, "hub_inertia": 0.05}}}
+    a = scenario(**links)
+    run_scenarios([a, scenario(**links, plant={"payload": 0.2})])
+    (line,) = lines(tmp_path)
+    periods = round(a.duration / a.control_dt)
+    substeps = round(a.control_dt / links_timestep(a))
+    assert substeps > 1  # the stiff hinges need a finer step than the rigid arm's
+    assert line["engine"] == "links" and line["arms"] == 2
+    assert line["physics_steps"] == periods * substeps
+    assert line["arm_steps"] == line["useful_arm_steps"] == 2 * periods * substeps
+    assert line["digests"][0] != line["digests"][1]

@@ -11,6 +11,7 @@ called ``controller(t, q, qd, bends, bend_rates)`` with the hinge angles and rat
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
@@ -20,6 +21,7 @@ import numpy as np
 from twolink.arm.links import MAX_SEGMENTS, FlexibleLinks, LinkPlant, rigid_tip
 from twolink.arm.params import ArmParams
 from twolink.controllers.base import Controller
+from twolink.foundation import steplog
 from twolink.simulation.sim import (
     STATUS_DIVERGED,
     STATUS_OK,
@@ -440,6 +442,7 @@ def simulate_links_batch(
     for c in controllers:
         c.reset()
     aware = [bool(getattr(c, "needs_links", False)) for c in controllers]
+    started, advanced = time.time(), 0
     rows: list[list] = [[] for _ in range(n_arms)]
     kept: list[list] = [[] for _ in range(n_arms)]
     ended = [(STATUS_OK, "")] * n_arms
@@ -478,9 +481,14 @@ def simulate_links_batch(
             break
         for _ in range(substeps):
             mujoco.mj_step(batch.model, data)
+        advanced += 1
     runs = []
     for i in range(n_arms):
         traj = _trajectory(rows[i], [], ended[i][0], ended[i][1], controllers[i])
         points = np.array([p for p, _ in kept[i]])
         runs.append(LinkRun(traj, points[:, -1].copy(), np.array([b for _, b in kept[i]]), points))
+    if steplog.enabled():  # the batch in the step log, as the rigid batch engine's
+        digests = [steplog.arm_digest(r.trajectory.q, r.trajectory.tau) for r in runs]
+        lengths = np.array([len(r) for r in rows])
+        steplog.record("links", started, advanced * substeps, lengths, substeps, digests)
     return runs
