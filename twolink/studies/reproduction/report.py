@@ -191,6 +191,7 @@ def commentary(
         for v in manifest.variants
         for c in (P, B)
     }
+    links = settings.get("flexible links")
     flexible = [
         f"{v.title}: {P} met the spec in {met[v.name, P]}, {B} in {met[v.name, B]} of "
         f"{len(manifest.experiments)} experiments"
@@ -229,15 +230,11 @@ def commentary(
         "undershoot, or a sign convention it does not state) and their ess column is "
         'mislabelled, so we print "—" for the paper\'s ess there.',
         "- **Flexible joints"
-        + (" and links" if "flexible links" in settings else "")
+        + (" and links" if links else "")
         + "**: the paper's model is rigid despite its title. On our Spong-model arm ("
         + settings.get("flexible joints", "")
         + ")"
-        + (
-            f" and on links that bend ({settings['flexible links']})"
-            if "flexible links" in settings
-            else ""
-        )
+        + (f" and on links that bend ({links})" if links else "")
         + ", with both controllers still using the rigid model: "
         + "; ".join(flexible)
         + ". The "

@@ -166,7 +166,7 @@ def up_and_down(
 
 def links_section(rows: list[dict[str, Any]], manifest: Any) -> list[str]:
     """The tip's measures on each variant whose links bend (rows with ``tip_error_m``):
-    the paper's pair per experiment in mm and ms, and how often the proposed law is
+    the paper's pair per experiment (distances in mm, times in s), and how often the proposed law is
     better or worse than the baseline beyond the tip's tolerances
     (:data:`twolink.studies.judgments.link_claims.TIP_TOLERANCES`; a tip that never
     settled counts against its law, as in the link claims)."""
