@@ -139,7 +139,7 @@ def test_the_papers_experiments_sentence_names_every_unstable_loop():
     counts = {"settling_time_s": (0, 0, 10), "overshoot_pct": (0, 0, 10)}
     line = variant_sentence("rigid arm", 10, counts, {"FCM-CTC": 10, "CTC": 10},
                             {"CTC": None, "FCM-CTC": None}, "FCM-CTC", "CTC")  # fmt: skip
-    assert "FCM-CTC equals CTC: no metric differs by more than its tolerance in 20" in line
+    assert "FCM-CTC equals CTC within tolerance in all 20 comparisons" in line
     assert "both met the spec in 10" in line and "unstable" not in line
     counts = {"settling_time_s": (3, 5, 10), "overshoot_pct": (0, 0, 10)}
     for growth, said in (

@@ -264,14 +264,18 @@ def test_one_vocabulary_in_the_report_csv_a_runs_json_and_a_sweeps_table(reprodu
     """The same controller names and metric keys (with units) everywhere."""
     import pandas as pd
 
-    from twolink.simulation.vocabulary import METRICS
+    from twolink.simulation.vocabulary import METRICS, TIP_METRICS
 
     keys = [m.key for m in METRICS]
     names = {"CTC", "FCM-CTC"}  # the paper's two; the manifest adds three baselines
     csv = pd.read_csv(reproduction.out / "metrics.csv")
     head = ["variant", "experiment", "controller", "joint", "reference", "status", "outcome"]
     other = ["other_reference", "other_max_error_rad", "other_final_error_rad"]
-    assert list(csv.columns) == [*head, *keys, *other]
+    tip = [m.key for m in TIP_METRICS]  # the tip's measures, where the links bend
+    assert list(csv.columns) == [*head, *keys, *other, *tip]
+    bending = csv["variant"] == "links"
+    assert csv.loc[bending, "tip_error_m"].notna().all()
+    assert csv.loc[~bending, tip].isna().all().all()
     assert set(csv["other_reference"]) == {"held"}  # every paper experiment holds one joint
     others = {"PD-G", "CTC-I", "CTC-paper", "fuzzy-PD", "FCM-CTC-continuous"}
     assert set(csv["controller"]) == names | others

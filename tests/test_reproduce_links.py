@@ -50,6 +50,22 @@ def test_a_links_run_keeps_its_tip_measures_in_the_row_the_folder_and_on_resume(
     assert ctc["final_tip_error_m"] > 0.01 > 5 * ctc["residual_vibration_m"]
 
 
+def test_a_tip_that_never_settled_reads_nan_again_on_resume(tmp_path):
+    """metrics.json writes NaN as null; the resumed row must read NaN, as the fresh one."""
+    from twolink.simulation.config import load_scenario
+
+    (spec,) = [
+        sp
+        for sp in plan(load_manifest(), None)
+        if sp.folder == "links/table2/fuzzy-PD"  # its tip still swings at the end
+    ]
+    (row,) = _execute([spec], tmp_path, trace=False)
+    assert math.isnan(row["vibration_settling_time_s"])
+    scenario = load_scenario(spec.experiment.scenario, spec.overrides)
+    again = finished_row(spec, scenario, tmp_path, trace=False)
+    assert json.dumps(again) == json.dumps(row)
+
+
 def _rows(values: dict[str, tuple[float, float]]) -> list[dict]:
     """Rows of one bending-link experiment: each tip measure's (CTC, FCM-CTC) values."""
     out = []

@@ -241,10 +241,7 @@ def limit_cycle_sentence(studies: Sequence[ClaimsStudy]) -> str | None:
         return None
     if not found:
         return f"**Limit cycles:** {p} oscillates no more than {b} (by {tol}) on any plant."
-    return (
-        f"**Limit cycles:** {p} oscillates more than {b} by over {tol} (a limit cycle {b} "
-        "does not make) " + "; ".join(found) + "."
-    )
+    return f"**Limit cycles:** {p} oscillates more than {b} by over {tol} " + "; ".join(found) + "."
 
 
 def _names(names: Sequence[str]) -> str:
@@ -359,9 +356,7 @@ def variant_sentence(
     total = sum(c[2] for c in counts.values())
     head = f"**{title[0].upper()}{title[1:]}, the paper's {experiments} experiments:** "
     if lower == higher == 0:
-        said = (
-            f"{p} equals {b}: no metric differs by more than its tolerance in {total} comparisons"
-        )
+        said = f"{p} equals {b} within tolerance in all {total} comparisons"
     else:
         each = ", ".join(
             f"{metric(k).symbol} {c[0]}/{c[1]} of {c[2]}" for k, c in counts.items() if c[0] or c[1]

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import functools
 import json
+import math
 import os
 import sys
 import time
@@ -199,6 +200,8 @@ def finished_row(spec: RunSpec, scenario: Scenario, out: Path, trace: bool) -> d
         tip = None
         if scenario.links is not None:  # bending links: the tip's measures, as written
             tip = json.loads((folder / "metrics.json").read_text()).get("tip")
+            if tip is not None:  # metrics.json writes NaN (not measured) as null
+                tip = {key: math.nan if v is None else v for key, v in tip.items()}
     except Exception:  # noqa: BLE001 (sealed yet unreadable, e.g. an older format: recompute)
         return None
     if scenario.links is not None and tip is None:
