@@ -416,6 +416,39 @@ class LinkBatch:
         return p[:, [0, 2]]
 
 
+class _LinkRecord:
+    """Every arm's points and hinge angles at each control instant, kept in preallocated
+    arrays (one gather per instant for all arms, not one per arm), then cut per arm."""
+
+    def __init__(self, batch: LinkBatch, instants: int) -> None:
+        self.batch = batch
+        self.bodies = np.concatenate(batch.bodies)
+        self.bend_dofs = np.concatenate([b.ravel() for b in batch.bends])
+        self.body_at = np.cumsum([0, *(len(b) for b in batch.bodies)])
+        self.bend_at = np.cumsum([0, *(b.size for b in batch.bends)])
+        n_arms = len(batch.bodies)
+        self.body_points = np.empty((instants, len(self.bodies), 2))
+        self.tip_points = np.empty((instants, n_arms, 2))
+        self.bends = np.empty((instants, len(self.bend_dofs)))
+        self.rows = np.empty((instants, n_arms, 7))
+
+    def keep(self, k: int) -> None:
+        """The state of every arm at instant k (after the kinematics)."""
+        data = self.batch.data
+        self.body_points[k] = data.xpos[self.bodies][:, [0, 2]]
+        self.tip_points[k] = data.site_xpos[self.batch.tips][:, [0, 2]]
+        self.bends[k] = data.qpos[self.bend_dofs]
+
+    def arm(self, i: int, length: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Arm i's first ``length`` instants: its rows (t, q, qd, tau), hinge angles
+        (length, 2, N) and points (length, 2 N + 3, 2)."""
+        bodies = self.body_points[:length, self.body_at[i] : self.body_at[i + 1]]
+        points = np.concatenate([bodies, self.tip_points[:length, i : i + 1]], axis=1)
+        bends = self.bends[:length, self.bend_at[i] : self.bend_at[i + 1]]
+        shape = (length, *self.batch.bends[i].shape)
+        return self.rows[:length, i], bends.reshape(shape).copy(), points
+
+
 def simulate_links_batch(
     arms: Sequence[tuple[FlexibleLinks, float]],
     controllers: Sequence[Controller],
@@ -443,33 +476,37 @@ def simulate_links_batch(
         c.reset()
     aware = [bool(getattr(c, "needs_links", False)) for c in controllers]
     started, advanced = time.time(), 0
-    rows: list[list] = [[] for _ in range(n_arms)]
-    kept: list[list] = [[] for _ in range(n_arms)]
+    record = _LinkRecord(batch, n + 1)
+    lengths = np.zeros(n_arms, dtype=int)  # instants kept per arm
     ended = [(STATUS_OK, "")] * n_arms
     active = list(range(n_arms))
     data = batch.data
     for k in range(n + 1):
         t = k * control_dt
         mujoco.mj_kinematics(batch.model, data)
+        record.keep(k)
+        q, qd = data.qpos[batch.hubs], data.qvel[batch.hubs]
+        # within the bounds for all arms at once; where not (or NaN), the scalar test decides
+        within = (np.abs(q).max(axis=1) < bounds.angle) & (np.abs(qd).max(axis=1) < bounds.rate)
         for i in list(active):
-            (q1, q2), (w1, w2) = data.qpos[batch.hubs[i]], data.qvel[batch.hubs[i]]
-            q1, q2, w1, w2 = float(q1), float(q2), float(w1), float(w2)
+            q1, q2, w1, w2 = float(q[i, 0]), float(q[i, 1]), float(qd[i, 0]), float(qd[i, 1])
             stop = None
-            bends = data.qpos[batch.bends[i]]
-            if not (max(abs(q1), abs(q2)) < bounds.angle and max(abs(w1), abs(w2)) < bounds.rate):
+            if not within[i] and not (
+                max(abs(q1), abs(q2)) < bounds.angle and max(abs(w1), abs(w2)) < bounds.rate
+            ):
                 stop = (STATUS_DIVERGED, state_message(t, q1, q2, w1, w2))
-                if not rows[i]:
-                    rows[i].append((t, q1, q2, w1, w2, math.nan, math.nan))
-                    kept[i].append((batch.points(i), bends.copy()))
+                if k == 0:  # nothing kept yet: this state, without a torque
+                    record.rows[k, i] = (t, q1, q2, w1, w2, math.nan, math.nan)
+                    lengths[i] = 1
             else:
                 if aware[i]:
-                    rates = data.qvel[batch.bends[i]]
-                    tau = controllers[i](t, (q1, q2), (w1, w2), bends.copy(), rates.copy())
+                    bends, rates = data.qpos[batch.bends[i]], data.qvel[batch.bends[i]]
+                    tau = controllers[i](t, (q1, q2), (w1, w2), bends, rates)
                 else:
                     tau = controllers[i](t, (q1, q2), (w1, w2))
                 tau1, tau2 = float(tau[0]), float(tau[1])
-                rows[i].append((t, q1, q2, w1, w2, tau1, tau2))
-                kept[i].append((batch.points(i), bends.copy()))
+                record.rows[k, i] = (t, q1, q2, w1, w2, tau1, tau2)
+                lengths[i] = k + 1
                 data.qfrc_applied[batch.hubs[i]] = (tau1, tau2)
                 if not (abs(tau1) < bounds.torque and abs(tau2) < bounds.torque):
                     stop = (STATUS_DIVERGED, torque_message(t, tau1, tau2))
@@ -484,11 +521,10 @@ def simulate_links_batch(
         advanced += 1
     runs = []
     for i in range(n_arms):
-        traj = _trajectory(rows[i], [], ended[i][0], ended[i][1], controllers[i])
-        points = np.array([p for p, _ in kept[i]])
-        runs.append(LinkRun(traj, points[:, -1].copy(), np.array([b for _, b in kept[i]]), points))
+        rows, bends, points = record.arm(i, lengths[i])
+        traj = _trajectory(rows, [], ended[i][0], ended[i][1], controllers[i])
+        runs.append(LinkRun(traj, points[:, -1].copy(), bends, points))
     if steplog.enabled():  # the batch in the step log, as the rigid batch engine's
         digests = [steplog.arm_digest(r.trajectory.q, r.trajectory.tau) for r in runs]
-        lengths = np.array([len(r) for r in rows])
         steplog.record("links", started, advanced * substeps, lengths, substeps, digests)
     return runs
