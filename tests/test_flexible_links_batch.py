@@ -114,3 +114,33 @@ def test_iter_scenarios_runs_bending_links_as_run_scenario():
         assert np.array_equal(got[i].q, alone.q) and np.array_equal(got[i].tau, alone.tau)
     with pytest.raises(ValueError, match="cpu"):
         dict(iter_scenarios(scenarios, backend="mjx"))
+
+
+def test_an_arm_whose_state_leaves_the_bounds_keeps_what_alone_keeps():
+    """Out of bounds at the start: one row (no torque) and that instant's shape; out of
+    bounds later: the instants before, none of that one. Each as alone, bit for bit."""
+    from twolink.simulation.sim import Bounds
+
+    bounds = Bounds(angle=1.0, rate=8.0)
+    q0 = np.array([[0.0, 0.0], [1.5, 0.0], [0.0, 0.0]])  # arm 1 starts beyond 1 rad
+
+    def laws():  # arm 2 moves by 3 rad in 0.3 s: past 8 rad/s and 1 rad
+        fast = ArmReference(Quintic(final=3.0, duration=0.3), Quintic(final=0.0, duration=0.3))
+        return [*_laws()[:2], ComputedTorque(ARMS[2][0].rigid_params(0.0), fast)]
+
+    runs = simulate_links_batch(ARMS, laws(), 0.4, 1e-3, DT, g=0.0, q0=q0, bounds=bounds)
+    for i, law in enumerate(laws()):
+        plant = LinkPlant.build(ARMS[i][0], 0.0, ARMS[i][1], timestep=DT)
+        alone = simulate_links(plant, law, 0.4, 1e-3, q0=q0[i], bounds=bounds)
+        got = runs[i]
+        assert got.trajectory.status == alone.trajectory.status
+        assert got.trajectory.message == alone.trajectory.message
+        for a, b in (
+            (got.trajectory.q, alone.trajectory.q),
+            (got.trajectory.tau, alone.trajectory.tau),
+        ):
+            assert np.array_equal(a, b, equal_nan=True)
+        assert np.array_equal(got.points, alone.points) and np.array_equal(got.bends, alone.bends)
+    assert len(runs[1].trajectory.t) == 1 and np.isnan(runs[1].trajectory.tau).all()
+    assert runs[0].trajectory.ok and not runs[2].trajectory.ok
+    assert 1 < len(runs[2].trajectory.t) < len(runs[0].trajectory.t)  # it stopped mid-move
