@@ -104,6 +104,24 @@ def test_a_ctrl_c_during_mujocos_import_waits_for_it(importer, says):
     assert proc.stdout.strip() == says, proc.stderr
 
 
+@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="POSIX signal masks")
+def test_a_process_that_mujocos_import_starts_is_deaf_to_ctrl_c(tmp_path, monkeypatch):
+    """glfw, imported by mujoco, starts a Python to probe its library; a terminal's Ctrl-C
+    reached it while it started up, and it printed a traceback (1 in 18 tries at load 2).
+    A module imported as mujoco is starts one here: it must start with SIGINT blocked."""
+    from twolink.foundation.interrupts import import_held
+
+    probe = "import signal; print(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, []))"
+    (tmp_path / "starts_a_python.py").write_text(
+        "import subprocess, sys\n"
+        f"SAID = subprocess.run([sys.executable, '-c', {probe!r}], capture_output=True,"
+        " text=True).stdout.strip()\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert import_held("starts_a_python").SAID == "True"
+    assert signal.SIGINT not in signal.pthread_sigmask(signal.SIG_BLOCK, [])  # unblocked after
+
+
 # A Ctrl-C just after the fork server has started a worker and handed back its pid:
 # unheld, the pool never records the worker, so the abort does not end it; it either
 # goes on running or, once the pool's queues are gone, fails with a traceback.

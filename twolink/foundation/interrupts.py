@@ -5,7 +5,8 @@ Held back (:func:`interrupts_held`), where a KeyboardInterrupt would do harm:
 
 - MuJoCo's import. Its extension modules run Python code from C as they initialise
   (``mujoco._callbacks`` looks names up with ``PyRun_String``). A Ctrl-C that lands there
-  breaks the import ("ImportError: initialization failed") or is swallowed.
+  breaks the import ("ImportError: initialization failed") or is swallowed. The Python
+  that glfw starts meanwhile, to probe its library, starts with SIGINT blocked.
 - Starting a pool worker. A Ctrl-C while the parent waits for the new worker's pid
   leaves that worker unknown to the pool, so the abort does not end it. It then fails
   loudly (a traceback from the fork server) once the command has exited.
@@ -128,9 +129,25 @@ def interrupts_held() -> Iterator[None]:
 
 def import_mujoco() -> ModuleType:
     """:mod:`mujoco`, imported with Ctrl-C held back (see the module's docstring)."""
+    return import_held("mujoco")
+
+
+def import_held(name: str) -> ModuleType:
+    """Import module ``name`` with Ctrl-C held back, and blocked in the processes the import
+    starts: MuJoCo's import runs glfw, which starts a Python to probe its library's
+    version. A terminal's Ctrl-C reaches that process too; starting up, it printed a
+    traceback. Blocked from its start (the mask is inherited), SIGINT never reaches it."""
+    import importlib
+
     with interrupts_held():
-        import mujoco
-    return mujoco
+        if not hasattr(signal, "pthread_sigmask"):
+            return importlib.import_module(name)
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            return importlib.import_module(name)
+        finally:  # a Ctrl-C that came meanwhile is delivered here, to the held handler
+            if signal.SIGINT not in blocked:
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def forget_escaped_interrupt() -> None:
