@@ -137,17 +137,16 @@ def import_held(name: str) -> ModuleType:
     starts: MuJoCo's import runs glfw, which starts a Python to probe its library's
     version. A terminal's Ctrl-C reaches that process too; starting up, it printed a
     traceback. Blocked from its start (the mask is inherited), SIGINT never reaches it."""
-    import importlib
-
     with interrupts_held():
-        if not hasattr(signal, "pthread_sigmask"):
-            return importlib.import_module(name)
-        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        blocked = None
+        if hasattr(signal, "pthread_sigmask"):
+            blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         try:
-            return importlib.import_module(name)
+            __import__(name)  # the import statement's own hook
         finally:  # a Ctrl-C that came meanwhile is delivered here, to the held handler
-            if signal.SIGINT not in blocked:
+            if blocked is not None and signal.SIGINT not in blocked:
                 signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    return sys.modules[name]
 
 
 def forget_escaped_interrupt() -> None:
