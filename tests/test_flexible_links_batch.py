@@ -144,3 +144,15 @@ def test_an_arm_whose_state_leaves_the_bounds_keeps_what_alone_keeps():
     assert len(runs[1].trajectory.t) == 1 and np.isnan(runs[1].trajectory.tau).all()
     assert runs[0].trajectory.ok and not runs[2].trajectory.ok
     assert 1 < len(runs[2].trajectory.t) < len(runs[0].trajectory.t)  # it stopped mid-move
+
+
+def test_a_non_finite_hub_angle_is_a_state_out_of_bounds_in_the_batch_and_alone():
+    """NaN fails the bounds as in the rigid engines: the law is never called with it."""
+    q0 = np.array([[0.0, 0.0], [0.0, np.nan], [0.0, 0.0]])
+    runs = simulate_links_batch(ARMS, _laws(), 0.1, 1e-3, DT, g=0.0, q0=q0)
+    plant = LinkPlant.build(ARMS[1][0], 0.0, ARMS[1][1], timestep=DT)
+    alone = simulate_links(plant, _laws()[1], 0.1, 1e-3, q0=q0[1])
+    for run in (runs[1], alone):
+        assert run.trajectory.message.startswith("state out of bounds at t=0.0000 s")
+        assert len(run.trajectory.t) == 1 and np.isnan(run.trajectory.tau).all()
+    assert runs[0].trajectory.ok and runs[2].trajectory.ok

@@ -84,7 +84,13 @@ def simulate_links(
     for k in range(n + 1):
         t = k * control_dt
         (q1, q2), (w1, w2) = plant.q, plant.qd
-        if not (max(abs(q1), abs(q2)) < bounds.angle and max(abs(w1), abs(w2)) < bounds.rate):
+        # NaN fails every comparison, so this also catches non-finite states (as simulate's).
+        if not (
+            abs(q1) < bounds.angle
+            and abs(q2) < bounds.angle
+            and abs(w1) < bounds.rate
+            and abs(w2) < bounds.rate
+        ):
             status, message = STATUS_DIVERGED, state_message(t, q1, q2, w1, w2)
             if not rows:
                 rows.append((t, q1, q2, w1, w2, math.nan, math.nan))
@@ -410,11 +416,6 @@ class LinkBatch:
         self.data.qvel[self.dofs[i]] = 0.0
         self.data.qfrc_applied[self.hubs[i]] = 0.0
 
-    def points(self, i: int) -> np.ndarray:
-        """Arm i's hubs, hinges and tip in the paper's plane (after the kinematics)."""
-        p = np.concatenate([self.data.xpos[self.bodies[i]], self.data.site_xpos[[self.tips[i]]]])
-        return p[:, [0, 2]]
-
 
 class _LinkRecord:
     """Every arm's points and hinge angles at each control instant, kept in preallocated
@@ -486,14 +487,12 @@ def simulate_links_batch(
         mujoco.mj_kinematics(batch.model, data)
         record.keep(k)
         q, qd = data.qpos[batch.hubs], data.qvel[batch.hubs]
-        # within the bounds for all arms at once; where not (or NaN), the scalar test decides
-        within = (np.abs(q).max(axis=1) < bounds.angle) & (np.abs(qd).max(axis=1) < bounds.rate)
+        # the single arm's test for all arms at once (NaN fails it)
+        within = (np.abs(q) < bounds.angle).all(axis=1) & (np.abs(qd) < bounds.rate).all(axis=1)
         for i in list(active):
             q1, q2, w1, w2 = float(q[i, 0]), float(q[i, 1]), float(qd[i, 0]), float(qd[i, 1])
             stop = None
-            if not within[i] and not (
-                max(abs(q1), abs(q2)) < bounds.angle and max(abs(w1), abs(w2)) < bounds.rate
-            ):
+            if not within[i]:
                 stop = (STATUS_DIVERGED, state_message(t, q1, q2, w1, w2))
                 if k == 0:  # nothing kept yet: this state, without a torque
                     record.rows[k, i] = (t, q1, q2, w1, w2, math.nan, math.nan)
