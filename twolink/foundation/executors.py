@@ -34,7 +34,7 @@ from contextlib import contextmanager
 from multiprocessing import resource_tracker
 from typing import Any
 
-from twolink.foundation.interrupts import interrupts_held
+from twolink.foundation.interrupts import interrupts_held, sigint_blocked
 from twolink.foundation.io import discard_pending
 
 EXECUTORS = ("inprocess", "process", "dask")
@@ -273,12 +273,8 @@ def _server_deaf_to_ctrl_c() -> Iterator[None]:
         return
     # Started first, or its own start would unblock SIGINT before the server's.
     resource_tracker.ensure_running()
-    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    try:
+    with sigint_blocked():
         yield
-    finally:
-        if signal.SIGINT not in blocked:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def prestart_fork_server(preload: list[str] | None = None) -> None:

@@ -137,16 +137,25 @@ def import_held(name: str) -> ModuleType:
     starts: MuJoCo's import runs glfw, which starts a Python to probe its library's
     version. A terminal's Ctrl-C reaches that process too; starting up, it printed a
     traceback. Blocked from its start (the mask is inherited), SIGINT never reaches it."""
-    with interrupts_held():
-        blocked = None
-        if hasattr(signal, "pthread_sigmask"):
-            blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            __import__(name)  # the import statement's own hook
-        finally:  # a Ctrl-C that came meanwhile is delivered here, to the held handler
-            if blocked is not None and signal.SIGINT not in blocked:
-                signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    with interrupts_held(), sigint_blocked():
+        __import__(name)  # the import statement's own hook
     return sys.modules[name]
+
+
+@contextmanager
+def sigint_blocked() -> Iterator[None]:
+    """Run the block with SIGINT blocked in this thread, so the processes it starts begin
+    with it blocked (the mask is inherited across fork and exec). One that came meanwhile
+    is delivered at the end, unless it was blocked before. Without signal masks: nothing."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        if signal.SIGINT not in blocked:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def forget_escaped_interrupt() -> None:
