@@ -108,7 +108,7 @@ def test_a_ctrl_c_during_mujocos_import_waits_for_it(importer, says):
 def test_a_process_that_mujocos_import_starts_is_deaf_to_ctrl_c(tmp_path, monkeypatch):
     """glfw, imported by mujoco, starts a Python to probe its library; a terminal's Ctrl-C
     reached it while it started up, and it printed a traceback (1 in 18 tries at load 2).
-    A module imported as mujoco is starts one here: it must start with SIGINT blocked."""
+    Here a module imported the way mujoco is starts one: it must start with SIGINT blocked."""
     from twolink.foundation.interrupts import import_held
 
     probe = "import signal; print(signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, []))"
